@@ -1,0 +1,1 @@
+"""sitl_mock: a multi-vehicle mock autopilot speaking real MAVLink over UDP."""

@@ -1,0 +1,247 @@
+"""The ``convoy-mav`` command line.
+
+Every failure the user can cause ends in one line on stderr and exit status 2
+(never a traceback); ``--json`` output is a stable contract (see
+``convoy_mav.planning.export``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from collections.abc import Sequence
+from typing import Any, NoReturn
+
+from convoy_mav import __version__
+from convoy_mav.config import AircraftConfig, ConvoyConfig, MissionConfig, load_config
+from convoy_mav.errors import ConfigError, ConvoyError
+from convoy_mav.planning import Pose, make_plan, optimal_path_from_entry
+from convoy_mav.planning.export import entry_to_dict, plan_to_dict
+
+__all__ = ["main"]
+
+EXIT_USAGE = 2
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse that reports a usage error in one line instead of usage + error."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {message}\n")
+
+
+def _build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(
+        prog="convoy-mav",
+        description="Keep a ground convoy under continuous UAV watch.",
+    )
+    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    plan = sub.add_parser(
+        "plan",
+        help="optimal convoy-protection plan (Ding, Rahmani & Egerstedt, T-RO 2010)",
+        description=(
+            "Print the optimal orbits/arcs, the minimum UAV count and the phasing for a "
+            "stationary or straight-moving convoy; or, with --entry, the time-optimal path "
+            "inside the convoy circle from one entry state (paper frame, Problem 3.1)."
+        ),
+    )
+    plan.add_argument("--config", metavar="FILE", help="mission TOML (flags override it)")
+    plan.add_argument("--turn-radius", type=float, metavar="R", help="UAV min turn radius, m")
+    plan.add_argument("--sensor-radius", type=float, metavar="r", help="sensor disk radius, m")
+    plan.add_argument("--uav-speed", type=float, metavar="V", help="UAV airspeed, m/s")
+    plan.add_argument("--convoy-speed", type=float, metavar="VG", help="convoy speed, m/s")
+    plan.add_argument(
+        "--convoy-heading", type=float, metavar="DEG", help="convoy course, compass degrees"
+    )
+    plan.add_argument("--uavs", type=int, metavar="N", help="plan for N UAVs (default: minimum)")
+    plan.add_argument(
+        "--entry",
+        type=float,
+        nargs=3,
+        metavar=("X", "Y", "HEADING"),
+        help="entry state on the convoy circle: metres from the centroid, heading in rad CCW "
+        "from +x",
+    )
+    plan.add_argument("--json", action="store_true", help="print one JSON object")
+    return parser
+
+
+def _require(value: float | None, flag: str) -> float:
+    if value is None:
+        raise ConfigError(flag, None, "is required (or give --config)")
+    return value
+
+
+def _check_flag(flag: str, value: float | None, *, positive: bool) -> None:
+    if value is None:
+        return
+    if not math.isfinite(value):
+        raise ConfigError(flag, value, "must be a finite number")
+    if positive and value <= 0.0:
+        raise ConfigError(flag, value, "must be > 0")
+    if not positive and value < 0.0:
+        raise ConfigError(flag, value, "must be >= 0")
+
+
+def _mission_from_args(args: argparse.Namespace) -> MissionConfig:
+    _check_flag("--turn-radius", args.turn_radius, positive=True)
+    _check_flag("--sensor-radius", args.sensor_radius, positive=True)
+    _check_flag("--uav-speed", args.uav_speed, positive=True)
+    _check_flag("--convoy-speed", args.convoy_speed, positive=False)
+    if args.convoy_heading is not None and not math.isfinite(args.convoy_heading):
+        raise ConfigError("--convoy-heading", args.convoy_heading, "must be a finite number")
+    if args.uavs is not None and args.uavs < 1:
+        raise ConfigError("--uavs", args.uavs, "must be >= 1")
+    base = load_config(args.config) if args.config else None
+    aircraft = base.aircraft if base else AircraftConfig()
+    convoy = base.convoy if base else ConvoyConfig()
+    sensor = (
+        args.sensor_radius
+        if args.sensor_radius is not None
+        else (base.sensor_radius_m if base else None)
+    )
+    turn = (
+        args.turn_radius
+        if args.turn_radius is not None
+        else (aircraft.turn_radius_m if base else None)
+    )
+    speed = (
+        args.uav_speed if args.uav_speed is not None else (aircraft.airspeed_mps if base else 1.0)
+    )
+    convoy_speed = args.convoy_speed if args.convoy_speed is not None else convoy.speed_mps
+    if convoy_speed >= speed:
+        raise ConfigError(
+            "--convoy-speed",
+            convoy_speed,
+            f"must be below the UAV speed ({speed:g} m/s): the UAVs cannot keep up",
+        )
+    return MissionConfig(
+        sensor_radius_m=_require(sensor, "--sensor-radius"),
+        aircraft=AircraftConfig(
+            airspeed_mps=speed,
+            turn_radius_m=_require(turn, "--turn-radius"),
+            altitude_m=aircraft.altitude_m,
+        ),
+        convoy=ConvoyConfig(
+            speed_mps=convoy_speed,
+            heading_deg=(
+                args.convoy_heading if args.convoy_heading is not None else convoy.heading_deg
+            ),
+        ),
+        uavs=args.uavs if args.uavs is not None else (base.uavs if base else None),
+    )
+
+
+def _fmt(x: float | None, unit: str = "", digits: int = 4) -> str:
+    if x is None:
+        return "-"
+    return f"{x:.{digits}g}{unit}"
+
+
+def _print_plan_table(out: dict[str, Any]) -> None:
+    rows: list[tuple[str, str]] = [
+        ("case", out["case"]),
+        ("turn radius R", _fmt(out["turn_radius_m"], " m")),
+        ("sensor radius r", _fmt(out["sensor_radius_m"], " m")),
+        ("UAV speed", _fmt(out["uav_speed_mps"], " m/s")),
+        (
+            "convoy",
+            f"{_fmt(out['convoy_speed_mps'], ' m/s')} @ {out['convoy_heading_deg']:.1f} deg",
+        ),
+        ("minimum UAVs", str(out["min_uavs"])),
+        ("planned UAVs", str(out["uavs"])),
+        ("coverage per UAV", f"{100 * out['coverage_per_uav']:.2f} %"),
+        ("predicted coverage", f"{100 * out['predicted_coverage']:.2f} %"),
+    ]
+    if out["case"] == "stationary":
+        rows += [
+            ("entry heading offset", _fmt(out["entry_heading_offset_rad"], " rad")),
+            ("orbit period", _fmt(out["orbit_period_s"], " s")),
+            ("time inside per lap", _fmt(out["time_inside_s"], " s")),
+        ]
+    elif out["case"] == "moving":
+        gamma = out["gamma_star_rad"]
+        rows += [
+            ("speed ratio VG/V", _fmt(out["speed_ratio"])),
+            ("beta", _fmt(out["beta_rad"], " rad")),
+            ("V*_G (one UAV enough)", _fmt(out["v_star"], " x V")),
+            ("gamma*", "- (one UAV suffices)" if gamma is None else _fmt(gamma, " rad")),
+            ("meet period", _fmt(out["meet_period_s"], " s")),
+        ]
+    sep = out["min_horizontal_separation_m"]
+    rows.append(("min UAV separation", "-" if sep is None else _fmt(sep, " m")))
+    width = max(len(k) for k, _ in rows)
+    for key, value in rows:
+        print(f"{key:<{width}}  {value}")
+    print()
+    print(f"{'uav':>3}  {'phase s':>9}  {'period s':>9}  segments")
+    for v in out["vehicles"]:
+        word = "".join(seg["turn"] for seg in v["segments"])
+        print(f"{v['index']:>3}  {v['phase_s']:>9.2f}  {v['period_s']:>9.2f}  {word}")
+
+
+def _print_entry_table(out: dict[str, Any]) -> None:
+    def pose(p: list[float] | None) -> str:
+        return "-" if p is None else f"({p[0]:.4g}, {p[1]:.4g}, {p[2]:.4g} rad)"
+
+    rows = [
+        ("sequence", out["sequence"]),
+        ("entry", pose(out["entry"])),
+        ("switch", pose(out["switch"])),
+        ("exit", pose(out["exit"])),
+        ("time inside", _fmt(out["time_inside_s"], " s", 6)),
+    ]
+    width = max(len(k) for k, _ in rows)
+    for key, value in rows:
+        print(f"{key:<{width}}  {value}")
+
+
+def _cmd_plan(args: argparse.Namespace) -> int:
+    mission = _mission_from_args(args)
+    if args.entry is not None:
+        x, y, heading = args.entry
+        if mission.convoy.speed_mps > 0.0:
+            raise ConfigError(
+                "--convoy-speed", mission.convoy.speed_mps, "--entry is for a stationary convoy"
+            )
+        for name, value in zip(("X", "Y", "HEADING"), args.entry, strict=True):
+            if not math.isfinite(value):
+                raise ConfigError(f"--entry {name}", value, "must be a finite number")
+        solution = optimal_path_from_entry(
+            Pose(x, y, heading),
+            mission.aircraft.turn_radius_m,
+            mission.sensor_radius_m,
+            mission.aircraft.airspeed_mps,
+        )
+        out = entry_to_dict(solution, mission.aircraft.turn_radius_m, mission.sensor_radius_m)
+        if args.json:
+            print(json.dumps(out))
+        else:
+            _print_entry_table(out)
+        return 0
+    plan = make_plan(mission.plan_request())
+    out = plan_to_dict(plan)
+    if args.json:
+        print(json.dumps(out))
+    else:
+        _print_plan_table(out)
+    return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``convoy-mav`` console script."""
+    args = _build_parser().parse_args(argv)
+    try:
+        if args.command == "plan":
+            return _cmd_plan(args)
+    except ConvoyError as exc:
+        print(f"convoy-mav: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    return EXIT_USAGE  # pragma: no cover - argparse enforces a known command
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,63 @@
+"""Local tangent-plane geodesy shared by the service and the mock.
+
+Every vehicle of a mission, and the convoy, are placed in one geographic frame
+whose origin the config names; each autopilot's own local NED origin (its home)
+differs, so positions cross between vehicles only as latitude/longitude.
+
+The mapping is the equirectangular projection with the WGS-84 radii of
+curvature at the origin's latitude: exact at the origin and within a few
+centimetres over the few kilometres a convoy mission spans, which is what
+PX4's and ArduPilot's own local-frame code assume as well.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+__all__ = ["GeoPoint", "LocalFrame"]
+
+_WGS84_A = 6_378_137.0
+_WGS84_E2 = 6.694_379_990_14e-3
+
+
+@dataclass(frozen=True, slots=True)
+class GeoPoint:
+    """A WGS-84 position: degrees and metres above mean sea level."""
+
+    lat: float
+    lon: float
+    alt: float = 0.0
+
+
+@dataclass(frozen=True, slots=True)
+class LocalFrame:
+    """A north-east-down frame tangent to the ellipsoid at ``origin``."""
+
+    origin: GeoPoint
+
+    @property
+    def _radii(self) -> tuple[float, float]:
+        """Metres per radian of latitude (meridian) and of longitude (parallel)."""
+        lat = math.radians(self.origin.lat)
+        s2 = math.sin(lat) ** 2
+        w = math.sqrt(1.0 - _WGS84_E2 * s2)
+        meridian = _WGS84_A * (1.0 - _WGS84_E2) / w**3
+        prime_vertical = _WGS84_A / w
+        return meridian, prime_vertical * math.cos(lat)
+
+    def to_ned(self, point: GeoPoint) -> tuple[float, float, float]:
+        """Geodetic point to (north, east, down) metres from the origin."""
+        m, p = self._radii
+        north = math.radians(point.lat - self.origin.lat) * m
+        d_lon = (point.lon - self.origin.lon + 180.0) % 360.0 - 180.0
+        east = math.radians(d_lon) * p
+        return north, east, self.origin.alt - point.alt
+
+    def to_geo(self, north: float, east: float, down: float = 0.0) -> GeoPoint:
+        """(north, east, down) metres from the origin to a geodetic point."""
+        m, p = self._radii
+        lat = self.origin.lat + math.degrees(north / m)
+        lon = self.origin.lon + math.degrees(east / p)
+        lon = (lon + 180.0) % 360.0 - 180.0
+        return GeoPoint(lat, lon, self.origin.alt - down)
