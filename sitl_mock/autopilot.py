@@ -1,0 +1,600 @@
+"""One simulated autopilot: a sans-I/O MAVLink endpoint around the flight physics.
+
+``SimVehicle`` takes decoded MAVLink messages and sim time in and gives MAVLink
+message objects out; it never touches a socket or a clock, so the UDP server,
+the unit tests and a replay all drive it the same way (h11 style)::
+
+    replies = vehicle.handle(msg, now)        # COMMAND_ACK, PARAM_VALUE, TIMESYNC, ...
+    events = vehicle.step(now, dt)            # physics + failsafes; STATUSTEXT events
+    telemetry = vehicle.due_telemetry(now)    # the periodic streams due at ``now``
+    row = vehicle.truth(now)                  # what really happened, for the truth log
+
+The server packs the returned objects with one ``MAVLink(None, sysid, compid)``
+per vehicle. ``time_boot_ms`` counts sim time since the last (re)boot.
+
+Design rules:
+    * Incoming messages go through a dict of ``_on_<type>`` handlers, commands
+      (COMMAND_LONG and COMMAND_INT alike, see ``messages.Command``) through a
+      dict of command handlers; every command gets a COMMAND_ACK (UNSUPPORTED for
+      unknown ones). A failing handler is counted (``handler_error``) and the
+      vehicle lives on; foreign targets and unknown types are counted too.
+    * The flight itself (arming, modes, guidance, failsafes) is
+      ``flight.FlightController``; what differs between PX4 and ArduPilot is
+      ``personality.Firmware``; stream timing is ``streams.StreamScheduler``;
+      parameter names are ``params.ParamTable``. This module wires them to MAVLink.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections import Counter
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, Literal
+
+from pymavlink.dialects.v20 import common as mavlink
+
+from convoy_mav.geo import GeoPoint, LocalFrame
+from sitl_mock.flight import FlightController, Outcome
+from sitl_mock.ground import Route
+from sitl_mock.kinematics import Aircraft, AircraftState, AirframeParams
+from sitl_mock.messages import (
+    TELEMETRY_BUILDERS,
+    Command,
+    Frames,
+    Snapshot,
+    autopilot_version,
+    statustext,
+)
+from sitl_mock.params import Knob, ParamTable
+from sitl_mock.personality import Firmware, Personality, firmware_for
+from sitl_mock.streams import AIRCRAFT_DEFAULT_INTERVALS, GROUND_DEFAULT_INTERVALS, StreamScheduler
+
+__all__ = ["Personality", "SimVehicle", "TruthRow", "VehicleSpec"]
+
+Message = Any  # a pymavlink MAVLink_message (the dialect is untyped)
+
+_R = mavlink
+_G = 9.80665
+_UNIX_AT_SIM_ZERO_US = 1_704_067_200_000_000  # SYSTEM_TIME: sim t=0 is 2024-01-01T00:00Z
+_BATTERY_ENDURANCE_S = 1800.0  # s of armed time from full to empty
+_DEFAULT_AIRFRAME = AirframeParams()
+
+_SENSORS = (
+    _R.MAV_SYS_STATUS_SENSOR_3D_GYRO
+    | _R.MAV_SYS_STATUS_SENSOR_3D_ACCEL
+    | _R.MAV_SYS_STATUS_SENSOR_3D_MAG
+    | _R.MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE
+    | _R.MAV_SYS_STATUS_SENSOR_GPS
+    | _R.MAV_SYS_STATUS_SENSOR_ANGULAR_RATE_CONTROL
+    | _R.MAV_SYS_STATUS_SENSOR_ATTITUDE_STABILIZATION
+    | _R.MAV_SYS_STATUS_SENSOR_YAW_POSITION
+    | _R.MAV_SYS_STATUS_SENSOR_Z_ALTITUDE_CONTROL
+    | _R.MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL
+    | _R.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
+    | _R.MAV_SYS_STATUS_SENSOR_BATTERY
+    | _R.MAV_SYS_STATUS_PREARM_CHECK
+)
+"""SYS_STATUS sensors: with GPS and PREARM_CHECK healthy MAVSDK reports the global
+position OK and the vehicle armable; both turn healthy at the end of warm-up."""
+_NEEDS_WARMUP = (
+    _R.MAV_SYS_STATUS_SENSOR_GPS
+    | _R.MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL
+    | _R.MAV_SYS_STATUS_PREARM_CHECK
+)
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class VehicleSpec:
+    """What one simulated vehicle is (keyword-only: ``home`` has no default).
+
+    Attributes:
+        sysid: MAVLink system id, 1..255.
+        kind: ``"aircraft"`` (flies) or ``"ground"`` (follows ``route``).
+        personality: Firmware imitated.
+        airframe: Physics of an aircraft (its ``frame`` picks plane or copter).
+        home: Where it boots: its EKF origin (LOCAL_POSITION_NED) and first home.
+        route: Ground vehicles: world-NED motion over sim time (None: parked at home).
+        warmup_s: Sim seconds after boot before GPS fix, health and arming.
+        setpoint_timeout_s: Setpoint-loss timeout (COM_OF_LOSS_T / GUID_TIMEOUT).
+        compid: MAVLink component id of the autopilot.
+        streams_on_boot: Stream telemetry before a GCS asks; None: the personality's
+            habit (PX4 yes, ArduPilot no: HEARTBEAT only until requested).
+
+    Raises:
+        ValueError: A field is out of range; the message names it.
+    """
+
+    sysid: int
+    kind: Literal["aircraft", "ground"]
+    personality: Personality = Personality.PX4
+    airframe: AirframeParams = _DEFAULT_AIRFRAME
+    home: GeoPoint
+    route: Route | None = None
+    warmup_s: float = 3.0
+    setpoint_timeout_s: float = 1.0
+    compid: int = 1
+    streams_on_boot: bool | None = None
+
+    def __post_init__(self) -> None:
+        if not 1 <= self.sysid <= 255:
+            raise ValueError(f"sysid must be in 1..255, got {self.sysid!r}")
+        if not 1 <= self.compid <= 255:
+            raise ValueError(f"compid must be in 1..255, got {self.compid!r}")
+        if self.kind not in ("aircraft", "ground"):
+            raise ValueError(f"kind must be 'aircraft' or 'ground', got {self.kind!r}")
+        if self.kind == "aircraft" and self.route is not None:
+            raise ValueError(f"route: sysid {self.sysid} is an aircraft; only ground vehicles")
+        if not (math.isfinite(self.warmup_s) and self.warmup_s >= 0.0):
+            raise ValueError(f"warmup_s must be finite and >= 0, got {self.warmup_s!r}")
+        if not (math.isfinite(self.setpoint_timeout_s) and self.setpoint_timeout_s > 0.0):
+            raise ValueError(f"setpoint_timeout_s must be > 0, got {self.setpoint_timeout_s!r}")
+
+
+@dataclass(frozen=True, slots=True)
+class TruthRow:
+    """What a vehicle really did at sim time ``t`` (world NED, SI units, yaw in rad).
+
+    ``speed`` is the airspeed of an aircraft and the ground speed of a ground vehicle.
+    """
+
+    t: float
+    sysid: int
+    kind: str
+    lat: float
+    lon: float
+    alt: float
+    north: float
+    east: float
+    down: float
+    vn: float
+    ve: float
+    vd: float
+    yaw: float
+    speed: float
+    yaw_rate: float
+    armed: bool
+    mode: str
+
+
+class SimVehicle:
+    """The autopilot of one simulated vehicle (see the module docstring).
+
+    Args:
+        spec: What the vehicle is.
+        world: The mock's world frame (all physics is in its NED).
+        now: Sim time of boot.
+
+    Attributes:
+        spec: As given.
+        sysid: ``spec.sysid``.
+        compid: ``spec.compid``.
+        firmware: The personality strategy in use.
+        flight: The flight state machine (armed, mode, guidance).
+        counters: Events worth counting: ``foreign_sysid``, ``foreign_compid``,
+            ``unknown_message``, ``unknown_command``, ``handler_error``,
+            ``setpoint``, ``setpoint_ignored``, ``setpoint_failsafe``, ``reboot``...
+        last_error: The exception of the last failing handler, for debugging.
+    """
+
+    def __init__(self, spec: VehicleSpec, world: LocalFrame, now: float) -> None:
+        self.spec = spec
+        self.sysid = spec.sysid
+        self.compid = spec.compid
+        self.world = world
+        ground = spec.kind == "ground"
+        self.firmware: Firmware = firmware_for(
+            spec.personality, "rover" if ground else spec.airframe.frame
+        )
+        self.counters: Counter[str] = Counter()
+        self.last_error: Exception | None = None
+        self._frames = Frames(world, LocalFrame(spec.home))
+        self._params = ParamTable(self.firmware.params)
+        self._ground_down = world.to_ned(spec.home)[2]
+        self._warmup = spec.warmup_s
+        self._battery_s = 0.0
+        self._ground_yaw = 0.0
+        aircraft = None
+        if not ground:
+            n, e, d = world.to_ned(spec.home)
+            aircraft = Aircraft(spec.airframe, AircraftState(n, e, d, 0.0, 0.0), ground_down=d)
+        self.flight = FlightController(
+            self.firmware,
+            aircraft,
+            self._frames,
+            spec.home,
+            self.counters,
+            setpoint_timeout=spec.setpoint_timeout_s,
+        )
+        self._streams = StreamScheduler(
+            GROUND_DEFAULT_INTERVALS if ground else AIRCRAFT_DEFAULT_INTERVALS, now
+        )
+        fl = self.flight
+        self._handlers: dict[str, Callable[[Message, float], list[Message]]] = {
+            "HEARTBEAT": self._on_heartbeat,
+            "COMMAND_LONG": self._on_command_long,
+            "COMMAND_INT": self._on_command_int,
+            "SET_MODE": self._on_set_mode,
+            "SET_POSITION_TARGET_LOCAL_NED": fl.setpoint_local,
+            "SET_POSITION_TARGET_GLOBAL_INT": fl.setpoint_global,
+            "PARAM_REQUEST_LIST": self._on_param_request_list,
+            "PARAM_REQUEST_READ": self._on_param_request_read,
+            "PARAM_SET": self._on_param_set,
+            "REQUEST_DATA_STREAM": self._on_request_data_stream,
+            "TIMESYNC": self._on_timesync,
+            "PING": self._on_ping,
+            "MISSION_REQUEST_LIST": self._on_mission_request_list,
+        }
+        self._commands: dict[int, Callable[[Command, float], Outcome]] = {
+            _R.MAV_CMD_COMPONENT_ARM_DISARM: fl.arm_disarm,
+            _R.MAV_CMD_DO_SET_MODE: self._cmd_do_set_mode,
+            _R.MAV_CMD_NAV_TAKEOFF: fl.takeoff,
+            _R.MAV_CMD_DO_REPOSITION: fl.reposition,
+            _R.MAV_CMD_DO_CHANGE_SPEED: fl.change_speed,
+            _R.MAV_CMD_NAV_RETURN_TO_LAUNCH: fl.return_to_launch,
+            _R.MAV_CMD_NAV_LAND: fl.land,
+            _R.MAV_CMD_DO_SET_HOME: self._cmd_set_home,
+            _R.MAV_CMD_SET_MESSAGE_INTERVAL: self._cmd_set_message_interval,
+            _R.MAV_CMD_GET_MESSAGE_INTERVAL: self._cmd_get_message_interval,
+            _R.MAV_CMD_REQUEST_MESSAGE: self._cmd_request_message,
+            _R.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: self._cmd_capabilities,
+            _R.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN: self._cmd_reboot,
+        }
+        self.last_gcs_heartbeat: float | None = None
+        self._boot(now)
+
+    # ================================================================== lifecycle
+    def _boot(self, now: float) -> None:
+        self._boot_t = now
+        self.flight.reset()
+        on = self.spec.streams_on_boot
+        self._streams.restart(now, enabled=self.firmware.streams_on_boot if on is None else on)
+        self._update_warm(now)
+
+    def reboot(self, now: float) -> None:
+        """Reboot: time_boot_ms from 0, disarmed, boot mode, warm-up and streams anew.
+
+        The airframe stays where it is (a reboot in the air leaves a disarmed
+        aircraft gliding down); parameters keep their values, as on real hardware.
+        """
+        self._boot(now)
+        self.counters["reboot"] += 1
+
+    @property
+    def armed(self) -> bool:
+        """Whether the vehicle is armed."""
+        return self.flight.armed
+
+    @property
+    def mode(self) -> str:
+        """Name of the current flight mode (``"OFFBOARD"``, ``"GUIDED"``...)."""
+        return self.flight.mode.name
+
+    @property
+    def aircraft(self) -> Aircraft | None:
+        """The physics of an aircraft (None for a ground vehicle)."""
+        return self.flight.aircraft
+
+    def _update_warm(self, now: float) -> None:
+        fl = self.flight
+        if fl.warm or now - self._boot_t < self._warmup:
+            return
+        fl.warm = True
+        if not fl.home_set:  # home is set at the first GPS fix, wherever that is
+            fl.set_home(self._geo(now))
+
+    # =================================================================== physics
+    def step(self, now: float, dt: float) -> list[Message]:
+        """Advance the physics by ``dt`` ending at sim time ``now``; run the failsafes.
+
+        Returns:
+            Event messages (STATUSTEXT of failsafes and landings); the periodic
+            telemetry comes from ``due_telemetry``.
+        """
+        self._update_warm(now)
+        events = self.flight.step(now, dt)
+        if self.flight.armed and self.flight.aircraft is not None:
+            self._battery_s += dt
+        return events
+
+    # ================================================================= telemetry
+    def due_telemetry(self, now: float) -> list[Message]:
+        """The periodic telemetry messages due at sim time ``now``."""
+        ids = self._streams.due(now)
+        if not ids:
+            return []
+        snap = self._snapshot(now)
+        out = [TELEMETRY_BUILDERS[i](snap) for i in ids]
+        return [m for m in out if m is not None]
+
+    def _kinematics(self, now: float) -> tuple[tuple[float, ...], float, float, float]:
+        """World (n, e, d, vn, ve, vd), yaw, yaw rate and speed at ``now``."""
+        ac = self.flight.aircraft
+        if ac is None:
+            route = self.spec.route
+            n, e = route.position(now) if route else self.world.to_ned(self.spec.home)[:2]
+            vn, ve = route.velocity(now) if route else (0.0, 0.0)
+            speed = math.hypot(vn, ve)
+            if speed > 0.05:
+                self._ground_yaw = math.atan2(ve, vn)
+            return (n, e, self._ground_down, vn, ve, 0.0), self._ground_yaw, 0.0, speed
+        s = ac.state
+        return (s.north, s.east, s.down, *s.velocity_ned(ac.params)), s.yaw, s.yaw_rate, s.speed
+
+    def _geo(self, now: float) -> GeoPoint:
+        (n, e, d, *_), *_ = self._kinematics(now)
+        return self.world.to_geo(n, e, d)
+
+    def _snapshot(self, now: float) -> Snapshot:
+        (n, e, d, vn, ve, vd), yaw, yaw_rate, speed = self._kinematics(now)
+        geo = self.world.to_geo(n, e, d)
+        x, y, z = self._frames.world_to_local(n, e, d)
+        fl, fw = self.flight, self.firmware
+        airborne = fl.airborne
+        plane_bits = _R.MAV_SYS_STATUS_SENSOR_DIFFERENTIAL_PRESSURE if fl.plane else 0
+        health = _SENSORS if fl.warm else _SENSORS & ~_NEEDS_WARMUP
+        remaining = max(0.0, 1.0 - self._battery_s / _BATTERY_ENDURANCE_S)
+        return Snapshot(
+            time_boot_ms=max(0, round((now - self._boot_t) * 1000.0)) & 0xFFFFFFFF,
+            unix_usec=_UNIX_AT_SIM_ZERO_US + round(now * 1e6),
+            lat=geo.lat,
+            lon=geo.lon,
+            alt=geo.alt,
+            relative_alt=geo.alt - fl.home.alt,
+            x=x,
+            y=y,
+            z=z,
+            vn=vn,
+            ve=ve,
+            vd=vd,
+            roll=math.atan(speed * yaw_rate / _G) if airborne else 0.0,  # coordinated turn
+            pitch=math.atan2(-vd, max(speed, 1.0)) if airborne else 0.0,
+            yaw=yaw,
+            yaw_rate=yaw_rate,
+            airspeed=speed,
+            throttle=(55 if airborne else 5) if fl.armed else 0,
+            home=fl.home,
+            home_local=self._frames.local.to_ned(fl.home),
+            home_set=fl.home_set,
+            mav_type=fw.mav_type,
+            autopilot=fw.autopilot,
+            base_mode=fw.base_mode(fl.mode, fl.armed),
+            custom_mode=fl.mode.custom_mode,
+            system_status=fw.system_status(fl.armed, airborne, fl.failsafe),
+            sensors_present=_SENSORS | plane_bits,
+            sensors_health=health | plane_bits,
+            gps_fix=_R.GPS_FIX_TYPE_3D_FIX if fl.warm else _R.GPS_FIX_TYPE_NO_FIX,
+            satellites=14 if fl.warm else 0,
+            battery_remaining=round(remaining * 100.0),
+            battery_voltage=4.0 * (3.5 + 0.7 * remaining),
+            battery_current=15.0 if airborne else (2.0 if fl.armed else 0.5),
+            battery_consumed_mah=self._battery_s * 15.0 / 3.6,
+            landed_state=fl.landed_state(),
+        )
+
+    def truth(self, now: float) -> TruthRow:
+        """The vehicle's true state at sim time ``now`` (world NED, SI units)."""
+        (n, e, d, vn, ve, vd), yaw, yaw_rate, speed = self._kinematics(now)
+        geo = self.world.to_geo(n, e, d)
+        return TruthRow(
+            now, self.sysid, self.spec.kind, geo.lat, geo.lon, geo.alt, n, e, d,
+            vn, ve, vd, yaw, speed, yaw_rate, self.flight.armed, self.flight.mode.name,
+        )  # fmt: skip
+
+    # =================================================================== inbound
+    def handle(self, msg: Message, now: float) -> list[Message]:
+        """Process one decoded incoming message; return the immediate replies.
+
+        Messages for another system (``target_system`` neither 0 nor ours) or
+        another component are ignored and counted, as are unknown message types.
+        """
+        if getattr(msg, "target_system", 0) not in (0, self.sysid):
+            self.counters["foreign_sysid"] += 1
+            return []
+        if getattr(msg, "target_component", 0) not in (0, self.compid):
+            self.counters["foreign_compid"] += 1
+            return []
+        handler = self._handlers.get(msg.get_type())
+        if handler is None:
+            self.counters["unknown_message"] += 1
+            return []
+        self._update_warm(now)
+        try:
+            return handler(msg, now)
+        except Exception as e:  # a bad message must never take the vehicle down
+            self.counters["handler_error"] += 1
+            self.last_error = e
+            return []
+
+    def _on_heartbeat(self, msg: Message, now: float) -> list[Message]:
+        self.last_gcs_heartbeat = now
+        return []
+
+    def _on_timesync(self, msg: Message, now: float) -> list[Message]:
+        if msg.tc1 != 0:  # an answer to a request we never make
+            return []
+        tc1 = max(0, round((now - self._boot_t) * 1e9))
+        return [_R.MAVLink_timesync_message(tc1, msg.ts1)]
+
+    def _on_ping(self, msg: Message, now: float) -> list[Message]:
+        if msg.target_system != 0:  # a response, not a request
+            return []
+        src, comp = msg.get_srcSystem(), msg.get_srcComponent()
+        return [_R.MAVLink_ping_message(msg.time_usec, msg.seq, src, comp)]
+
+    def _on_mission_request_list(self, msg: Message, now: float) -> list[Message]:
+        src, comp = msg.get_srcSystem(), msg.get_srcComponent()
+        return [_R.MAVLink_mission_count_message(src, comp, 0, msg.mission_type)]
+
+    def _on_request_data_stream(self, msg: Message, now: float) -> list[Message]:
+        if not self.firmware.is_ardupilot:  # PX4 has no stream groups
+            self.counters["unsupported_message"] += 1
+            return []
+        self._streams.request_data_stream(
+            msg.req_stream_id, msg.req_message_rate, msg.start_stop, now
+        )
+        return []
+
+    # -------------------------------------------------------------------- params
+    def _on_param_request_list(self, msg: Message, now: float) -> list[Message]:
+        return list(self._params.request_list(self._knob))
+
+    def _on_param_request_read(self, msg: Message, now: float) -> list[Message]:
+        reply = self._params.request_read(msg.param_id, msg.param_index, self._knob)
+        if reply is None:
+            self.counters["param_unknown"] += 1
+            return []
+        return [reply]
+
+    def _on_param_set(self, msg: Message, now: float) -> list[Message]:
+        result = self._params.set(msg.param_id, msg.param_value, self._knob, self._set_knob)
+        if result is None:
+            self.counters["param_unknown"] += 1
+            return []
+        reply, error = result
+        if error is None:
+            return [reply]
+        return [reply, statustext(_R.MAV_SEVERITY_WARNING, error)]
+
+    def _knob(self, knob: Knob) -> float:
+        fl = self.flight
+        params = fl.aircraft.params if fl.aircraft is not None else self.spec.airframe
+        values = {
+            Knob.AIRSPEED: params.airspeed,
+            Knob.TURN_RADIUS: params.min_turn_radius,
+            Knob.CLIMB_RATE: params.max_climb_rate,
+            Knob.SETPOINT_TIMEOUT: fl.setpoint_timeout,
+            Knob.LOITER_RADIUS: fl.loiter_radius,
+            Knob.TAKEOFF_ALT: fl.takeoff_alt,
+            Knob.RTL_ALT: fl.rtl_alt,
+            Knob.WARMUP: self._warmup,
+            Knob.SYSID: float(self.sysid),
+        }
+        return values[knob]
+
+    def _set_knob(self, knob: Knob, value: float) -> None:
+        """Apply a parameter; airframe changes rebuild the physics around its state.
+
+        Raises:
+            ValueError: The airframe refuses the value.
+        """
+        fl = self.flight
+        ac = fl.aircraft
+        if knob in (Knob.AIRSPEED, Knob.TURN_RADIUS, Knob.CLIMB_RATE):
+            assert ac is not None
+            if knob is Knob.AIRSPEED:
+                params = dataclasses.replace(ac.params, airspeed=value)
+                if fl.plane:
+                    fl.cruise = None  # the new trim airspeed is the cruise speed
+            elif knob is Knob.TURN_RADIUS:
+                params = dataclasses.replace(ac.params, min_turn_radius=value)
+            else:
+                params = dataclasses.replace(ac.params, max_climb_rate=value)
+            fl.aircraft = Aircraft(params, ac.state, ground_down=ac.ground_down)
+            if fl.cruise is not None:
+                fl.aircraft.set_speed(fl.cruise)
+        elif knob is Knob.SETPOINT_TIMEOUT:
+            fl.setpoint_timeout = value
+        elif knob is Knob.LOITER_RADIUS:
+            fl.loiter_radius = value
+        elif knob is Knob.TAKEOFF_ALT:
+            fl.takeoff_alt = value
+        elif knob is Knob.RTL_ALT:
+            fl.rtl_alt = value
+        elif knob is Knob.WARMUP:
+            self._warmup = value
+
+    # ------------------------------------------------------------------ commands
+    def _on_command_long(self, msg: Message, now: float) -> list[Message]:
+        return self._command(Command.from_long(msg, self.firmware.long_alt_relative), now)
+
+    def _on_command_int(self, msg: Message, now: float) -> list[Message]:
+        return self._command(Command.from_int(msg), now)
+
+    def _command(self, cmd: Command, now: float) -> list[Message]:
+        handler = self._commands.get(cmd.command)
+        extra: list[Message] = []
+        if handler is None:
+            self.counters["unknown_command"] += 1
+            result = _R.MAV_RESULT_UNSUPPORTED
+        else:
+            result, extra = handler(cmd, now)
+        ack = _R.MAVLink_command_ack_message(
+            cmd.command, result, 0, 0, cmd.src_system, cmd.src_component
+        )
+        return [ack, *extra]
+
+    def _on_set_mode(self, msg: Message, now: float) -> list[Message]:
+        fw = self.firmware
+        mode = None
+        if msg.base_mode & _R.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
+            mode = fw.decode_mode(msg.custom_mode)
+        result, extra = self.flight.request_mode(mode, now)
+        src, comp = msg.get_srcSystem(), msg.get_srcComponent()
+        return [_R.MAVLink_command_ack_message(fw.set_mode_ack, result, 0, 0, src, comp), *extra]
+
+    def _cmd_do_set_mode(self, c: Command, now: float) -> Outcome:
+        """MAV_CMD_DO_SET_MODE: param1 base mode (CUSTOM_MODE flag), param2 main, param3 sub."""
+        mode = None
+        if math.isfinite(c.p1) and int(c.p1) & _R.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
+            mode = self.firmware.decode_do_set_mode(c.p2, c.p3)
+        return self.flight.request_mode(mode, now)
+
+    def _cmd_set_home(self, c: Command, now: float) -> Outcome:
+        """MAV_CMD_DO_SET_HOME: param1 1 uses the current position, else lat/lon/alt."""
+        fl = self.flight
+        if c.p1 >= 0.5 or not (math.isfinite(c.lat) and math.isfinite(c.lon)):
+            home = self._geo(now)
+        else:
+            alt = c.alt if math.isfinite(c.alt) else fl.home.alt
+            if c.alt_relative and c.is_int:
+                alt += fl.home.alt
+            home = GeoPoint(c.lat, c.lon, alt)
+        fl.set_home(home)
+        msg = TELEMETRY_BUILDERS[_R.MAVLINK_MSG_ID_HOME_POSITION](self._snapshot(now))
+        return _R.MAV_RESULT_ACCEPTED, [msg]
+
+    def _cmd_set_message_interval(self, c: Command, now: float) -> Outcome:
+        """MAV_CMD_SET_MESSAGE_INTERVAL: param1 message id, param2 us (-1 off, 0 default)."""
+        ok = self._streams.set_message_interval(_msg_id(c.p1), c.p2, now)
+        return (_R.MAV_RESULT_ACCEPTED if ok else _R.MAV_RESULT_DENIED), []
+
+    def _cmd_get_message_interval(self, c: Command, now: float) -> Outcome:
+        """MAV_CMD_GET_MESSAGE_INTERVAL: answered with MESSAGE_INTERVAL."""
+        msg_id = _msg_id(c.p1)
+        reply = _R.MAVLink_message_interval_message(msg_id, self._streams.interval_us(msg_id))
+        return _R.MAV_RESULT_ACCEPTED, [reply]
+
+    def _cmd_request_message(self, c: Command, now: float) -> Outcome:
+        """MAV_CMD_REQUEST_MESSAGE: AUTOPILOT_VERSION or any message the mock streams."""
+        msg_id = _msg_id(c.p1)
+        if msg_id == _R.MAVLINK_MSG_ID_AUTOPILOT_VERSION:
+            return self._cmd_capabilities(c, now)
+        builder = TELEMETRY_BUILDERS.get(msg_id)
+        if builder is None:
+            return _R.MAV_RESULT_DENIED, []
+        msg = builder(self._snapshot(now))
+        if msg is None:  # HOME_POSITION before home is set
+            return _R.MAV_RESULT_FAILED, []
+        return _R.MAV_RESULT_ACCEPTED, [msg]
+
+    def _cmd_capabilities(self, c: Command, now: float) -> Outcome:
+        """MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES (legacy): AUTOPILOT_VERSION."""
+        fw = self.firmware
+        return _R.MAV_RESULT_ACCEPTED, [autopilot_version(fw.capabilities, fw.version, self.sysid)]
+
+    def _cmd_reboot(self, c: Command, now: float) -> Outcome:
+        """MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN param1 1: reboot (refused while armed)."""
+        if not math.isfinite(c.p1) or round(c.p1) != 1:
+            return _R.MAV_RESULT_UNSUPPORTED, []
+        if self.flight.armed and self.flight.aircraft is not None:
+            return _R.MAV_RESULT_DENIED, [
+                statustext(_R.MAV_SEVERITY_CRITICAL, "Reboot denied: armed")
+            ]
+        self.reboot(now)
+        return _R.MAV_RESULT_ACCEPTED, []
+
+
+def _msg_id(value: float) -> int:
+    return int(value) if math.isfinite(value) and value >= 0.0 else -1

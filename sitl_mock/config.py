@@ -1,0 +1,609 @@
+"""Mock configuration: a TOML file plus command-line overrides -> :class:`MockConfig`.
+
+The file and the flags speak one schema (a nested mapping), so the CLI is just
+another layer merged on top of the file before validation. Every error is a
+:class:`~convoy_mav.errors.ConfigError` naming the dotted key and the offending
+value; unknown keys are errors too, so a typo never silently means "default".
+
+Schema (every key optional)::
+
+    speedup = 1.0                     # sim seconds per wall second
+    base_port = 14540                 # sysid i listens on base_port + i - 1 (0: any free port)
+    host = "127.0.0.1"
+    origin = [47.397742, 8.545594, 488.0]   # world NED origin (lat, lon, alt)
+    gcs = "udp:127.0.0.1:14550"       # also push all traffic here
+    truth = "out/truth.csv"           # truth log file
+    truth_rate = 10.0                 # Hz of sim time
+    physics_rate = 100.0              # Hz of sim time
+
+    [aircraft]                        # defaults for every aircraft
+    count = 1
+    personality = "px4"               # or "ardupilot"
+    frame = "plane"                   # or "copter"
+    airspeed = 18.0
+    turn_radius = 80.0
+    max_climb_rate = 4.0
+    wind = [0.0, 0.0]                 # north, east m/s
+    warmup = 3.0                      # s of sim time before arming is allowed
+    setpoint_timeout = 1.0
+    home_spacing = 10.0               # m between default homes (a row to the east)
+
+    [[aircraft.vehicle]]              # per-aircraft overrides
+    sysid = 2
+    airspeed = 15.0
+    home = [47.3978, 8.5457, 488.0]   # or home_ned = [north, east, down]
+
+    [ground]
+    count = 0
+    route = "line"                    # stationary | line | polyline | csv
+    start = [0.0, 0.0]                # world north, east (m)
+    speed = 5.0
+    heading = 90.0                    # degrees cw from north
+    points = [[0, 0], [500, 0]]       # polyline vertices, world north/east (m)
+    loop = false
+    csv = "track.csv"                 # time,lat,lon (relative to this file)
+    spacing = 20.0                    # m between successive ground vehicles
+
+    [faults]
+    loss_to_vehicle = 0.0
+    loss_from_vehicle = 0.0
+    latency = 0.0                     # both directions, sim s (or latency_to/from_vehicle)
+    kill = [{ sysid = 2, at = 30.0 }] # or ["2@30"]
+    reboot = ["1@20"]
+    sysids = []                       # loss/latency only for these (empty: all)
+    seed = 0
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from convoy_mav.errors import ConfigError
+from convoy_mav.geo import GeoPoint, LocalFrame
+from sitl_mock.autopilot import Personality, VehicleSpec
+from sitl_mock.faults import FaultSpec, TimedFault
+from sitl_mock.ground import Polyline, Route, Stationary, StraightLine, Track, load_csv_track
+from sitl_mock.kinematics import AirframeParams, Frame
+
+__all__ = [
+    "DEFAULT_BASE_PORT",
+    "DEFAULT_ORIGIN",
+    "Lagged",
+    "MockConfig",
+    "config_from_mapping",
+    "load_toml",
+    "merge_overrides",
+    "parse_geo",
+    "parse_udp_address",
+]
+
+DEFAULT_BASE_PORT = 14540
+DEFAULT_ORIGIN = GeoPoint(47.397742, 8.545594, 488.0)  # PX4 SITL's default home (Zurich)
+
+_TOP_KEYS = {
+    "speedup",
+    "base_port",
+    "host",
+    "origin",
+    "gcs",
+    "truth",
+    "truth_rate",
+    "physics_rate",
+    "aircraft",
+    "ground",
+    "faults",
+}
+_AIRCRAFT_KEYS = {
+    "personality",
+    "frame",
+    "airspeed",
+    "turn_radius",
+    "max_climb_rate",
+    "wind",
+    "warmup",
+    "setpoint_timeout",
+}
+_VEHICLE_KEYS = _AIRCRAFT_KEYS | {"sysid", "home", "home_ned"}
+_GROUND_KEYS = {
+    "count",
+    "route",
+    "start",
+    "speed",
+    "heading",
+    "points",
+    "loop",
+    "csv",
+    "spacing",
+    "personality",
+    "warmup",
+}
+_FAULT_KEYS = {
+    "loss_to_vehicle",
+    "loss_from_vehicle",
+    "latency",
+    "latency_to_vehicle",
+    "latency_from_vehicle",
+    "kill",
+    "reboot",
+    "sysids",
+    "seed",
+}
+
+
+@dataclass(frozen=True, slots=True)
+class Lagged:
+    """A route followed ``lag`` seconds behind: the convoy's later vehicles."""
+
+    inner: Route
+    lag: float
+
+    def position(self, t: float) -> tuple[float, float]:
+        """World (north, east) of the leader ``lag`` seconds earlier."""
+        return self.inner.position(t - self.lag)
+
+    def velocity(self, t: float) -> tuple[float, float]:
+        """World (vn, ve) of the leader ``lag`` seconds earlier."""
+        return self.inner.velocity(t - self.lag)
+
+
+@dataclass(frozen=True, slots=True)
+class MockConfig:
+    """Everything one mock process needs, validated.
+
+    Attributes:
+        vehicles: Aircraft (sysids 1..K) then ground vehicles, in sysid order.
+        origin: World NED origin shared by every vehicle and the convoy route.
+        speedup: Sim seconds per wall second.
+        host: Address every vehicle socket binds to.
+        base_port: Vehicle ``sysid`` listens on ``base_port + sysid - 1``; 0 binds
+            each vehicle to a free port (tests), reported in the endpoints.
+        gcs: Fixed ``(host, port)`` that also receives all traffic, or None.
+        truth_path: CSV truth log file, or None.
+        truth_rate: Truth samples per sim second.
+        physics_rate: Physics steps per sim second (fixed step).
+        faults: Link and vehicle faults to inject.
+    """
+
+    vehicles: tuple[VehicleSpec, ...]
+    origin: GeoPoint = DEFAULT_ORIGIN
+    speedup: float = 1.0
+    host: str = "127.0.0.1"
+    base_port: int = DEFAULT_BASE_PORT
+    gcs: tuple[str, int] | None = None
+    truth_path: str | None = None
+    truth_rate: float = 10.0
+    physics_rate: float = 100.0
+    faults: FaultSpec = field(default_factory=FaultSpec)
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.speedup) and self.speedup > 0):
+            raise ConfigError("speedup", self.speedup, "must be a finite number > 0")
+        for key in ("truth_rate", "physics_rate"):
+            v = getattr(self, key)
+            if not (math.isfinite(v) and v > 0):
+                raise ConfigError(key, v, "must be a finite rate > 0 Hz")
+        sysids = [v.sysid for v in self.vehicles]
+        if len(set(sysids)) != len(sysids):
+            raise ConfigError("vehicles", sysids, "system ids must be unique")
+        if self.base_port and not 1 <= self.base_port + max(sysids, default=1) - 1 <= 65535:
+            raise ConfigError("base_port", self.base_port, "vehicle ports must fit in 1..65535")
+
+    def port_of(self, sysid: int) -> int:
+        """The UDP port vehicle ``sysid`` listens on (0: chosen at bind time)."""
+        return self.base_port + sysid - 1 if self.base_port else 0
+
+    @classmethod
+    def simple(cls, aircraft: int = 1, ground: int = 0, **overrides: Any) -> MockConfig:
+        """A config from the schema's defaults and top-level/aircraft keyword overrides.
+
+        Handy for tests: ``MockConfig.simple(2, speedup=50, base_port=0,
+        personality="ardupilot")``. Keys of the ``[aircraft]`` table apply to
+        every aircraft; other keys are top-level.
+        """
+        data: dict[str, Any] = {"aircraft": {"count": aircraft}, "ground": {"count": ground}}
+        for key, value in overrides.items():
+            if key in _AIRCRAFT_KEYS or key == "home_spacing":
+                data["aircraft"][key] = value
+            elif key in _GROUND_KEYS - {"count"} or key.startswith("ground_"):
+                data["ground"][key.removeprefix("ground_")] = value
+            else:
+                data[key] = value
+        return config_from_mapping(data)
+
+
+def load_toml(path: str | os.PathLike[str]) -> dict[str, Any]:
+    """Read a TOML config file.
+
+    Raises:
+        ConfigError: The file is missing, unreadable or not valid TOML.
+    """
+    try:
+        with open(path, "rb") as f:
+            return tomllib.load(f)
+    except OSError as e:
+        raise ConfigError("config", os.fspath(path), e.strerror or str(e)) from e
+    except tomllib.TOMLDecodeError as e:
+        raise ConfigError("config", os.fspath(path), f"invalid TOML: {e}") from e
+
+
+def merge_overrides(data: Mapping[str, Any], overrides: Mapping[str, Any]) -> dict[str, Any]:
+    """Lay command-line ``overrides`` (same schema) over file ``data``.
+
+    Tables merge key by key. An aircraft key set on the command line also
+    replaces that key in every ``[[aircraft.vehicle]]`` entry: the flag means
+    "all aircraft".
+    """
+    merged: dict[str, Any] = dict(data)
+    for key, value in overrides.items():
+        old = merged.get(key)
+        if isinstance(value, Mapping) and isinstance(old, Mapping):
+            merged[key] = merge_overrides(old, value)
+        else:
+            merged[key] = value
+    aircraft_cli = overrides.get("aircraft")
+    aircraft = merged.get("aircraft")
+    if isinstance(aircraft_cli, Mapping) and isinstance(aircraft, dict):
+        entries = aircraft.get("vehicle")
+        if isinstance(entries, list):
+            aircraft["vehicle"] = [
+                {k: v for k, v in e.items() if k not in aircraft_cli} if isinstance(e, dict) else e
+                for e in entries
+            ]
+    return merged
+
+
+def config_from_mapping(data: Mapping[str, Any], base_dir: str = ".") -> MockConfig:
+    """Validate a schema mapping (file merged with flags) into a :class:`MockConfig`.
+
+    Args:
+        data: The nested mapping described in the module docstring.
+        base_dir: Directory relative paths in the mapping are resolved against
+            (the config file's directory).
+
+    Raises:
+        ConfigError: Naming the first bad key and its value.
+    """
+    top = _Table(data, "")
+    top.check_keys(_TOP_KEYS)
+    origin = parse_geo("origin", top.get("origin", DEFAULT_ORIGIN))
+    world = LocalFrame(origin)
+
+    aircraft = _Table(top.table("aircraft"), "aircraft")
+    aircraft.check_keys(_AIRCRAFT_KEYS | {"count", "home_spacing", "vehicle"})
+    n_air = aircraft.integer("count", 1, lo=0, hi=250)
+    entries = _vehicle_entries(aircraft, n_air)
+    spacing = aircraft.number("home_spacing", 10.0, lo=0.0)
+    vehicles: list[VehicleSpec] = []
+    for sysid in range(1, n_air + 1):
+        entry = entries.get(sysid, _Table({}, f"aircraft.vehicle[sysid={sysid}]"))
+        vehicles.append(_aircraft_spec(sysid, aircraft, entry, world, spacing))
+
+    ground = _Table(top.table("ground"), "ground")
+    ground.check_keys(_GROUND_KEYS)
+    n_ground = ground.integer("count", 0, lo=0, hi=250 - n_air)
+    if n_ground:
+        default_personality = aircraft.text("personality", "px4")
+        vehicles += _ground_specs(ground, n_ground, n_air, world, base_dir, default_personality)
+
+    truth = top.get("truth")
+    if truth is not None and not isinstance(truth, str | os.PathLike):
+        raise ConfigError("truth", truth, "must be a file path")
+    gcs_raw = top.get("gcs")
+    return MockConfig(
+        vehicles=tuple(vehicles),
+        origin=origin,
+        speedup=top.number("speedup", 1.0, lo=1e-6),
+        host=top.text("host", "127.0.0.1"),
+        base_port=top.integer("base_port", DEFAULT_BASE_PORT, lo=0, hi=65535),
+        gcs=None if gcs_raw is None else parse_udp_address("gcs", gcs_raw),
+        truth_path=None if truth is None else _resolve(os.fspath(truth), base_dir),
+        truth_rate=top.number("truth_rate", 10.0, lo=1e-6),
+        physics_rate=top.number("physics_rate", 100.0, lo=1.0),
+        faults=_faults(_Table(top.table("faults"), "faults")),
+    )
+
+
+def parse_geo(key: str, value: object) -> GeoPoint:
+    """``"lat,lon[,alt]"``, a 2/3-element list, or a GeoPoint -> GeoPoint."""
+    if isinstance(value, GeoPoint):
+        return value
+    parts: list[object]
+    if isinstance(value, str):
+        parts = [p.strip() for p in value.split(",")]
+    elif isinstance(value, list | tuple):
+        parts = list(value)
+    else:
+        raise ConfigError(key, value, "expected LAT,LON[,ALT]")
+    try:
+        nums = [float(p) for p in parts]  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        raise ConfigError(key, value, "expected LAT,LON[,ALT] numbers") from None
+    if len(nums) not in (2, 3) or not all(math.isfinite(x) for x in nums):
+        raise ConfigError(key, value, "expected LAT,LON[,ALT] finite numbers")
+    if not (-90.0 <= nums[0] <= 90.0 and -180.0 <= nums[1] <= 180.0):
+        raise ConfigError(key, value, "latitude must be in [-90, 90], longitude in [-180, 180]")
+    return GeoPoint(nums[0], nums[1], nums[2] if len(nums) == 3 else 0.0)
+
+
+def parse_udp_address(key: str, value: object) -> tuple[str, int]:
+    """``"udp:HOST:PORT"`` (also ``udpout:``, ``udp://``, bare ``HOST:PORT``) -> (host, port)."""
+    if not isinstance(value, str):
+        raise ConfigError(key, value, "expected udp:HOST:PORT")
+    text = value
+    for prefix in ("udp://", "udpout://", "udp:", "udpout:"):
+        if text.startswith(prefix):
+            text = text[len(prefix) :]
+            break
+    host, sep, port_text = text.rpartition(":")
+    if not sep or not host or not port_text.isdigit() or not 1 <= int(port_text) <= 65535:
+        raise ConfigError(key, value, "expected udp:HOST:PORT with a port in 1..65535")
+    return host, int(port_text)
+
+
+# --------------------------------------------------------------------------- helpers
+
+
+class _Table:
+    """Typed, key-naming access to one table of the mapping."""
+
+    def __init__(self, data: Mapping[str, Any], prefix: str) -> None:
+        self.data = data
+        self.prefix = prefix
+
+    def key(self, name: str) -> str:
+        return f"{self.prefix}.{name}" if self.prefix else name
+
+    def get(self, name: str, default: Any = None) -> Any:
+        return self.data.get(name, default)
+
+    def check_keys(self, allowed: set[str]) -> None:
+        for name in self.data:
+            if name not in allowed:
+                raise ConfigError(self.key(name), self.data[name], "unknown key")
+
+    def table(self, name: str) -> Mapping[str, Any]:
+        value = self.data.get(name, {})
+        if not isinstance(value, Mapping):
+            raise ConfigError(self.key(name), value, "must be a table")
+        return value
+
+    def number(
+        self, name: str, default: float, lo: float | None = None, *, positive: bool = False
+    ) -> float:
+        value = self.data.get(name, default)
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise ConfigError(self.key(name), value, "must be a number")
+        x = float(value)
+        if not math.isfinite(x) or (lo is not None and x < lo) or (positive and x <= 0.0):
+            bound = " > 0" if positive else (f" >= {lo:g}" if lo is not None else "")
+            raise ConfigError(self.key(name), value, f"must be a finite number{bound}")
+        return x
+
+    def integer(self, name: str, default: int, lo: int, hi: int) -> int:
+        value = self.data.get(name, default)
+        if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
+            raise ConfigError(self.key(name), value, f"must be an integer in {lo}..{hi}")
+        return value
+
+    def text(self, name: str, default: str) -> str:
+        value = self.data.get(name, default)
+        if not isinstance(value, str):
+            raise ConfigError(self.key(name), value, "must be a string")
+        return value
+
+    def flag(self, name: str, default: bool) -> bool:
+        value = self.data.get(name, default)
+        if not isinstance(value, bool):
+            raise ConfigError(self.key(name), value, "must be true or false")
+        return value
+
+    def pair(self, name: str, default: tuple[float, float]) -> tuple[float, float]:
+        value = self.data.get(name, default)
+        try:
+            a, b = (float(v) for v in value)
+        except (TypeError, ValueError):
+            raise ConfigError(self.key(name), value, "must be a pair of numbers") from None
+        if not (math.isfinite(a) and math.isfinite(b)):
+            raise ConfigError(self.key(name), value, "must be finite")
+        return a, b
+
+
+def _vehicle_entries(aircraft: _Table, count: int) -> dict[int, _Table]:
+    raw = aircraft.get("vehicle", [])
+    if not isinstance(raw, list):
+        raise ConfigError("aircraft.vehicle", raw, "must be an array of tables")
+    entries: dict[int, _Table] = {}
+    for i, entry in enumerate(raw):
+        prefix = f"aircraft.vehicle[{i}]"
+        if not isinstance(entry, Mapping):
+            raise ConfigError(prefix, entry, "must be a table")
+        t = _Table(entry, prefix)
+        t.check_keys(_VEHICLE_KEYS)
+        sysid = t.integer("sysid", i + 1, lo=1, hi=250)
+        if sysid > count:
+            raise ConfigError(t.key("sysid"), sysid, f"beyond aircraft.count = {count}")
+        if sysid in entries:
+            raise ConfigError(t.key("sysid"), sysid, "listed twice")
+        entries[sysid] = t
+    return entries
+
+
+def _pick(name: str, entry: _Table, defaults: _Table) -> _Table:
+    """The table that decides ``name``: the vehicle's own entry, else the defaults."""
+    return entry if name in entry.data else defaults
+
+
+def _aircraft_spec(
+    sysid: int, defaults: _Table, entry: _Table, world: LocalFrame, spacing: float
+) -> VehicleSpec:
+    def num(name: str, default: float, *, positive: bool = True) -> float:
+        return _pick(name, entry, defaults).number(name, default, lo=0.0, positive=positive)
+
+    personality = _personality(_pick("personality", entry, defaults), "personality", "px4")
+    frame_table = _pick("frame", entry, defaults)
+    frame = frame_table.text("frame", "plane")
+    if frame not in ("plane", "copter"):
+        raise ConfigError(frame_table.key("frame"), frame, "must be 'plane' or 'copter'")
+    frame_kind: Frame = "plane" if frame == "plane" else "copter"
+    wind_n, wind_e = _pick("wind", entry, defaults).pair("wind", (0.0, 0.0))
+    airframe = AirframeParams(
+        frame=frame_kind,
+        airspeed=num("airspeed", 18.0),
+        min_turn_radius=num("turn_radius", 80.0),
+        max_climb_rate=num("max_climb_rate", 4.0),
+        wind_north=wind_n,
+        wind_east=wind_e,
+    )
+    if "home" in entry.data:
+        home = parse_geo(entry.key("home"), entry.get("home"))
+    elif "home_ned" in entry.data:
+        values = entry.get("home_ned")
+        ok = isinstance(values, list) and len(values) in (2, 3)
+        if not ok or not all(isinstance(v, int | float) and math.isfinite(v) for v in values):
+            raise ConfigError(
+                entry.key("home_ned"), values, "expected [north, east(, down)] metres"
+            )
+        home = world.to_geo(*(float(v) for v in values))
+    else:
+        home = world.to_geo(0.0, (sysid - 1) * spacing, 0.0)  # a row, like PX4 multi-SITL
+    return VehicleSpec(
+        sysid=sysid,
+        kind="aircraft",
+        personality=personality,
+        airframe=airframe,
+        home=home,
+        warmup_s=num("warmup", 3.0, positive=False),
+        setpoint_timeout_s=num("setpoint_timeout", 1.0),
+    )
+
+
+def _personality(table: _Table, name: str, default: str) -> Personality:
+    value = table.text(name, default)
+    try:
+        return Personality(value)
+    except ValueError:
+        choices = ", ".join(repr(p.value) for p in Personality)
+        raise ConfigError(table.key(name), value, f"must be one of {choices}") from None
+
+
+def _ground_specs(
+    g: _Table, count: int, first_sysid: int, world: LocalFrame, base_dir: str, personality: str
+) -> list[VehicleSpec]:
+    speed = g.number("speed", 0.0, lo=0.0)
+    kind = g.text("route", "csv" if "csv" in g.data else ("line" if speed > 0 else "stationary"))
+    start = g.pair("start", (0.0, 0.0))
+    spacing = g.number("spacing", 20.0, lo=0.0)
+    route: Route
+    if kind == "stationary":
+        route = Stationary(*start)
+    elif kind == "line":
+        heading = math.radians(g.number("heading", 0.0))
+        route = StraightLine(start[0], start[1], speed, heading)
+    elif kind == "polyline":
+        route = Polyline(_points(g), speed, g.flag("loop", False))
+    elif kind == "csv":
+        path = g.get("csv")
+        if not isinstance(path, str):
+            raise ConfigError(g.key("csv"), path, "route 'csv' needs a track file path")
+        try:
+            route = load_csv_track(_resolve(path, base_dir), world)
+        except (OSError, ValueError) as e:
+            raise ConfigError(g.key("csv"), path, str(e)) from None
+    else:
+        raise ConfigError(g.key("route"), kind, "must be stationary, line, polyline or csv")
+    lead_speed = speed if kind != "csv" else _track_speed(route)
+    specs: list[VehicleSpec] = []
+    for j in range(count):
+        member: Route = route
+        if j and kind == "stationary":
+            member = Stationary(start[0] - j * spacing, start[1])
+        elif j and lead_speed > 0:
+            member = Lagged(route, j * spacing / lead_speed)
+        north, east = member.position(0.0)
+        specs.append(
+            VehicleSpec(
+                sysid=first_sysid + j + 1,
+                kind="ground",
+                personality=_personality(g, "personality", personality),
+                home=world.to_geo(north, east, 0.0),
+                route=member,
+                warmup_s=g.number("warmup", 3.0, lo=0.0),
+            )
+        )
+    return specs
+
+
+def _points(g: _Table) -> tuple[tuple[float, float], ...]:
+    raw = g.get("points")
+    if not isinstance(raw, list) or len(raw) < 2:
+        raise ConfigError(g.key("points"), raw, "route 'polyline' needs >= 2 [north, east] points")
+    return tuple(
+        _Table({"p": p}, f"{g.key('points')}[{i}]").pair("p", (0, 0)) for i, p in enumerate(raw)
+    )
+
+
+def _track_speed(route: Route) -> float:
+    """Mean speed of a CSV track, to turn the convoy spacing into a time lag."""
+    if isinstance(route, Track) and len(route.times) >= 2:
+        length = sum(
+            math.dist((route.norths[i], route.easts[i]), (route.norths[i + 1], route.easts[i + 1]))
+            for i in range(len(route.times) - 1)
+        )
+        duration = route.times[-1] - route.times[0]
+        return length / duration if duration > 0 else 0.0
+    return 0.0
+
+
+def _timed(f: _Table, name: str) -> tuple[TimedFault, ...]:
+    raw = f.get(name, [])
+    if not isinstance(raw, list):
+        raw = [raw]
+    out: list[TimedFault] = []
+    for i, item in enumerate(raw):
+        key = f"{f.key(name)}[{i}]"
+        try:
+            if isinstance(item, str):
+                sysid_text, sep, at_text = item.partition("@")
+                if not sep:
+                    raise ValueError("expected SYSID@TIME")
+                out.append(TimedFault(int(sysid_text), float(at_text)))
+            elif isinstance(item, Mapping) and set(item) == {"sysid", "at"}:
+                out.append(TimedFault(int(item["sysid"]), float(item["at"])))
+            else:
+                raise ValueError("expected SYSID@TIME or {sysid, at}")
+        except (TypeError, ValueError) as e:
+            raise ConfigError(key, item, str(e)) from None
+    return tuple(out)
+
+
+def _faults(f: _Table) -> FaultSpec:
+    f.check_keys(_FAULT_KEYS)
+    latency = f.number("latency", 0.0, lo=0.0)
+    sysids = f.get("sysids", [])
+    if not isinstance(sysids, list) or not all(
+        isinstance(s, int) and not isinstance(s, bool) for s in sysids
+    ):
+        raise ConfigError(f.key("sysids"), sysids, "must be a list of system ids")
+    for name in ("loss_to_vehicle", "loss_from_vehicle"):
+        p = f.number(name, 0.0, lo=0.0)
+        if p > 1.0:
+            raise ConfigError(f.key(name), f.get(name), "must be a probability in [0, 1]")
+    return FaultSpec(
+        loss_to_vehicle=f.number("loss_to_vehicle", 0.0, lo=0.0),
+        loss_from_vehicle=f.number("loss_from_vehicle", 0.0, lo=0.0),
+        latency_to_vehicle=f.number("latency_to_vehicle", latency, lo=0.0),
+        latency_from_vehicle=f.number("latency_from_vehicle", latency, lo=0.0),
+        kills=_timed(f, "kill"),
+        reboots=_timed(f, "reboot"),
+        sysids=frozenset(sysids),
+        seed=f.integer("seed", 0, lo=0, hi=2**63 - 1),
+    )
+
+
+def _resolve(path: str, base_dir: str) -> str:
+    return path if os.path.isabs(path) else os.path.normpath(os.path.join(base_dir, path))

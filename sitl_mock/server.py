@@ -1,0 +1,602 @@
+"""The asyncio UDP edge of the mock: one socket per vehicle, one physics loop.
+
+Data flow (each arrow is one function)::
+
+    datagram -> VehicleLink.receive -> faults (loss, latency) -> per-peer parser
+             -> SimVehicle.handle -> replies -> VehicleLink.send -> every peer + --gcs
+
+    _physics task: every 1/100 s of sim time -> SimVehicle.step, due_telemetry
+                   -> VehicleLink.send; truth rows at their own rate; scheduled faults
+
+Design rules:
+    * The vehicles (``sitl_mock.autopilot``) are sans-I/O; this module owns the
+      bytes: one ``mavlink.MAVLink`` encoder per vehicle (its own sequence
+      numbers) and one robust parser per (vehicle, peer address).
+    * Like a real SITL, a vehicle replies to *every* peer that has ever sent to
+      it (a GCS and a script at once), plus the fixed ``--gcs`` address.
+    * Garbage never kills the loop: bad CRC, malformed and truncated frames,
+      unknown message ids and failing handlers are counted and skipped.
+    * Physics runs in fixed steps of sim time; if it falls behind by more than
+      ``max_lag`` it slips the shared clock instead of spiralling, and the
+      achieved real-time factor is reported.
+    * :class:`MockFleet` is an async context manager owning one TaskGroup, so a
+      test writes ``async with MockFleet(config) as fleet:`` and gets endpoints.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import dataclasses
+import logging
+import math
+import random
+from collections import Counter
+from collections.abc import Mapping, Sequence
+from contextlib import AsyncExitStack
+from dataclasses import dataclass
+from types import TracebackType
+from typing import TYPE_CHECKING, Any, cast
+
+from pymavlink.dialects.v20 import common as mavlink
+
+from convoy_mav.errors import ConfigError
+from convoy_mav.geo import LocalFrame
+from sitl_mock.autopilot import SimVehicle, TruthRow
+from sitl_mock.clock import SimClock
+from sitl_mock.config import MockConfig
+from sitl_mock.faults import DelayQueue, FaultInjector
+from sitl_mock.truth import CsvTruthWriter, TruthRecorder, TruthSampler, TruthSink
+
+if TYPE_CHECKING:
+    from sitl_mock.autopilot import VehicleSpec
+
+__all__ = ["DROP_REASONS", "VEHICLE_DROP_REASONS", "Endpoint", "MockFleet", "VehicleLink"]
+
+log = logging.getLogger("sitl_mock")
+
+Address = tuple[str, int]
+
+DROP_REASONS = (
+    "bad_crc",
+    "malformed",
+    "truncated",
+    "unknown_id",
+    "lost_to_vehicle",
+    "lost_from_vehicle",
+    "killed",
+    "handler_error",
+    "send_error",
+)
+"""Counter names of datagrams or messages the server dropped, and why."""
+
+VEHICLE_DROP_REASONS = (
+    "foreign_sysid",
+    "foreign_compid",
+    "unknown_message",
+    "unknown_command",
+    "unsupported_message",
+    "setpoint_bad_frame",
+    "param_unknown",
+)
+"""Counter names of messages the vehicles themselves ignored, and why."""
+
+_MAX_PEERS = 16  # per vehicle; the oldest peer is forgotten beyond this
+_BURST_STEPS = 50  # physics steps between yields to the event loop when catching up
+
+
+@dataclass(frozen=True, slots=True)
+class Endpoint:
+    """Where a client reaches one mock vehicle.
+
+    Attributes:
+        sysid: MAVLink system id of the vehicle.
+        kind: ``"aircraft"`` or ``"ground"``.
+        personality: ``"px4"`` or ``"ardupilot"``.
+        frame: ``"plane"``/``"copter"`` for aircraft, ``"rover"`` for ground vehicles.
+        host: Address the vehicle socket is bound to.
+        port: UDP port the vehicle listens on.
+    """
+
+    sysid: int
+    kind: str
+    personality: str
+    frame: str
+    host: str
+    port: int
+
+    @property
+    def connect(self) -> str:
+        """pymavlink connection string for a client (``mavutil.mavlink_connection``)."""
+        return f"udpout:{self.host}:{self.port}"
+
+    @property
+    def listen(self) -> str:
+        """The vehicle's own side: it listens here (mavproxy's ``udpin`` form)."""
+        return f"udpin:{self.host}:{self.port}"
+
+    @property
+    def mavsdk(self) -> str:
+        """MAVSDK 4.x connection URL: the client sends first to the listening vehicle."""
+        return f"udpout://{self.host}:{self.port}"
+
+    def describe(self) -> str:
+        """One start-up line: everything a user needs to connect."""
+        return (
+            f"vehicle sysid={self.sysid} kind={self.kind} personality={self.personality} "
+            f"frame={self.frame} connect={self.connect} listen={self.listen} "
+            f"mavsdk={self.mavsdk}"
+        )
+
+
+class _Outbox:
+    """The ``file`` of a pymavlink encoder: collects packed frames."""
+
+    def __init__(self) -> None:
+        self.frames: list[bytes] = []
+
+    def write(self, buf: bytes) -> None:
+        self.frames.append(bytes(buf))
+
+
+class VehicleLink(asyncio.DatagramProtocol):
+    """One vehicle's socket: peers, codec, faults and counters.
+
+    It is an asyncio datagram protocol, but nothing here needs a socket: unit
+    tests call :meth:`connection_made` with a fake transport and feed bytes to
+    :meth:`datagram_received`.
+    """
+
+    def __init__(self, fleet: MockFleet, vehicle: SimVehicle) -> None:
+        self.fleet = fleet
+        self.vehicle = vehicle
+        self.sysid = vehicle.spec.sysid
+        self.transport: asyncio.DatagramTransport | None = None
+        self.peers: dict[Address, Any] = {}  # address -> pymavlink parser
+        self.outbox = _Outbox()
+        self.encoder = self._new_encoder()
+        self.counters: Counter[str] = Counter()
+        self.alive = True
+        self.inbound: DelayQueue[tuple[bytes, Address]] = DelayQueue()
+        self.outbound: DelayQueue[bytes] = DelayQueue()
+        self._warned: set[str] = set()
+
+    def _new_encoder(self) -> Any:
+        spec = self.vehicle.spec
+        return mavlink.MAVLink(self.outbox, srcSystem=spec.sysid, srcComponent=spec.compid)
+
+    # -- asyncio callbacks -------------------------------------------------------------
+
+    def connection_made(self, transport: asyncio.BaseTransport) -> None:
+        # CPython's selector datagram transport does not subclass DatagramTransport.
+        self.transport = cast(asyncio.DatagramTransport, transport)
+
+    def datagram_received(self, data: bytes, addr: Address) -> None:
+        self.receive(data, addr, self.fleet.now)
+
+    def error_received(self, exc: Exception) -> None:
+        # ICMP port unreachable from a peer that went away: not our problem.
+        self.counters["send_error"] += 1
+
+    # -- inbound -----------------------------------------------------------------------
+
+    def receive(self, data: bytes, addr: Address, now: float) -> None:
+        """A datagram arrived from ``addr``: apply faults, then process or delay it."""
+        self.counters["datagrams_in"] += 1
+        if not self.alive:
+            self.counters["killed"] += 1
+            return
+        faults = self.fleet.faults
+        if faults.drop_to_vehicle(self.sysid):
+            self.counters["lost_to_vehicle"] += 1
+            return
+        delay = faults.delay_to_vehicle(self.sysid)
+        if delay > 0.0:
+            self.inbound.push(now + delay, (data, addr))
+        else:
+            self.process(data, addr, now)
+
+    def process(self, data: bytes, addr: Address, now: float) -> None:
+        """Decode a datagram with the peer's parser and hand messages to the vehicle."""
+        parser = self.peers.get(addr)
+        if parser is None:
+            if len(self.peers) >= _MAX_PEERS:
+                del self.peers[next(iter(self.peers))]
+            parser = self._new_parser()
+            self.peers[addr] = parser
+            log.info("sysid %d: new peer %s:%d", self.sysid, *addr)
+        msgs = parser.parse_buffer(data) or []
+        for msg in msgs:
+            self._dispatch(msg, now)
+        if parser.buf_len() > 0:
+            # A datagram ends a frame: leftovers are a truncated frame, not a prefix.
+            self.counters["truncated"] += 1
+            self.peers[addr] = self._new_parser()
+
+    def _new_parser(self) -> Any:
+        spec = self.vehicle.spec
+        parser = mavlink.MAVLink(None, srcSystem=spec.sysid, srcComponent=spec.compid)
+        parser.robust_parsing = True
+        return parser
+
+    def _dispatch(self, msg: Any, now: float) -> None:
+        if isinstance(msg, mavlink.MAVLink_bad_data):
+            reason = str(msg.reason)
+            if "CRC" in reason:
+                self.counters["bad_crc"] += 1
+            else:
+                self.counters["malformed"] += 1
+            return
+        if isinstance(msg, mavlink.MAVLink_unknown):
+            self.counters["unknown_id"] += 1
+            return
+        self.counters["messages_in"] += 1
+        reboots = self.vehicle.counters["reboot"]
+        try:
+            replies = self.vehicle.handle(msg, now)
+        except Exception:
+            self.counters["handler_error"] += 1
+            kind = msg.get_type()
+            if kind not in self._warned:
+                self._warned.add(kind)
+                log.exception(
+                    "sysid %d: handling %s failed (further ones not logged)", self.sysid, kind
+                )
+            return
+        self.send(replies, now)
+        if self.vehicle.counters["reboot"] != reboots:  # MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN
+            self.encoder = self._new_encoder()  # the ACK went out; sequence restarts
+
+    # -- outbound ----------------------------------------------------------------------
+
+    def send(self, msgs: Sequence[Any], now: float) -> None:
+        """Encode messages (sequence numbers advance) and transmit or delay them."""
+        if not msgs or not self.alive:
+            return
+        for msg in msgs:
+            self.encoder.send(msg)
+        frames, self.outbox.frames = self.outbox.frames, []
+        self.counters["messages_out"] += len(frames)
+        delay = self.fleet.faults.delay_from_vehicle(self.sysid)
+        for frame in frames:
+            if delay > 0.0:
+                self.outbound.push(now + delay, frame)
+            else:
+                self.transmit(frame)
+
+    def transmit(self, frame: bytes) -> None:
+        """Send one frame to every peer and the fixed GCS address."""
+        transport = self.transport
+        if transport is None or transport.is_closing():
+            return
+        faults = self.fleet.faults
+        for dest in self._destinations():
+            if faults.drop_from_vehicle(self.sysid):
+                self.counters["lost_from_vehicle"] += 1
+                continue
+            transport.sendto(frame, dest)
+            self.counters["datagrams_out"] += 1
+
+    def _destinations(self) -> list[Address]:
+        gcs = self.fleet.config.gcs
+        dests = list(self.peers)
+        if gcs is not None and gcs not in self.peers:
+            dests.append(gcs)
+        return dests
+
+    # -- lifecycle ---------------------------------------------------------------------
+
+    def drain(self, now: float) -> None:
+        """Release delayed datagrams that are due (both directions)."""
+        for data, addr in self.inbound.pop_due(now):
+            if self.alive:
+                self.process(data, addr, now)
+        for frame in self.outbound.pop_due(now):
+            if self.alive:
+                self.transmit(frame)
+
+    def kill(self) -> None:
+        """Stop answering and sending entirely (power loss)."""
+        self.alive = False
+        self.inbound.clear()
+        self.outbound.clear()
+
+    def reboot(self, now: float) -> None:
+        """Reboot the autopilot; sequence numbers restart as on real hardware."""
+        self.vehicle.reboot(now)
+        self.outbox.frames.clear()
+        self.encoder = self._new_encoder()
+        self.alive = True
+
+
+class MockFleet:
+    """K aircraft and G ground vehicles on UDP, sharing one sim clock.
+
+    Use as an async context manager; sockets are bound and the physics task is
+    running inside the block::
+
+        async with MockFleet(MockConfig.simple(2, speedup=50, base_port=0)) as fleet:
+            port = fleet.endpoint(1).port
+            await fleet.wait_until(10.0)
+            rows = fleet.truth_rows()
+
+    Args:
+        config: What to simulate.
+        clock: Sim clock shared by all vehicles (default: wall clock x speedup).
+        record_truth: Keep truth samples in memory (:attr:`history`): True for
+            all, an int for only the last that many rows.
+        run_physics: False to drive :meth:`step` by hand (benchmarks, tests).
+        rng: Randomness for the fault injector (default: seeded from config).
+    """
+
+    def __init__(
+        self,
+        config: MockConfig,
+        *,
+        clock: SimClock | None = None,
+        record_truth: bool | int = False,
+        run_physics: bool = True,
+        rng: random.Random | None = None,
+    ) -> None:
+        self.config = config
+        self._own_clock = clock is None
+        self.clock = clock if clock is not None else SimClock(config.speedup)
+        self.world = LocalFrame(config.origin)
+        self.faults = FaultInjector(config.faults, rng or random.Random(config.faults.seed))
+        self.dt = 1.0 / config.physics_rate
+        self.max_lag = max(0.5, 0.1 * self.clock.speedup)
+        self.history: TruthRecorder | None = None
+        self._sinks: list[TruthSink] = []
+        if record_truth:
+            maxlen = None if record_truth is True else int(record_truth)
+            self.history = TruthRecorder(maxlen)
+            self._sinks.append(self.history)
+        self._run_physics = run_physics
+        self._k = 0  # physics steps done; sim time is k * dt (no float drift)
+        self._links: dict[int, VehicleLink] = {}
+        self._sampler = TruthSampler(config.truth_rate)
+        self._stack: AsyncExitStack | None = None
+        self._physics_task: asyncio.Task[None] | None = None
+        self._last_lag_warning = -math.inf
+        for spec in config.vehicles:
+            self._links[spec.sysid] = VehicleLink(self, SimVehicle(spec, self.world, 0.0))
+        self._endpoints = tuple(
+            _endpoint(s, (config.host, config.port_of(s.sysid))) for s in config.vehicles
+        )
+
+    # -- public view -------------------------------------------------------------------
+
+    @property
+    def now(self) -> float:
+        """Sim time the physics has reached (s); what the vehicles report."""
+        return self._k * self.dt
+
+    @property
+    def endpoints(self) -> tuple[Endpoint, ...]:
+        """One per vehicle, in sysid order (ports are real once entered)."""
+        return self._endpoints
+
+    def endpoint(self, sysid: int) -> Endpoint:
+        """The endpoint of vehicle ``sysid``."""
+        for ep in self._endpoints:
+            if ep.sysid == sysid:
+                return ep
+        raise KeyError(sysid)
+
+    @property
+    def vehicles(self) -> Mapping[int, SimVehicle]:
+        """The sans-I/O vehicles by sysid (read their state; don't drive them)."""
+        return {sysid: link.vehicle for sysid, link in self._links.items()}
+
+    def truth_rows(self) -> list[TruthRow]:
+        """Every vehicle's true state now (killed vehicles show mode ``KILLED``)."""
+        return [self._truth(link) for link in self._links.values()]
+
+    def link(self, sysid: int) -> VehicleLink:
+        """The link (socket protocol, peers, counters) of vehicle ``sysid``."""
+        return self._links[sysid]
+
+    def truth(self, sysid: int) -> TruthRow:
+        """One vehicle's true state now."""
+        return self._truth(self._links[sysid])
+
+    def peers(self, sysid: int) -> list[Address]:
+        """Addresses vehicle ``sysid`` currently replies to (besides ``--gcs``)."""
+        return list(self._links[sysid].peers)
+
+    def counters(self, sysid: int | None = None) -> Counter[str]:
+        """Traffic and drop counters of one vehicle, or summed over the fleet.
+
+        Server-side names: ``datagrams_in/out``, ``messages_in/out`` and the
+        :data:`DROP_REASONS`; the vehicles' own counters (``foreign_sysid``,
+        ``unknown_command``...) are added in.
+        """
+        links = [self._links[sysid]] if sysid is not None else list(self._links.values())
+        total: Counter[str] = Counter()
+        for link in links:
+            total.update(link.counters)
+            total.update({k: v for k, v in link.vehicle.counters.items() if v})
+        return total
+
+    def status_line(self) -> str:
+        """One line with time, achieved real-time factor and all counters."""
+        c = self.counters()
+        dropped = set(DROP_REASONS) | set(VEHICLE_DROP_REASONS)
+        drops = " ".join(f"{k}={c[k]}" for k in sorted(c) if k in dropped and c[k])
+        events = " ".join(
+            f"{k}={c[k]}" for k in sorted(c) if k not in dropped and k not in _TRAFFIC and c[k]
+        )
+        wall = self.clock.wall_elapsed()
+        rtf = self.now / wall if wall > 0 else 0.0
+        return (
+            f"sitl-mock: t={self.now:.2f}s sim, rtf={rtf:.1f} (speedup {self.clock.speedup:g}, "
+            f"slips {self.clock.slips}) datagrams in={c['datagrams_in']} out={c['datagrams_out']} "
+            f"messages in={c['messages_in']} out={c['messages_out']} "
+            f"drops: {drops or 'none'}; events: {events or 'none'}"
+        )
+
+    def is_alive(self, sysid: int) -> bool:
+        """False once the vehicle has been killed (until a reboot revives it)."""
+        return self._links[sysid].alive
+
+    def kill(self, sysid: int) -> None:
+        """Kill vehicle ``sysid`` now: it stops responding and sending."""
+        self._links[sysid].kill()
+        log.warning("sysid %d: killed at t=%.2f s", sysid, self.now)
+
+    def reboot(self, sysid: int) -> None:
+        """Reboot vehicle ``sysid`` now (``time_boot_ms`` restarts from 0)."""
+        self._links[sysid].reboot(self.now)
+        log.warning("sysid %d: rebooted at t=%.2f s", sysid, self.now)
+
+    async def wait_until(self, t: float) -> None:
+        """Sleep until the physics has reached sim time ``t``."""
+        if not self._run_physics:
+            raise RuntimeError("wait_until needs run_physics=True")
+        while self.now < t:
+            await asyncio.sleep(min(max(self.clock.wall_until(t), 0.0005), 0.05))
+
+    # -- physics -----------------------------------------------------------------------
+
+    def step(self) -> None:
+        """Advance every live vehicle by one fixed step and send what is due."""
+        self._k += 1
+        now = self._k * self.dt
+        for event in self.faults.due_events(now):
+            if event.sysid not in self._links:
+                log.warning("fault %s for unknown sysid %d ignored", event.kind, event.sysid)
+            elif event.kind == "kill":
+                self.kill(event.sysid)
+            else:
+                self.reboot(event.sysid)
+        for link in self._links.values():
+            if not link.alive:
+                continue
+            link.drain(now)
+            vehicle = link.vehicle
+            link.send(vehicle.step(now, self.dt), now)
+            link.send(vehicle.due_telemetry(now), now)
+        if self._sinks and self._sampler.due(now):
+            self._write_truth()
+
+    def _write_truth(self) -> None:
+        rows = self.truth_rows()
+        for sink in self._sinks:
+            sink.write(rows)
+
+    def catch_up(self, max_steps: int = _BURST_STEPS) -> int:
+        """Step until the physics reaches the clock, at most ``max_steps`` steps.
+
+        If the physics is more than :attr:`max_lag` sim seconds behind, the
+        clock is slipped back first (one step behind), so a slow machine runs
+        at its own achievable speed instead of spiralling into ever longer
+        catch-up bursts.
+
+        Returns:
+            The number of steps taken.
+        """
+        clock = self.clock
+        behind = clock.now() - self.now
+        if behind > self.max_lag:
+            clock.slip(behind - self.dt)
+            self._warn_lag()
+        steps = 0
+        while steps < max_steps and self.now + self.dt <= clock.now() + 1e-9:
+            self.step()
+            steps += 1
+        return steps
+
+    async def _physics(self) -> None:
+        while True:
+            if self.catch_up() >= _BURST_STEPS:
+                await asyncio.sleep(0)  # still behind: let datagrams in, then go on
+            else:
+                await asyncio.sleep(max(self.clock.wall_until(self.now + self.dt), 0.0))
+
+    def _warn_lag(self) -> None:
+        wall = self.clock.wall_elapsed()
+        if wall - self._last_lag_warning >= 5.0:
+            self._last_lag_warning = wall
+            log.warning(
+                "physics behind: achieved real-time factor %.1f of requested %g (%d slips)",
+                self.clock.real_time_factor(),
+                self.clock.speedup,
+                self.clock.slips,
+            )
+
+    def _truth(self, link: VehicleLink) -> TruthRow:
+        row = link.vehicle.truth(self.now)
+        return row if link.alive else dataclasses.replace(row, mode="KILLED")
+
+    # -- lifecycle ---------------------------------------------------------------------
+
+    async def __aenter__(self) -> MockFleet:
+        stack = AsyncExitStack()
+        await stack.__aenter__()
+        try:
+            await self._open(stack)
+        except BaseException:
+            await stack.aclose()
+            raise
+        self._stack = stack
+        return self
+
+    async def _open(self, stack: AsyncExitStack) -> None:
+        loop = asyncio.get_running_loop()
+        if self._own_clock:
+            self.clock = SimClock(self.config.speedup)  # sim time starts when the sockets do
+        endpoints: list[Endpoint] = []
+        for spec in self.config.vehicles:
+            link = self._links[spec.sysid]
+            port = self.config.port_of(spec.sysid)
+            try:
+                transport, _ = await loop.create_datagram_endpoint(
+                    lambda link=link: link,  # type: ignore[misc]
+                    local_addr=(self.config.host, port),
+                )
+            except OSError as e:
+                key = "base_port" if self.config.base_port else "host"
+                raise ConfigError(
+                    key, f"{self.config.host}:{port}", f"cannot bind: {e.strerror or e}"
+                ) from e
+            stack.callback(transport.close)
+            endpoints.append(_endpoint(spec, transport.get_extra_info("sockname")))
+        self._endpoints = tuple(endpoints)
+        if self.config.truth_path is not None:
+            try:
+                writer = CsvTruthWriter(self.config.truth_path)
+            except OSError as e:
+                raise ConfigError("truth", self.config.truth_path, e.strerror or str(e)) from e
+            self._sinks.append(writer)
+            stack.callback(writer.close)
+        if self._sampler.due(self.now):  # the state at t = 0 heads the log
+            self._write_truth()
+        tg = await stack.enter_async_context(asyncio.TaskGroup())
+        if self._run_physics:
+            self._physics_task = tg.create_task(self._physics(), name="sitl_mock.physics")
+
+    async def __aexit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> bool | None:
+        if self._physics_task is not None:
+            self._physics_task.cancel()
+        stack, self._stack = self._stack, None
+        assert stack is not None
+        return await stack.__aexit__(exc_type, exc, tb)
+
+
+_TRAFFIC = {"datagrams_in", "datagrams_out", "messages_in", "messages_out"}
+
+
+def _endpoint(spec: VehicleSpec, sockname: tuple[str, int]) -> Endpoint:
+    frame = spec.airframe.frame if spec.kind == "aircraft" else "rover"
+    return Endpoint(
+        sysid=spec.sysid,
+        kind=spec.kind,
+        personality=str(spec.personality),
+        frame=frame,
+        host=sockname[0],
+        port=sockname[1],
+    )
