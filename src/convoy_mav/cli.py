@@ -12,7 +12,8 @@ import json
 import math
 import sys
 from collections.abc import Sequence
-from typing import Any, NoReturn
+from dataclasses import replace
+from typing import Any, NoReturn, TypeVar
 
 from convoy_mav import __version__
 from convoy_mav.config import AircraftConfig, ConvoyConfig, MissionConfig, load_config
@@ -23,6 +24,8 @@ from convoy_mav.planning.export import entry_to_dict, plan_to_dict
 __all__ = ["main"]
 
 EXIT_USAGE = 2
+
+T = TypeVar("T")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -96,23 +99,13 @@ def _mission_from_args(args: argparse.Namespace) -> MissionConfig:
     if args.uavs is not None and args.uavs < 1:
         raise ConfigError("--uavs", args.uavs, "must be >= 1")
     base = load_config(args.config) if args.config else None
-    aircraft = base.aircraft if base else AircraftConfig()
+    aircraft = base.plan_aircraft if base else None
     convoy = base.convoy if base else ConvoyConfig()
-    sensor = (
-        args.sensor_radius
-        if args.sensor_radius is not None
-        else (base.sensor_radius_m if base else None)
-    )
-    turn = (
-        args.turn_radius
-        if args.turn_radius is not None
-        else (aircraft.turn_radius_m if base else None)
-    )
-    speed = (
-        args.uav_speed if args.uav_speed is not None else (aircraft.airspeed_mps if base else 1.0)
-    )
-    convoy_speed = args.convoy_speed if args.convoy_speed is not None else convoy.speed_mps
-    if convoy_speed >= speed:
+    sensor = _first(args.sensor_radius, base.sensor_radius_m if base else None)
+    turn = _first(args.turn_radius, aircraft.turn_radius_m if aircraft else None)
+    speed = _first(args.uav_speed, aircraft.airspeed_mps if aircraft else 1.0)
+    convoy_speed = _first(args.convoy_speed, convoy.speed_mps)
+    if speed is not None and convoy_speed is not None and convoy_speed >= speed:
         raise ConfigError(
             "--convoy-speed",
             convoy_speed,
@@ -121,18 +114,21 @@ def _mission_from_args(args: argparse.Namespace) -> MissionConfig:
     return MissionConfig(
         sensor_radius_m=_require(sensor, "--sensor-radius"),
         aircraft=AircraftConfig(
-            airspeed_mps=speed,
+            airspeed_mps=_require(speed, "--uav-speed"),
             turn_radius_m=_require(turn, "--turn-radius"),
-            altitude_m=aircraft.altitude_m,
         ),
-        convoy=ConvoyConfig(
-            speed_mps=convoy_speed,
-            heading_deg=(
-                args.convoy_heading if args.convoy_heading is not None else convoy.heading_deg
-            ),
+        convoy=replace(
+            convoy,
+            speed_mps=_require(convoy_speed, "--convoy-speed"),
+            heading_deg=_first(args.convoy_heading, convoy.heading_deg) or 0.0,
         ),
-        uavs=args.uavs if args.uavs is not None else (base.uavs if base else None),
+        uav_count=_first(args.uavs, base.planned_uavs if base else None),
     )
+
+
+def _first(*values: T | None) -> T | None:
+    """The first value that is not None (a flag given beats the config)."""
+    return next((v for v in values if v is not None), None)
 
 
 def _fmt(x: float | None, unit: str = "", digits: int = 4) -> str:

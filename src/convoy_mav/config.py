@@ -1,45 +1,115 @@
 """Mission configuration: TOML in, frozen dataclasses out.
 
-Every error names the key (as a dotted TOML path) and the offending value and
-is raised as ``ConfigError``, which the CLI turns into a one-line message and
-exit status 2.  Unknown keys are errors too: a typo must not silently fall
-back to a default.
+Every error names the key (as a dotted TOML path, ``uav[2].sysid``) and the
+offending value and is raised as ``ConfigError``, which the CLI turns into a
+one-line message and exit status 2.  Unknown keys are errors too: a typo must
+not silently fall back to a default.
 
-Schema (all lengths metres, speeds m/s, headings compass degrees)::
+Schema (lengths metres, speeds m/s, headings compass degrees, times mission
+seconds)::
 
     [mission]
-    sensor_radius_m = 100.0     # r: radius of the disk the camera sees
-    uavs = 5                    # optional; default the paper's minimum
+    sensor_radius_m = 100.0       # r: radius of the disk the camera sees (required)
+    uavs = 5                      # planned UAV count; default: the [[uav]] entries,
+                                  # or the paper's minimum when there are none
+    origin = { lat = 47.397742, lon = 8.545594, alt = 488.0 }   # mission frame origin
+    setpoint_rate_hz = 20.0       # setpoint stream, per UAV, in mission time
+    altitude_step_m = 5.0         # UAV i flies altitude_m + i * step (vertical separation)
+    setup_timeout_s = 120.0       # give up setting a UAV up after this long
+    lost_after_s = 3.0            # a UAV silent this long is declared lost
 
-    [aircraft]                  # defaults for every UAV
+    [aircraft]                    # defaults for every [[uav]]
     airspeed_mps = 18.0
-    turn_radius_m = 150.0       # R: minimum turn radius at that airspeed
-    altitude_m = 100.0          # above home
+    turn_radius_m = 150.0         # R: the radius the plan uses (keep a margin over the
+    altitude_m = 100.0            #    airframe's hard limit so the autopilot can correct)
+
+    [[uav]]                       # one per autopilot
+    connection = "udpin:0.0.0.0:14540"   # pymavlink / MAVSDK style connection string
+    sysid = 1
+    # airspeed_mps / turn_radius_m / altitude_m override [aircraft]
 
     [convoy]
-    speed_mps = 0.0             # 0: stationary convoy (Section III)
-    heading_deg = 0.0           # compass course: 0 north, 90 east
+    source = "route"              # "route" (scripted), "mavlink" (ground vehicles), "mqtt"
+    speed_mps = 0.0               # route: 0 is a stationary convoy
+    heading_deg = 0.0             # route: compass course
+    start = { north = 0.0, east = 0.0 }   # route: start point in the mission frame
+    stale_after_s = 3.0           # no fresh convoy fix this long: hold + alarm
+    [[convoy.vehicle]]            # source = "mavlink": the ground vehicles' autopilots
+    connection = "udpout:127.0.0.1:14544"
+    sysid = 5
+
+    [mqtt]                        # optional; without it nothing is published
+    host = "127.0.0.1"
+    port = 1883
+    prefix = "convoy"
+
+    [record]
+    tlog = "mission.tlog"         # optional MAVLink recording
 """
 
 from __future__ import annotations
 
 import math
+import re
 import tomllib
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 from convoy_mav.errors import ConfigError
+from convoy_mav.geo import GeoPoint
 from convoy_mav.planning.export import compass_to_planner
 from convoy_mav.planning.plan import PlanRequest
 
-__all__ = ["AircraftConfig", "ConvoyConfig", "MissionConfig", "load_config", "parse_config"]
+__all__ = [
+    "AircraftConfig",
+    "ConvoyConfig",
+    "ConvoyVehicleConfig",
+    "MissionConfig",
+    "MqttConfig",
+    "UavConfig",
+    "load_config",
+    "parse_config",
+    "validate_connection",
+]
+
+#: The PX4 SITL default home (Zurich), used when a config names no origin.
+DEFAULT_ORIGIN = GeoPoint(47.397742, 8.545594, 488.0)
+
+_CONNECTION = re.compile(
+    r"^(?:(?P<scheme>udpin|udpout|udp|tcp|tcpin):(?P<host>[^:/]*):(?P<port>\d+)"
+    r"|(?P<url>udp|udpin|udpout|tcp|tcpin)://(?P<uhost>[^:/]*):(?P<uport>\d+))$"
+)
+
+
+def validate_connection(text: object, key: str) -> str:
+    """Check a connection string's form (``udpin:0.0.0.0:14540``, ``udp://:14540``...).
+
+    Returns:
+        The string, unchanged.
+
+    Raises:
+        ConfigError: Naming ``key`` when the form or the port is wrong.
+    """
+    if not isinstance(text, str):
+        raise ConfigError(key, text, "must be a connection string like 'udpin:0.0.0.0:14540'")
+    m = _CONNECTION.match(text.strip())
+    if m is None:
+        raise ConfigError(
+            key,
+            text,
+            "expected udpin:HOST:PORT, udpout:HOST:PORT, tcp:HOST:PORT or udp://HOST:PORT",
+        )
+    port = int(m.group("port") or m.group("uport"))
+    if not 0 < port < 65536:
+        raise ConfigError(key, text, "port must be 1..65535")
+    return text.strip()
 
 
 @dataclass(frozen=True, slots=True)
 class AircraftConfig:
-    """Performance every UAV of the mission shares."""
+    """Performance of a UAV (the [aircraft] defaults, or one [[uav]] entry's)."""
 
     airspeed_mps: float = 18.0
     turn_radius_m: float = 150.0
@@ -47,11 +117,45 @@ class AircraftConfig:
 
 
 @dataclass(frozen=True, slots=True)
+class UavConfig:
+    """One autopilot the service drives."""
+
+    connection: str
+    sysid: int
+    aircraft: AircraftConfig = AircraftConfig()
+
+
+@dataclass(frozen=True, slots=True)
+class ConvoyVehicleConfig:
+    """One ground vehicle whose own telemetry locates the convoy."""
+
+    connection: str
+    sysid: int
+
+
+ConvoySource = Literal["route", "mavlink", "mqtt"]
+
+
+@dataclass(frozen=True, slots=True)
 class ConvoyConfig:
-    """How the convoy moves (for planning; live sources come later)."""
+    """Where the convoy is, and (for a scripted route) how it moves."""
 
     speed_mps: float = 0.0
     heading_deg: float = 0.0
+    source: ConvoySource = "route"
+    start_north_m: float = 0.0
+    start_east_m: float = 0.0
+    stale_after_s: float = 3.0
+    vehicles: tuple[ConvoyVehicleConfig, ...] = ()
+
+
+@dataclass(frozen=True, slots=True)
+class MqttConfig:
+    """The broker status and coverage go to, and convoy fixes and commands come from."""
+
+    host: str = "127.0.0.1"
+    port: int = 1883
+    prefix: str = "convoy"
 
 
 @dataclass(frozen=True, slots=True)
@@ -61,28 +165,71 @@ class MissionConfig:
     sensor_radius_m: float
     aircraft: AircraftConfig = AircraftConfig()
     convoy: ConvoyConfig = ConvoyConfig()
-    uavs: int | None = None
+    uav_count: int | None = None
+    uav_list: tuple[UavConfig, ...] = ()
+    origin: GeoPoint = DEFAULT_ORIGIN
+    setpoint_rate_hz: float = 20.0
+    altitude_step_m: float = 5.0
+    setup_timeout_s: float = 120.0
+    lost_after_s: float = 3.0
+    mqtt: MqttConfig | None = None
+    tlog: str | None = None
+
+    @property
+    def planned_uavs(self) -> int | None:
+        """UAVs to plan for: the explicit count, else the listed UAVs, else the minimum."""
+        if self.uav_count is not None:
+            return self.uav_count
+        return len(self.uav_list) or None
+
+    @property
+    def plan_aircraft(self) -> AircraftConfig:
+        """The performance the plan assumes: every UAV must be able to fly it.
+
+        With mixed airframes that is the slowest airspeed and the largest turn
+        radius of the fleet (the paper's results are for identical UAVs).
+        """
+        if not self.uav_list:
+            return self.aircraft
+        return AircraftConfig(
+            airspeed_mps=min(u.aircraft.airspeed_mps for u in self.uav_list),
+            turn_radius_m=max(u.aircraft.turn_radius_m for u in self.uav_list),
+            altitude_m=self.aircraft.altitude_m,
+        )
 
     def plan_request(self) -> PlanRequest:
         """The planner's view of this mission."""
+        craft = self.plan_aircraft
         return PlanRequest(
-            turn_radius=self.aircraft.turn_radius_m,
+            turn_radius=craft.turn_radius_m,
             sensor_radius=self.sensor_radius_m,
-            uav_speed=self.aircraft.airspeed_mps,
+            uav_speed=craft.airspeed_mps,
             convoy_speed=self.convoy.speed_mps,
             convoy_heading=compass_to_planner(self.convoy.heading_deg),
-            uavs=self.uavs,
+            uavs=self.planned_uavs,
         )
 
 
-def _table(data: Mapping[str, Any], key: str, allowed: set[str]) -> Mapping[str, Any]:
+# ------------------------------------------------------------------ validation helpers
+
+_AIRCRAFT_KEYS = {"airspeed_mps", "turn_radius_m", "altitude_m"}
+
+
+def _check_keys(table: Mapping[str, Any], name: str, allowed: set[str]) -> Mapping[str, Any]:
+    unknown = sorted(set(table) - allowed)
+    if unknown:
+        raise ConfigError(f"{name}.{unknown[0]}", table[unknown[0]], "unknown key")
+    return table
+
+
+def _table(
+    data: Mapping[str, Any], key: str, allowed: set[str], name: str = ""
+) -> Mapping[str, Any]:
+    name = name or key
     value = data.get(key, {})
     if not isinstance(value, Mapping):
-        raise ConfigError(key, value, "must be a table")
-    unknown = sorted(set(value) - allowed)
-    if unknown:
-        raise ConfigError(f"{key}.{unknown[0]}", value[unknown[0]], "unknown key")
-    return value
+        raise ConfigError(name, value, "must be a table")
+    return _check_keys(value, name, allowed)
 
 
 def _number(
@@ -112,48 +259,171 @@ def _number(
     return value
 
 
+def _integer(table: Mapping[str, Any], name: str, key: str, lo: int, hi: int) -> int:
+    value = table.get(key)
+    if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
+        raise ConfigError(f"{name}.{key}", value, f"must be a whole number in {lo}..{hi}")
+    return value
+
+
+def _aircraft(table: Mapping[str, Any], name: str, base: AircraftConfig) -> AircraftConfig:
+    return AircraftConfig(
+        airspeed_mps=_number(table, name, "airspeed_mps", base.airspeed_mps, positive=True),
+        turn_radius_m=_number(table, name, "turn_radius_m", base.turn_radius_m, positive=True),
+        altitude_m=_number(table, name, "altitude_m", base.altitude_m, positive=True),
+    )
+
+
+def _array_of_tables(data: Mapping[str, Any], key: str, name: str) -> Sequence[Mapping[str, Any]]:
+    value = data.get(key, [])
+    if not isinstance(value, list) or not all(isinstance(v, Mapping) for v in value):
+        raise ConfigError(name, value, f"must be an array of tables ([[{name}]])")
+    return value
+
+
+def _origin(mission: Mapping[str, Any]) -> GeoPoint:
+    if "origin" not in mission:
+        return DEFAULT_ORIGIN
+    table = _table(mission, "origin", {"lat", "lon", "alt"}, "mission.origin")
+    lat = _number(table, "mission.origin", "lat", None)
+    lon = _number(table, "mission.origin", "lon", None)
+    if not -90.0 <= lat <= 90.0:
+        raise ConfigError("mission.origin.lat", lat, "must be within -90..90 degrees")
+    if not -180.0 <= lon <= 180.0:
+        raise ConfigError("mission.origin.lon", lon, "must be within -180..180 degrees")
+    return GeoPoint(lat, lon, _number(table, "mission.origin", "alt", 0.0))
+
+
+def _uavs(data: Mapping[str, Any], base: AircraftConfig) -> tuple[UavConfig, ...]:
+    out: list[UavConfig] = []
+    seen: dict[int, str] = {}
+    for i, entry in enumerate(_array_of_tables(data, "uav", "uav")):
+        name = f"uav[{i}]"
+        unknown = sorted(
+            set(entry) - {"connection", "sysid", "airspeed_mps", "turn_radius_m", "altitude_m"}
+        )
+        if unknown:
+            raise ConfigError(f"{name}.{unknown[0]}", entry[unknown[0]], "unknown key")
+        if "connection" not in entry:
+            raise ConfigError(f"{name}.connection", None, "is required")
+        sysid = _integer(entry, name, "sysid", 1, 254)
+        if sysid in seen:
+            raise ConfigError(f"{name}.sysid", sysid, f"is already used by {seen[sysid]}")
+        seen[sysid] = name
+        out.append(
+            UavConfig(
+                connection=validate_connection(entry["connection"], f"{name}.connection"),
+                sysid=sysid,
+                aircraft=_aircraft(entry, name, base),
+            )
+        )
+    return tuple(out)
+
+
+def _convoy(data: Mapping[str, Any]) -> ConvoyConfig:
+    table = _table(
+        data,
+        "convoy",
+        {"source", "speed_mps", "heading_deg", "start", "stale_after_s", "vehicle"},
+    )
+    source = table.get("source", "route")
+    if source not in ("route", "mavlink", "mqtt"):
+        raise ConfigError("convoy.source", source, "must be 'route', 'mavlink' or 'mqtt'")
+    start = _table(table, "start", {"north", "east"}, "convoy.start")
+    vehicles = []
+    for i, entry in enumerate(_array_of_tables(table, "vehicle", "convoy.vehicle")):
+        name = f"convoy.vehicle[{i}]"
+        _check_keys(entry, name, {"connection", "sysid"})
+        vehicles.append(
+            ConvoyVehicleConfig(
+                connection=validate_connection(entry.get("connection"), f"{name}.connection"),
+                sysid=_integer(entry, name, "sysid", 1, 254),
+            )
+        )
+    if source == "mavlink" and not vehicles:
+        raise ConfigError(
+            "convoy.vehicle", [], "source 'mavlink' needs at least one [[convoy.vehicle]]"
+        )
+    return ConvoyConfig(
+        speed_mps=_number(table, "convoy", "speed_mps", 0.0, non_negative=True),
+        heading_deg=_number(table, "convoy", "heading_deg", 0.0),
+        source=source,
+        start_north_m=_number(start, "convoy.start", "north", 0.0),
+        start_east_m=_number(start, "convoy.start", "east", 0.0),
+        stale_after_s=_number(table, "convoy", "stale_after_s", 3.0, positive=True),
+        vehicles=tuple(vehicles),
+    )
+
+
+def _mqtt(data: Mapping[str, Any]) -> MqttConfig | None:
+    if "mqtt" not in data:
+        return None
+    table = _table(data, "mqtt", {"host", "port", "prefix"})
+    host = table.get("host", "127.0.0.1")
+    if not isinstance(host, str) or not host:
+        raise ConfigError("mqtt.host", host, "must be a host name or address")
+    prefix = table.get("prefix", "convoy")
+    if not isinstance(prefix, str) or not prefix or any(c in prefix for c in "#+"):
+        raise ConfigError("mqtt.prefix", prefix, "must be a topic prefix without wildcards")
+    port = _integer(table, "mqtt", "port", 1, 65535) if "port" in table else 1883
+    return MqttConfig(host=host, port=port, prefix=prefix.strip("/"))
+
+
 def parse_config(data: Mapping[str, Any]) -> MissionConfig:
     """Validate a decoded TOML document into a ``MissionConfig``.
 
     Raises:
         ConfigError: Naming the first bad key and its value.
     """
-    unknown = sorted(set(data) - {"mission", "aircraft", "convoy"})
+    sections = {"mission", "aircraft", "convoy", "uav", "mqtt", "record"}
+    unknown = sorted(set(data) - sections)
     if unknown:
         raise ConfigError(unknown[0], data[unknown[0]], "unknown section")
-    mission = _table(data, "mission", {"sensor_radius_m", "uavs"})
-    aircraft = _table(data, "aircraft", {"airspeed_mps", "turn_radius_m", "altitude_m"})
-    convoy = _table(data, "convoy", {"speed_mps", "heading_deg"})
-    uavs = mission.get("uavs")
-    if uavs is not None and (isinstance(uavs, bool) or not isinstance(uavs, int) or uavs < 1):
-        raise ConfigError("mission.uavs", uavs, "must be a whole number >= 1")
-    defaults = AircraftConfig()
+    mission = _table(
+        data,
+        "mission",
+        {
+            "sensor_radius_m", "uavs", "origin", "setpoint_rate_hz", "altitude_step_m",
+            "setup_timeout_s", "lost_after_s",
+        },
+    )  # fmt: skip
+    aircraft = _aircraft(
+        _table(data, "aircraft", _AIRCRAFT_KEYS),
+        "aircraft",
+        AircraftConfig(),
+    )
+    uav_count = mission.get("uavs")
+    if uav_count is not None:
+        uav_count = _integer(mission, "mission", "uavs", 1, 1000)
+    record = _table(data, "record", {"tlog"})
+    tlog = record.get("tlog")
+    if tlog is not None and (not isinstance(tlog, str) or not tlog):
+        raise ConfigError("record.tlog", tlog, "must be a file path")
     cfg = MissionConfig(
         sensor_radius_m=_number(mission, "mission", "sensor_radius_m", None, positive=True),
-        aircraft=AircraftConfig(
-            airspeed_mps=_number(
-                aircraft, "aircraft", "airspeed_mps", defaults.airspeed_mps, positive=True
-            ),
-            turn_radius_m=_number(
-                aircraft, "aircraft", "turn_radius_m", defaults.turn_radius_m, positive=True
-            ),
-            altitude_m=_number(
-                aircraft, "aircraft", "altitude_m", defaults.altitude_m, positive=True
-            ),
-        ),
-        convoy=ConvoyConfig(
-            speed_mps=_number(convoy, "convoy", "speed_mps", 0.0, non_negative=True),
-            heading_deg=_number(convoy, "convoy", "heading_deg", 0.0),
-        ),
-        uavs=uavs,
+        aircraft=aircraft,
+        convoy=_convoy(data),
+        uav_count=uav_count,
+        uav_list=_uavs(data, aircraft),
+        origin=_origin(mission),
+        setpoint_rate_hz=_number(mission, "mission", "setpoint_rate_hz", 20.0, positive=True),
+        altitude_step_m=_number(mission, "mission", "altitude_step_m", 5.0, non_negative=True),
+        setup_timeout_s=_number(mission, "mission", "setup_timeout_s", 120.0, positive=True),
+        lost_after_s=_number(mission, "mission", "lost_after_s", 3.0, positive=True),
+        mqtt=_mqtt(data),
+        tlog=tlog,
     )
-    if cfg.convoy.speed_mps >= cfg.aircraft.airspeed_mps:
+    speed = cfg.plan_aircraft.airspeed_mps
+    if cfg.convoy.speed_mps >= speed:
         raise ConfigError(
             "convoy.speed_mps",
             cfg.convoy.speed_mps,
-            f"must be below aircraft.airspeed_mps ({cfg.aircraft.airspeed_mps:g}): "
-            "the UAVs cannot keep up with a faster convoy",
+            f"must be below the UAVs' airspeed ({speed:g} m/s): they cannot keep up",
         )
+    convoy_ids = {v.sysid for v in cfg.convoy.vehicles}
+    for i, uav in enumerate(cfg.uav_list):
+        if uav.sysid in convoy_ids:
+            raise ConfigError(f"uav[{i}].sysid", uav.sysid, "is also a convoy vehicle's sysid")
     return cfg
 
 

@@ -67,3 +67,75 @@ def test_toml_syntax_error(tmp_path: Path) -> None:
     bad.write_text("[mission\nsensor_radius_m = 1\n")
     with pytest.raises(ConfigError, match="not valid TOML"):
         load_config(bad)
+
+
+SERVICE_DOC: dict[str, Any] = {
+    "mission": {
+        "sensor_radius_m": 100.0,
+        "origin": {"lat": 47.0, "lon": 8.0, "alt": 400.0},
+        "setpoint_rate_hz": 25.0,
+    },
+    "aircraft": {"airspeed_mps": 18.0, "turn_radius_m": 150.0},
+    "uav": [
+        {"connection": "udpin:0.0.0.0:14540", "sysid": 1},
+        {"connection": "udpout:127.0.0.1:14541", "sysid": 2, "turn_radius_m": 160.0},
+        {"connection": "tcp:127.0.0.1:5760", "sysid": 3, "airspeed_mps": 16.0},
+        {"connection": "udp://:14543", "sysid": 4},
+    ],
+    "convoy": {
+        "source": "mavlink",
+        "vehicle": [{"connection": "udpout:127.0.0.1:14550", "sysid": 10}],
+    },
+    "mqtt": {"host": "localhost", "prefix": "fleet/convoy/"},
+    "record": {"tlog": "out.tlog"},
+}
+
+
+def test_service_sections() -> None:
+    cfg = parse_config(SERVICE_DOC)
+    assert [u.sysid for u in cfg.uav_list] == [1, 2, 3, 4]
+    assert cfg.planned_uavs == 4
+    assert cfg.origin.lat == 47.0 and cfg.origin.alt == 400.0
+    assert cfg.setpoint_rate_hz == 25.0
+    # Mixed airframes: the plan assumes what every UAV can fly.
+    assert cfg.plan_aircraft.turn_radius_m == 160.0
+    assert cfg.plan_aircraft.airspeed_mps == 16.0
+    assert cfg.convoy.vehicles[0].sysid == 10
+    assert cfg.mqtt is not None and cfg.mqtt.prefix == "fleet/convoy" and cfg.mqtt.port == 1883
+    assert cfg.tlog == "out.tlog"
+
+
+def _with(path: str, value: Any) -> dict[str, Any]:
+    import copy
+
+    doc = copy.deepcopy(SERVICE_DOC)
+    node: Any = doc
+    parts = path.split(".")
+    for part in parts[:-1]:
+        node = node[int(part)] if part.isdigit() else node[part]
+    node[parts[-1]] = value
+    return doc
+
+
+@pytest.mark.parametrize(
+    ("doc", "key", "needle"),
+    [
+        (_with("uav.1.sysid", 1), "uav[1].sysid", "already used by uav[0]"),
+        (_with("uav.0.connection", "serial:/dev/ttyUSB0"), "uav[0].connection", "expected"),
+        (_with("uav.0.connection", "udpin:0.0.0.0:99999"), "uav[0].connection", "port"),
+        (_with("uav.2.sysid", 0), "uav[2].sysid", "1..254"),
+        (_with("uav.0.speed", 3), "uav[0].speed", "unknown key"),
+        (_with("mission.origin", {"lat": 95.0, "lon": 0.0}), "mission.origin.lat", "-90..90"),
+        (_with("mqtt.prefix", "a/#"), "mqtt.prefix", "wildcards"),
+        (_with("mqtt.port", 0), "mqtt.port", "1..65535"),
+        (_with("convoy.vehicle", []), "convoy.vehicle", "needs a"),
+        (_with("convoy.source", "radar"), "convoy.source", "must be"),
+        (_with("convoy.vehicle.0.sysid", 1), "uav[0].sysid", "convoy vehicle"),
+        (_with("uav", {"sysid": 1}), "uav", "array of tables"),
+    ],
+)
+def test_service_errors_name_the_key(doc: dict[str, Any], key: str, needle: str) -> None:
+    with pytest.raises(ConfigError) as info:
+        parse_config(doc)
+    assert info.value.key == key
+    assert needle in str(info.value)

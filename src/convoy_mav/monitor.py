@@ -1,0 +1,206 @@
+"""The coverage monitor: live coverage, tracking error and alarms from telemetry.
+
+Design rules:
+- Pure and synchronous: the app calls ``update`` on a fixed mission-time tick
+  with the latest telemetry and convoy estimate; nothing here waits or sleeps.
+- Coverage is counted from the protect phase on (joining UAVs are not yet
+  expected to cover); before that only the live "covered now?" is reported.
+- Alarms are edge-triggered values: raised once when a condition starts, and
+  a matching clear when it ends, so publishers and logs are not flooded.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+from convoy_mav.coverage import CoverageSample, CoverageStats, CoverageTracker, GapClosed, GapOpened
+from convoy_mav.types import ConvoyEstimate, Setpoint, Telemetry
+
+__all__ = ["Alarm", "Monitor", "MonitorSnapshot", "VehicleScore"]
+
+
+@dataclass(frozen=True, slots=True)
+class Alarm:
+    """An operator-facing condition that started (``active``) or ended."""
+
+    t: float
+    kind: str  # "gap", "prediction_missed", "convoy_stale"
+    active: bool
+    message: str
+
+
+@dataclass(frozen=True, slots=True)
+class VehicleScore:
+    """One UAV's share of the protect phase."""
+
+    sysid: int
+    time_in_circle_fraction: float
+    mean_tracking_error_m: float | None
+    tracking_error_m: float | None  # latest
+
+
+@dataclass(frozen=True, slots=True)
+class MonitorSnapshot:
+    """Everything the monitor knows at one tick."""
+
+    t: float
+    covered: bool
+    covering: tuple[int, ...]
+    protect_start: float | None
+    stats: CoverageStats
+    predicted_coverage: float
+    vehicles: tuple[VehicleScore, ...]
+
+
+@dataclass
+class _Tracking:
+    total: float = 0.0
+    count: int = 0
+    latest: float | None = None
+
+
+@dataclass
+class Monitor:
+    """Coverage since the protect phase began, per-UAV scores and alarms.
+
+    Args:
+        sensor_radius: r, metres.
+        predicted_coverage: What the plan promises; a shortfall of more than
+            ``prediction_margin`` (after ``prediction_grace`` seconds of protect)
+            raises ``prediction_missed``.
+        max_hold: Longest interval one telemetry sample stands for (seconds).
+    """
+
+    sensor_radius: float
+    predicted_coverage: float = 1.0
+    prediction_margin: float = 0.02
+    prediction_grace: float = 60.0
+    max_hold: float = 1.0
+    _tracker: CoverageTracker | None = field(default=None, init=False)
+    _protect_start: float | None = field(default=None, init=False)
+    _tracking: dict[int, _Tracking] = field(default_factory=dict, init=False)
+    _active: set[str] = field(default_factory=set, init=False)
+    _last: CoverageSample | None = field(default=None, init=False)
+
+    def start_protect(self, t: float) -> None:
+        """Begin counting coverage at mission time ``t`` (every UAV has joined)."""
+        self._protect_start = t
+        self._tracker = CoverageTracker(self.sensor_radius, self.max_hold)
+        self._tracking.clear()
+
+    def restart_protect(self, t: float, predicted_coverage: float) -> None:
+        """A replan changed the promise: keep the totals, compare against the new figure."""
+        self.predicted_coverage = predicted_coverage
+        if self._protect_start is None:
+            self.start_protect(t)
+
+    @property
+    def protect_start(self) -> float | None:
+        """Mission time the protect phase began, or None while joining."""
+        return self._protect_start
+
+    def update(
+        self,
+        t: float,
+        convoy: ConvoyEstimate | None,
+        telemetry: Mapping[int, Telemetry],
+        planned: Mapping[int, Setpoint] | None = None,
+    ) -> list[Alarm]:
+        """Fold in one tick; return the alarms that started or ended.
+
+        Args:
+            t: Mission time of the tick.
+            convoy: The convoy estimate (None before the first fix: nothing is covered).
+            telemetry: Latest telemetry of each live UAV (lost UAVs left out).
+            planned: Where each UAV should be now, for the tracking error.
+        """
+        alarms: list[Alarm] = []
+        if convoy is None:
+            return alarms
+        self._edge(t, "convoy_stale", convoy.stale, "convoy position is stale", alarms)
+        positions = {
+            sysid: (tel.north, tel.east)
+            for sysid, tel in telemetry.items()
+            if math.isfinite(tel.north) and math.isfinite(tel.east)
+        }
+        centre = (convoy.north, convoy.east)
+        if self._tracker is None:
+            self._last = CoverageTracker(self.sensor_radius).observe(t, centre, positions)
+            return alarms
+        sample, events = self._tracker.update(t, centre, positions)
+        self._last = sample
+        for ev in events:
+            if isinstance(ev, GapOpened):
+                alarms.append(Alarm(ev.t, "gap", True, "convoy not seen by any UAV"))
+                self._active.add("gap")
+            elif isinstance(ev, GapClosed):
+                alarms.append(
+                    Alarm(ev.t, "gap", False, f"convoy seen again after {ev.duration:.1f} s")
+                )
+                self._active.discard("gap")
+        if planned:
+            for sysid, sp in planned.items():
+                tel = telemetry.get(sysid)
+                if tel is None:
+                    continue
+                err = math.hypot(tel.north - sp.north, tel.east - sp.east)
+                if math.isfinite(err):
+                    rec = self._tracking.setdefault(sysid, _Tracking())
+                    rec.total += err
+                    rec.count += 1
+                    rec.latest = err
+        stats = self._tracker.stats()
+        assert self._protect_start is not None
+        if t - self._protect_start >= self.prediction_grace:
+            missed = stats.fraction < self.predicted_coverage - self.prediction_margin
+            self._edge(
+                t,
+                "prediction_missed",
+                missed,
+                f"coverage {100 * stats.fraction:.1f} % below predicted "
+                f"{100 * self.predicted_coverage:.1f} %",
+                alarms,
+            )
+        return alarms
+
+    def _edge(self, t: float, kind: str, active: bool, message: str, out: list[Alarm]) -> None:
+        if active and kind not in self._active:
+            self._active.add(kind)
+            out.append(Alarm(t, kind, True, message))
+        elif not active and kind in self._active:
+            self._active.discard(kind)
+            out.append(Alarm(t, kind, False, f"cleared: {message}"))
+
+    def snapshot(self, t: float) -> MonitorSnapshot:
+        """The monitor's view at mission time ``t``."""
+        stats = (
+            self._tracker.stats(now=t)
+            if self._tracker is not None
+            else CoverageStats(0.0, 0.0, 0.0, 0.0, 0, {}, 0.0)
+        )
+        sysids = sorted(set(self._tracking) | set(stats.time_inside_s))
+        scores = tuple(
+            VehicleScore(
+                sysid=s,
+                time_in_circle_fraction=stats.time_inside_fraction(s),
+                mean_tracking_error_m=(
+                    self._tracking[s].total / self._tracking[s].count
+                    if s in self._tracking and self._tracking[s].count
+                    else None
+                ),
+                tracking_error_m=self._tracking[s].latest if s in self._tracking else None,
+            )
+            for s in sysids
+        )
+        last = self._last
+        return MonitorSnapshot(
+            t=t,
+            covered=bool(last and last.covered),
+            covering=last.covering if last else (),
+            protect_start=self._protect_start,
+            stats=stats,
+            predicted_coverage=self.predicted_coverage,
+            vehicles=scores,
+        )
