@@ -1,0 +1,90 @@
+"""Score a mission from ground truth, independently of what the service believed.
+
+The mock (or any simulator) writes every vehicle's true position at a fixed
+rate; this module replays those rows through the same coverage arithmetic the
+live monitor uses, with the convoy centroid taken from the ground vehicles'
+true positions.  A service that is wrong about where its UAVs or the convoy
+are is caught here.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+from collections import defaultdict
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass
+
+from convoy_mav.coverage import CoverageStats, CoverageTracker
+from convoy_mav.geo import GeoPoint, LocalFrame
+
+__all__ = ["TruthFix", "read_truth_csv", "score_truth"]
+
+
+@dataclass(frozen=True, slots=True)
+class TruthFix:
+    """One true position of one vehicle."""
+
+    t: float
+    sysid: int
+    kind: str  # "aircraft" or "ground"
+    lat: float
+    lon: float
+    alive: bool = True
+
+
+def read_truth_csv(path: str | os.PathLike[str]) -> Iterator[TruthFix]:
+    """Rows of a ``sitl-mock --truth`` CSV (header ``t,sysid,kind,lat,lon,...,mode``)."""
+    with open(path, newline="") as fh:
+        for row in csv.DictReader(fh):
+            yield TruthFix(
+                t=float(row["t"]),
+                sysid=int(row["sysid"]),
+                kind=row["kind"],
+                lat=float(row["lat"]),
+                lon=float(row["lon"]),
+                alive=row.get("mode") != "KILLED",
+            )
+
+
+def score_truth(
+    fixes: Iterable[TruthFix],
+    origin: GeoPoint,
+    sensor_radius: float,
+    *,
+    start: float,
+    end: float | None = None,
+    max_hold: float = 1.0,
+) -> CoverageStats:
+    """Coverage of the convoy by the aircraft between ``start`` and ``end`` (mission s).
+
+    Rows are grouped by time stamp; at each stamp the convoy is the centroid of
+    the ground vehicles' true positions and every live aircraft's true position
+    counts.  Killed vehicles see nothing.
+    """
+    frame = LocalFrame(origin)
+    by_t: dict[float, list[TruthFix]] = defaultdict(list)
+    for fix in fixes:
+        if fix.t >= start and (end is None or fix.t <= end):
+            by_t[fix.t].append(fix)
+    tracker = CoverageTracker(sensor_radius, max_hold)
+    for t in sorted(by_t):
+        ground: list[tuple[float, float]] = []
+        aircraft: dict[int, tuple[float, float]] = {}
+        for fix in by_t[t]:
+            if not (math.isfinite(fix.lat) and math.isfinite(fix.lon)):
+                continue
+            north, east, _ = frame.to_ned(GeoPoint(fix.lat, fix.lon))
+            if fix.kind == "ground":
+                ground.append((north, east))
+            elif fix.alive:
+                aircraft[fix.sysid] = (north, east)
+        if not ground:
+            continue
+        centre = (
+            sum(p[0] for p in ground) / len(ground),
+            sum(p[1] for p in ground) / len(ground),
+        )
+        tracker.update(t, centre, aircraft)
+    return tracker.stats()

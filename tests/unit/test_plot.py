@@ -1,0 +1,37 @@
+"""The mission plot is written and is a real PNG."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+
+from convoy_mav.history import History
+from convoy_mav.plot import plot_mission
+
+
+def test_history_decimates() -> None:
+    h = History(interval=1.0)
+    for k in range(50):
+        h.record(k * 0.1, (0.0, 0.0), {1: (0.0, 0.0)}, True, True)
+    assert [s.t for s in h.samples] == pytest.approx([0.0, 1.0, 2.0, 3.0, 4.0])
+
+
+def test_plot_writes_png(tmp_path: Path) -> None:
+    h = History(interval=0.5)
+    for k in range(200):
+        t = k * 0.5
+        uav = (150 * math.cos(t / 8), 150 * math.sin(t / 8))
+        covered = math.hypot(*uav) < 160
+        h.record(t, (t, 0.0), {1: uav, 2: (-uav[0], uav[1])}, covered, t > 10)
+    out = tmp_path / "mission.png"
+    plot_mission(h, out, sensor_radius=100.0, title="test")
+    data = out.read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n"
+    assert len(data) > 10_000
+
+
+def test_plot_refuses_empty_history(tmp_path: Path) -> None:
+    with pytest.raises(ValueError, match="nothing to plot"):
+        plot_mission(History(), tmp_path / "x.png", sensor_radius=1.0)

@@ -1,0 +1,48 @@
+"""Ground-truth scoring."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from convoy_mav.geo import GeoPoint, LocalFrame
+from convoy_mav.scoring import TruthFix, read_truth_csv, score_truth
+
+ORIGIN = GeoPoint(47.397742, 8.545594, 488.0)
+FRAME = LocalFrame(ORIGIN)
+
+
+def fix(t: float, sysid: int, kind: str, north: float, east: float, alive: bool = True) -> TruthFix:
+    p = FRAME.to_geo(north, east)
+    return TruthFix(t, sysid, kind, p.lat, p.lon, alive)
+
+
+def test_centroid_of_ground_vehicles_and_killed_aircraft() -> None:
+    rows = []
+    for k in range(11):
+        t = float(k)
+        # Two trucks 40 m apart: centroid at (0, 0); the UAV sits 15 m from it.
+        rows += [fix(t, 9, "ground", 20.0, 0.0), fix(t, 10, "ground", -20.0, 0.0)]
+        rows.append(fix(t, 1, "aircraft", 0.0, 15.0, alive=k < 6))
+    stats = score_truth(rows, ORIGIN, sensor_radius=16.0, start=0.0)
+    assert stats.elapsed_s == 10.0
+    assert stats.covered_s == pytest.approx(6.0)  # covered through t = 6, killed after
+    assert stats.longest_gap_s == pytest.approx(4.0)
+    # The window excludes what comes before `start`.
+    assert score_truth(rows, ORIGIN, 16.0, start=7.0).covered_s == 0.0
+
+
+def test_read_truth_csv(tmp_path: Path) -> None:
+    p = FRAME.to_geo(10.0, 0.0)
+    path = tmp_path / "truth.csv"
+    path.write_text(
+        "t,sysid,kind,lat,lon,alt,north,east,down,vn,ve,vd,yaw,speed,yaw_rate,armed,mode\n"
+        f"0.0,1,aircraft,{p.lat},{p.lon},588,10,0,-100,0,0,0,0,18,0,1,OFFBOARD\n"
+        f"0.0,2,ground,{ORIGIN.lat},{ORIGIN.lon},488,0,0,0,0,0,0,0,0,0,1,GUIDED\n"
+        f"0.1,1,aircraft,{p.lat},{p.lon},588,10,0,-100,0,0,0,0,18,0,0,KILLED\n"
+    )
+    rows = list(read_truth_csv(path))
+    assert [r.kind for r in rows] == ["aircraft", "ground", "aircraft"]
+    assert rows[0].alive and not rows[2].alive
+    assert rows[0].lat == pytest.approx(p.lat)
