@@ -7,7 +7,7 @@ VENV ?= .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-stamp
 
-.PHONY: demo test lint typecheck unit bench clean
+.PHONY: demo test lint typecheck unit bench broker clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -18,8 +18,16 @@ $(STAMP): pyproject.toml
 demo: $(STAMP)
 	$(BIN)/convoy-mav plan --config configs/demo.toml
 
-test: $(STAMP) lint typecheck
+test: $(STAMP) broker lint typecheck
 	$(BIN)/python -m pytest
+
+# The MQTT tests run against a real mosquitto broker (Debian package); install it
+# once if the machine does not have it (as root, or through sudo).
+broker:
+	@command -v mosquitto >/dev/null 2>&1 || test -x /usr/sbin/mosquitto || { \
+	  sudo=$$( [ "$$(id -u)" = 0 ] || echo sudo ); \
+	  $$sudo apt-get update -qq && \
+	  DEBIAN_FRONTEND=noninteractive $$sudo apt-get install -y -qq mosquitto >/dev/null; }
 
 lint: $(STAMP)
 	$(BIN)/ruff check .

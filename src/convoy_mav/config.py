@@ -50,7 +50,6 @@ seconds)::
 from __future__ import annotations
 
 import math
-import re
 import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -59,6 +58,7 @@ from typing import Any, Literal
 
 from convoy_mav.errors import ConfigError
 from convoy_mav.geo import GeoPoint
+from convoy_mav.mavlink.connection import ConnectionSpec
 from convoy_mav.planning.export import compass_to_planner
 from convoy_mav.planning.plan import PlanRequest
 
@@ -77,33 +77,19 @@ __all__ = [
 #: The PX4 SITL default home (Zurich), used when a config names no origin.
 DEFAULT_ORIGIN = GeoPoint(47.397742, 8.545594, 488.0)
 
-_CONNECTION = re.compile(
-    r"^(?:(?P<scheme>udpin|udpout|udp|tcp|tcpin):(?P<host>[^:/]*):(?P<port>\d+)"
-    r"|(?P<url>udp|udpin|udpout|tcp|tcpin)://(?P<uhost>[^:/]*):(?P<uport>\d+))$"
-)
-
 
 def validate_connection(text: object, key: str) -> str:
-    """Check a connection string's form (``udpin:0.0.0.0:14540``, ``udp://:14540``...).
+    """Check a connection string (``udpin:0.0.0.0:14540``, ``tcp:HOST:5760``, ``udp://:14540``).
 
     Returns:
-        The string, unchanged.
+        The string, stripped.
 
     Raises:
         ConfigError: Naming ``key`` when the form or the port is wrong.
     """
     if not isinstance(text, str):
         raise ConfigError(key, text, "must be a connection string like 'udpin:0.0.0.0:14540'")
-    m = _CONNECTION.match(text.strip())
-    if m is None:
-        raise ConfigError(
-            key,
-            text,
-            "expected udpin:HOST:PORT, udpout:HOST:PORT, tcp:HOST:PORT or udp://HOST:PORT",
-        )
-    port = int(m.group("port") or m.group("uport"))
-    if not 0 < port < 65536:
-        raise ConfigError(key, text, "port must be 1..65535")
+    ConnectionSpec.parse(text.strip(), key)
     return text.strip()
 
 

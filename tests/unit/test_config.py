@@ -121,7 +121,8 @@ def _with(path: str, value: Any) -> dict[str, Any]:
     ("doc", "key", "needle"),
     [
         (_with("uav.1.sysid", 1), "uav[1].sysid", "already used by uav[0]"),
-        (_with("uav.0.connection", "serial:/dev/ttyUSB0"), "uav[0].connection", "expected"),
+        (_with("uav.0.connection", "serial:/dev/ttyUSB0"), "uav[0].connection", "serial"),
+        (_with("uav.0.connection", "foo"), "uav[0].connection", "unknown scheme"),
         (_with("uav.0.connection", "udpin:0.0.0.0:99999"), "uav[0].connection", "port"),
         (_with("uav.2.sysid", 0), "uav[2].sysid", "1..254"),
         (_with("uav.0.speed", 3), "uav[0].speed", "unknown key"),
