@@ -23,6 +23,8 @@ __all__ = [
     "Segment",
     "Turn",
     "dubins_shortest_path",
+    "dubins_word_lengths",
+    "dubins_word_path",
     "wrap_angle",
 ]
 
@@ -219,6 +221,71 @@ def _word_params(word: str, a: float, b: float, d: float) -> tuple[float, float,
 DUBINS_WORDS = ("LSL", "RSR", "LSR", "RSL", "RLR", "LRL")
 
 
+def _normalise(start: Pose, goal: Pose, radius: float) -> tuple[float, float, float]:
+    """The standard Dubins normalisation ``(a, b, d)`` of a start/goal pair."""
+    dx, dy = goal.x - start.x, goal.y - start.y
+    d = math.hypot(dx, dy) / radius
+    theta = math.atan2(dy, dx) if d > 0.0 else 0.0
+    return _mod2pi(start.heading - theta), _mod2pi(goal.heading - theta), d
+
+
+def _check_radius_speed(radius: float, speed: float) -> None:
+    if not (radius > 0.0 and math.isfinite(radius)):
+        raise ValueError(f"turn radius must be finite and > 0, got {radius!r}")
+    if not (speed > 0.0 and math.isfinite(speed)):
+        raise ValueError(f"speed must be finite and > 0, got {speed!r}")
+
+
+def dubins_word_lengths(start: Pose, goal: Pose, radius: float) -> dict[str, float]:
+    """Length in metres of every Dubins word that joins ``start`` to ``goal``.
+
+    A cheap closed-form screen (no segments are built, nothing is verified by
+    propagation): words that do not exist for this pair are left out.  Each
+    word's length is continuous in the poses except where one of its arcs
+    wraps between 0 and a full turn; timed joins scan it for exact lengths.
+    Use ``dubins_word_path`` to build (and verify) the chosen word.
+    """
+    _check_radius_speed(radius, 1.0)
+    a, b, d = _normalise(start, goal, radius)
+    out: dict[str, float] = {}
+    for word in DUBINS_WORDS:
+        params = _word_params(word, a, b, d)
+        if params is not None:
+            out[word] = (params[0] + params[1] + params[2]) * radius
+    return out
+
+
+def dubins_word_path(
+    start: Pose, goal: Pose, word: str, radius: float, speed: float
+) -> DubinsPath | None:
+    """The path of one Dubins ``word`` from ``start`` to ``goal``, or None.
+
+    None when the word does not exist for this pair, or when propagating it
+    in closed form does not land on the goal (so a formula slip can never
+    return a path that ends elsewhere).
+
+    Raises:
+        ValueError: If radius or speed are not positive and finite, or the
+            word is not one of the six.
+    """
+    _check_radius_speed(radius, speed)
+    a, b, d = _normalise(start, goal, radius)
+    params = _word_params(word, a, b, d)
+    if params is None:
+        return None
+    pose = start
+    segments: list[Segment] = []
+    for letter, normalised in zip(word, params, strict=True):
+        seg = Segment(pose, _LETTER_TURN[letter], radius, speed, normalised * radius / speed)
+        segments.append(seg)
+        pose = seg.end
+    tolerance = 1e-6 * max(radius, d * radius)
+    miss = math.hypot(pose.x - goal.x, pose.y - goal.y)
+    if miss > tolerance or abs(wrap_angle(pose.heading - goal.heading)) > 1e-6:
+        return None
+    return DubinsPath(word, (segments[0], segments[1], segments[2]))
+
+
 def dubins_shortest_path(start: Pose, goal: Pose, radius: float, speed: float) -> DubinsPath:
     """The shortest path of bounded curvature from ``start`` to ``goal`` (Dubins 1957).
 
@@ -238,31 +305,12 @@ def dubins_shortest_path(start: Pose, goal: Pose, radius: float, speed: float) -
     Raises:
         ValueError: If radius or speed are not positive and finite.
     """
-    if not (radius > 0.0 and math.isfinite(radius)):
-        raise ValueError(f"turn radius must be finite and > 0, got {radius!r}")
-    if not (speed > 0.0 and math.isfinite(speed)):
-        raise ValueError(f"speed must be finite and > 0, got {speed!r}")
-    dx, dy = goal.x - start.x, goal.y - start.y
-    d = math.hypot(dx, dy) / radius
-    theta = math.atan2(dy, dx) if d > 0.0 else 0.0
-    a = _mod2pi(start.heading - theta)
-    b = _mod2pi(goal.heading - theta)
-    tolerance = 1e-6 * max(radius, math.hypot(dx, dy))
+    _check_radius_speed(radius, speed)
     best: DubinsPath | None = None
     for word in DUBINS_WORDS:
-        params = _word_params(word, a, b, d)
-        if params is None:
+        candidate = dubins_word_path(start, goal, word, radius, speed)
+        if candidate is None:
             continue
-        pose = start
-        segments: list[Segment] = []
-        for letter, normalised in zip(word, params, strict=True):
-            seg = Segment(pose, _LETTER_TURN[letter], radius, speed, normalised * radius / speed)
-            segments.append(seg)
-            pose = seg.end
-        miss = math.hypot(pose.x - goal.x, pose.y - goal.y)
-        if miss > tolerance or abs(wrap_angle(pose.heading - goal.heading)) > 1e-6:
-            continue
-        candidate = DubinsPath(word, (segments[0], segments[1], segments[2]))
         if best is None or candidate.duration < best.duration:
             best = candidate
     if best is None:  # pragma: no cover - some word always exists (Dubins 1957)

@@ -1,0 +1,151 @@
+"""Convoy state estimation: fixes from several sources -> one ``ConvoyEstimate``.
+
+Design rules:
+- A *source* is one ground vehicle (its MAVLink sysid) or an external feed
+  (e.g. ``"mqtt"``).  Only each source's latest fix counts: the convoy
+  position is the centroid of the latest fixes of the live sources.
+- Velocity is the least-squares slope of the centroid samples over a sliding
+  time window: robust to GPS noise, and it needs no model of the route.  A
+  centroid sample is dated at the mean time of the fixes it averages.
+- A source silent for longer than ``stale_after`` leaves the centroid, so one
+  dead truck does not freeze the convoy in place.  Whenever the set of
+  sources changes, the centroid jumps (it is now the centre of other
+  vehicles): the sample history restarts and the last velocity is held until
+  the new history spans ``min_span`` seconds, so the jump never shows up as a
+  velocity.
+- Bad input never raises: NaN/inf fixes and fixes older than the source's
+  latest are ignored and counted.  With no fresh fix at all the last good
+  estimate is held with ``stale=True`` and the caller raises its alarm.
+- Pure: times are passed in (mission seconds).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter, deque
+from dataclasses import dataclass, replace
+
+from convoy_mav.types import ConvoyEstimate
+
+__all__ = ["ConvoyTracker", "Source"]
+
+Source = str | int
+
+
+@dataclass(frozen=True, slots=True)
+class _Fix:
+    t: float
+    north: float
+    east: float
+
+
+class ConvoyTracker:
+    """Centroid and velocity of the convoy from the latest fix of each source.
+
+    Args:
+        stale_after: Seconds without a fix after which a source leaves the
+            centroid and, when no source is left, the estimate is stale.
+        window: Length of the least-squares velocity window, seconds.
+        min_span: The velocity is re-estimated only once the window's samples
+            span at least this long (until then the last velocity is held).
+
+    Attributes:
+        counters: ``accepted``, ``non_finite``, ``out_of_order``,
+            ``source_dropped`` (a source left the centroid), ``source_added``.
+    """
+
+    def __init__(self, *, stale_after: float = 3.0, window: float = 10.0, min_span: float = 1.0):
+        for name, value in (("stale_after", stale_after), ("window", window)):
+            if not (math.isfinite(value) and value > 0.0):
+                raise ValueError(f"{name} must be positive and finite, got {value!r}")
+        if not (math.isfinite(min_span) and 0.0 < min_span <= window):
+            raise ValueError(f"min_span must be in (0, window], got {min_span!r}")
+        self.stale_after = stale_after
+        self.window = window
+        self.min_span = min_span
+        self.counters: Counter[str] = Counter()
+        self._fixes: dict[Source, _Fix] = {}
+        self._active: frozenset[Source] = frozenset()
+        self._samples: deque[tuple[float, float, float]] = deque()
+        self._velocity = (0.0, 0.0)
+        self._last: ConvoyEstimate | None = None
+
+    @property
+    def sources(self) -> frozenset[Source]:
+        """The sources in the current centroid."""
+        return self._active
+
+    def update(self, t: float, north: float, east: float, source: Source = 0) -> bool:
+        """Fold in one position fix of ``source`` at mission time ``t``.
+
+        Returns:
+            True if the fix was used; False if it was ignored (a NaN/inf value,
+            a fix older than this source's latest one, or one already stale
+            when it arrives) -- counted, never raised.
+        """
+        if not (math.isfinite(t) and math.isfinite(north) and math.isfinite(east)):
+            self.counters["non_finite"] += 1
+            return False
+        previous = self._fixes.get(source)
+        too_old = self._last is not None and t < self._last.t - self.stale_after
+        if too_old or (previous is not None and t < previous.t):
+            self.counters["out_of_order"] += 1
+            return False
+        self._fixes[source] = _Fix(t, north, east)
+        self.counters["accepted"] += 1
+        now = t if self._last is None else max(t, self._last.t)
+        active = frozenset(s for s, f in self._fixes.items() if now - f.t <= self.stale_after)
+        if active != self._active:
+            self.counters["source_dropped"] += len(self._active - active)
+            self.counters["source_added"] += len(active - self._active)
+            self._active = active
+            self._samples.clear()
+        fixes = [self._fixes[s] for s in active]
+        # The centroid of fixes taken at different times is where the convoy was
+        # at their mean time (exactly, for a constant velocity): sampling it
+        # there keeps the least-squares slope unbiased by the report schedule.
+        tc = sum(f.t for f in fixes) / len(fixes)
+        n = sum(f.north for f in fixes) / len(fixes)
+        e = sum(f.east for f in fixes) / len(fixes)
+        self._samples.append((tc, n, e))
+        while self._samples and self._samples[0][0] < tc - self.window:
+            self._samples.popleft()
+        vn, ve = self._velocity = self._fit_velocity()
+        self._last = ConvoyEstimate(now, n + vn * (now - tc), e + ve * (now - tc), vn, ve)
+        return True
+
+    def _fit_velocity(self) -> tuple[float, float]:
+        """Least-squares slope of the centroid samples, or the held velocity."""
+        samples = self._samples
+        if len(samples) < 2 or samples[-1][0] - samples[0][0] < self.min_span:
+            return self._velocity
+        count = len(samples)
+        t_mean = sum(s[0] for s in samples) / count
+        n_mean = sum(s[1] for s in samples) / count
+        e_mean = sum(s[2] for s in samples) / count
+        stt = stn = ste = 0.0
+        for ts, ns, es in samples:
+            dt = ts - t_mean
+            stt += dt * dt
+            stn += dt * (ns - n_mean)
+            ste += dt * (es - e_mean)
+        if stt <= 0.0:  # pragma: no cover - min_span > 0 guarantees a spread
+            return self._velocity
+        return stn / stt, ste / stt
+
+    def estimate(self, t: float) -> ConvoyEstimate | None:
+        """The convoy estimate at mission time ``t`` (None before the first good fix).
+
+        Fresh (a fix within ``stale_after``): the centroid extrapolated to
+        ``t`` with the estimated velocity.  Stale: the last good estimate held
+        unchanged (its ``t`` says how old it is) with ``stale=True``.
+        """
+        last = self._last
+        if last is None:
+            return None
+        age = t - last.t
+        if not math.isfinite(age) or age > self.stale_after:
+            return replace(last, stale=True)
+        return ConvoyEstimate(
+            t, last.north + last.vn * age, last.east + last.ve * age, last.vn, last.ve
+        )

@@ -1,0 +1,45 @@
+"""Mission logic on top of the planner (pure): joins, replans, phases.
+
+- ``join.py``: timed constant-speed Dubins joins onto a moving plan slot.
+- ``replan.py``: when the convoy's motion departs from the plan's (with hysteresis).
+- ``mission.py``: the ``Mission`` state machine the service drives.
+- ``events.py``: what it reports (``Replanned``, ``PhaseChanged``, ``MissionAlarm``).
+"""
+
+from __future__ import annotations
+
+from convoy_mav.mission.events import (
+    MissionAlarm,
+    MissionEvent,
+    Phase,
+    PhaseChanged,
+    Replanned,
+)
+from convoy_mav.mission.join import Join, earliest_arrival, plan_join, rotated_cycle, slot_pose
+from convoy_mav.mission.mission import Mission
+from convoy_mav.mission.replan import (
+    REASONS,
+    ChangeDetector,
+    ConvoyMotion,
+    ReplanDecision,
+    ReplanThresholds,
+)
+
+__all__ = [
+    "REASONS",
+    "ChangeDetector",
+    "ConvoyMotion",
+    "Join",
+    "Mission",
+    "MissionAlarm",
+    "MissionEvent",
+    "Phase",
+    "PhaseChanged",
+    "ReplanDecision",
+    "ReplanThresholds",
+    "Replanned",
+    "earliest_arrival",
+    "plan_join",
+    "rotated_cycle",
+    "slot_pose",
+]
