@@ -15,8 +15,12 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e '.[dev]'
 	touch $(STAMP)
 
+# The main job: the mock fleet (PX4 personality) and the service, a convoy moving on a
+# straight road, 1200 s of sim time at 40x; report, plot and tlog land in out/.
 demo: $(STAMP)
-	$(BIN)/convoy-mav plan --config configs/demo.toml
+	mkdir -p out
+	$(BIN)/convoy-mav demo --scenario moving --duration 1200 --speedup 40 \
+	  --report out/report.json --plot out/mission.png --tlog out/mission.tlog
 
 test: $(STAMP) broker lint typecheck
 	$(BIN)/python -m pytest

@@ -21,6 +21,8 @@ import pytest
 
 from tests.mavclient import MavClient, free_udp_ports
 
+pytest_plugins = ["tests.broker"]
+
 if TYPE_CHECKING:
     from sitl_mock.server import MockFleet
 

@@ -8,18 +8,25 @@ Every failure the user can cause ends in one line on stderr and exit status 2
 from __future__ import annotations
 
 import argparse
+import asyncio
+import contextlib
 import json
+import logging
 import math
+import signal
 import sys
 from collections.abc import Sequence
 from dataclasses import replace
 from typing import Any, NoReturn, TypeVar
 
 from convoy_mav import __version__
+from convoy_mav.app import ConvoyService, Progress
 from convoy_mav.config import AircraftConfig, ConvoyConfig, MissionConfig, load_config
+from convoy_mav.demo import SCENARIOS, run_demo
 from convoy_mav.errors import ConfigError, ConvoyError
 from convoy_mav.planning import Pose, make_plan, optimal_path_from_entry
 from convoy_mav.planning.export import entry_to_dict, plan_to_dict
+from convoy_mav.plot import plot_mission
 
 __all__ = ["main"]
 
@@ -69,6 +76,37 @@ def _build_parser() -> argparse.ArgumentParser:
         "from +x",
     )
     plan.add_argument("--json", action="store_true", help="print one JSON object")
+
+    run = sub.add_parser(
+        "run",
+        help="fly a mission against real autopilots (PX4/ArduPilot SITL or hardware)",
+        description="Connect to every [[uav]] of the config, set them up, fly the plan and "
+        "monitor coverage until SIGINT/SIGTERM (every UAV is then told to loiter).",
+    )
+    run.add_argument("--config", metavar="FILE", required=True, help="mission TOML")
+    run.add_argument("--duration", type=float, metavar="S", help="stop after S mission seconds")
+    run.add_argument("--report", metavar="FILE.json", help="write the mission report here")
+    run.add_argument("--plot", metavar="FILE.png", help="draw tracks and coverage here")
+    run.add_argument("--tlog", metavar="FILE.tlog", help="record every MAVLink message")
+
+    demo = sub.add_parser(
+        "demo",
+        help="fly a scenario against the built-in mock autopilots",
+        description="Start sitl_mock with the aircraft a scenario needs and the convoy's "
+        "ground vehicles, fly the mission, score it from the mock's ground truth.",
+    )
+    demo.add_argument("--scenario", choices=sorted(SCENARIOS), default="stationary")
+    demo.add_argument("--duration", type=float, default=1200.0, metavar="S",
+                      help="mission (sim) seconds to fly (default 1200)")  # fmt: skip
+    demo.add_argument("--speedup", type=float, default=40.0, metavar="X",
+                      help="sim seconds per wall second (default 40)")  # fmt: skip
+    demo.add_argument("--uavs", type=int, metavar="N", help="aircraft (default: the minimum)")
+    demo.add_argument("--personality", choices=["px4", "ardupilot"], default="px4")
+    demo.add_argument("--frame", choices=["plane", "copter"], default="plane")
+    demo.add_argument("--report", metavar="FILE.json", help="write the mission report here")
+    demo.add_argument("--plot", metavar="FILE.png", help="draw tracks and coverage here")
+    demo.add_argument("--tlog", metavar="FILE.tlog", help="record every MAVLink message")
+    demo.add_argument("--quiet", action="store_true", help="no progress lines")
     return parser
 
 
@@ -227,12 +265,121 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     return 0
 
 
+def _print_progress(p: Progress) -> None:
+    coverage = "-" if p.coverage_fraction is None else f"{100 * p.coverage_fraction:6.2f} %"
+    predicted = "-" if p.predicted_coverage is None else f"{100 * p.predicted_coverage:.2f} %"
+    print(
+        f"[t={p.t:7.1f} s] {p.phase:<10} {p.flying}/{p.uavs} flying  "
+        f"{'seen' if p.covered else 'NOT SEEN'}  coverage {coverage} (predicted {predicted})  "
+        f"gaps {p.gaps}  longest {p.longest_gap_s:.1f} s",
+        flush=True,
+    )
+
+
+def _stop_on_signals(stop: asyncio.Event) -> None:
+    loop = asyncio.get_running_loop()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        with contextlib.suppress(NotImplementedError, RuntimeError):
+            loop.add_signal_handler(sig, stop.set)
+
+
+def _write_outputs(
+    args: argparse.Namespace, report: dict[str, Any], service: ConvoyService | None
+) -> None:
+    if args.report:
+        with open(args.report, "w") as fh:
+            json.dump(report, fh, indent=2)
+        print(f"report written to {args.report}")
+    if args.plot and service is not None:
+        plot_mission(
+            service.history,
+            args.plot,
+            sensor_radius=service.config.sensor_radius_m,
+            title=f"convoy-mav: {report.get('scenario', 'mission')}, "
+            f"{report['uav_count']} UAVs, coverage "
+            + (
+                "-"
+                if report["coverage_fraction"] is None
+                else f"{100 * report['coverage_fraction']:.2f} %"
+            ),
+        )
+        print(f"plot written to {args.plot}")
+
+
+def _pct(x: float | None) -> str:
+    return "-" if x is None else f"{100 * x:.2f} %"
+
+
+def _summary(report: dict[str, Any]) -> None:
+    pct = _pct
+    print(
+        f"protected from t={report['protect_start_s'] or 0:.1f} s to {report['end_s']:.1f} s: "
+        f"coverage {pct(report['coverage_fraction'])} "
+        f"(predicted {pct(report['predicted_coverage'])}"
+        + (
+            f", ground truth {pct(report['truth_coverage_fraction'])}"
+            if "truth_coverage_fraction" in report
+            else ""
+        )
+        + f"), longest gap {report['longest_gap_s']:.1f} s"
+    )
+
+
+async def _cmd_run(args: argparse.Namespace) -> int:
+    cfg = load_config(args.config)
+    if args.tlog:
+        cfg = replace(cfg, tlog=args.tlog)
+    if not cfg.uav_list:
+        raise ConfigError("uav", [], "the config names no [[uav]] to fly")
+    stop = asyncio.Event()
+    _stop_on_signals(stop)
+    service = ConvoyService(cfg, on_progress=_print_progress)
+    report = (await service.run(duration=args.duration, stop=stop)).to_dict()
+    _summary(report)
+    _write_outputs(args, report, service)
+    return 0
+
+
+async def _cmd_demo(args: argparse.Namespace) -> int:
+    if not (math.isfinite(args.duration) and args.duration > 0):
+        raise ConfigError("--duration", args.duration, "must be > 0")
+    if not (math.isfinite(args.speedup) and args.speedup > 0):
+        raise ConfigError("--speedup", args.speedup, "must be > 0")
+    if args.uavs is not None and args.uavs < 1:
+        raise ConfigError("--uavs", args.uavs, "must be >= 1")
+    stop = asyncio.Event()
+    _stop_on_signals(stop)
+    services: list[ConvoyService] = []
+    scenario = SCENARIOS[args.scenario]
+    result = await run_demo(
+        scenario,
+        duration=args.duration,
+        speedup=args.speedup,
+        uavs=args.uavs,
+        personality=args.personality,
+        frame=args.frame,
+        tlog=args.tlog,
+        on_progress=None if args.quiet else _print_progress,
+        stop=stop,
+        history=services,
+    )
+    report = result.to_dict()
+    _summary(report)
+    _write_outputs(args, report, services[0] if services else None)
+    return 0
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``convoy-mav`` console script."""
     args = _build_parser().parse_args(argv)
+    logging.basicConfig(level=logging.ERROR, format="%(levelname)s %(name)s: %(message)s")
     try:
         if args.command == "plan":
             return _cmd_plan(args)
+        if args.command == "run":
+            return int(asyncio.run(_cmd_run(args)))
+        if args.command == "demo":
+            return int(asyncio.run(_cmd_demo(args)))
     except ConvoyError as exc:
         print(f"convoy-mav: error: {exc}", file=sys.stderr)
         return EXIT_USAGE

@@ -52,6 +52,7 @@ class MonitorSnapshot:
     stats: CoverageStats
     predicted_coverage: float
     vehicles: tuple[VehicleScore, ...]
+    sample: CoverageSample | None = None
 
 
 @dataclass
@@ -95,6 +96,11 @@ class Monitor:
         self.predicted_coverage = predicted_coverage
         if self._protect_start is None:
             self.start_protect(t)
+
+    @property
+    def active(self) -> frozenset[str]:
+        """Kinds of the alarms in force now."""
+        return frozenset(self._active)
 
     @property
     def protect_start(self) -> float | None:
@@ -203,4 +209,5 @@ class Monitor:
             stats=stats,
             predicted_coverage=self.predicted_coverage,
             vehicles=scores,
+            sample=last,
         )

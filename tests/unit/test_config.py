@@ -15,6 +15,7 @@ REPO = Path(__file__).resolve().parents[2]
 
 
 def test_bundled_configs_load() -> None:
+    assert len(load_config(REPO / "configs" / "px4_sitl.toml").uav_list) == 3
     demo = load_config(REPO / "configs" / "demo.toml")
     assert demo.sensor_radius_m == 100.0
     req = load_config(REPO / "configs" / "moving.toml").plan_request()

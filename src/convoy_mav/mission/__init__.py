@@ -24,6 +24,7 @@ from convoy_mav.mission.replan import (
     ReplanDecision,
     ReplanThresholds,
 )
+from convoy_mav.mission.view import MissionView, SlotView
 
 __all__ = [
     "REASONS",
@@ -33,11 +34,13 @@ __all__ = [
     "Mission",
     "MissionAlarm",
     "MissionEvent",
+    "MissionView",
     "Phase",
     "PhaseChanged",
     "ReplanDecision",
     "ReplanThresholds",
     "Replanned",
+    "SlotView",
     "earliest_arrival",
     "plan_join",
     "rotated_cycle",

@@ -1,0 +1,627 @@
+"""The convoy-protection service: every part wired into one structured task group.
+
+Data flow (one ``asyncio.TaskGroup``, every task named ``convoy[...]``)::
+
+    MavLink (one per autopilot) --msg--> router --> Vehicle.handle (UAVs)
+                                               \\-> ConvoyTracker (ground vehicles)
+    control loop (10 Hz mission time): convoy estimate -> Mission (replans, joins,
+        losses) -> Monitor (coverage, alarms) -> History, MQTT, progress
+    SetpointStreamer (20 Hz mission time): Mission.setpoint -> Vehicle.send_setpoint
+
+Design rules:
+- Time is the autopilots' (``MissionClock``); the service flies the same at any
+  simulator speedup.
+- The flight loop never waits on MQTT or logging: publishing is fire-and-forget
+  into latest-value slots, the tlog is buffered and flushed off the loop.
+- Shutdown (SIGINT/SIGTERM or the end of ``duration``) tells every vehicle to
+  loiter where it is before the links close.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import math
+import sys
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from pymavlink.dialects.v20 import common as mavlink
+
+from convoy_mav.clock import MissionClock
+from convoy_mav.config import MissionConfig
+from convoy_mav.convoy import ConvoyTracker
+from convoy_mav.geo import GeoPoint, LocalFrame
+from convoy_mav.history import History
+from convoy_mav.mavlink import MavLink
+from convoy_mav.mission import (
+    Mission,
+    MissionAlarm,
+    MissionView,
+    PhaseChanged,
+    Replanned,
+    ReplanThresholds,
+)
+from convoy_mav.monitor import Alarm, Monitor, MonitorSnapshot
+from convoy_mav.planning.export import compass_to_planner
+from convoy_mav.publish import topics
+from convoy_mav.publish.mqtt import MqttPublisher
+from convoy_mav.recording import TlogRecorder
+from convoy_mav.streaming import SetpointStreamer
+from convoy_mav.types import ConvoyEstimate, Setpoint, Telemetry, VehicleStatus
+from convoy_mav.vehicle import EventKind, Vehicle, VehicleEvent
+
+__all__ = ["ConvoyService", "Progress", "ServiceReport"]
+
+log = logging.getLogger(__name__)
+
+_GIL_SWITCH_S = 0.001  # s: how long the mission worker may hold the GIL at a time
+_GROUND_STREAM_RETRY = 5.0  # mission s between stream requests to a silent ground vehicle
+
+
+@dataclass(frozen=True, slots=True)
+class Progress:
+    """What the operator sees on a long run."""
+
+    t: float
+    phase: str  # "connecting", "joining", "protecting", "holding"
+    flying: int
+    uavs: int
+    covered: bool
+    coverage_fraction: float | None
+    gaps: int
+    longest_gap_s: float
+    predicted_coverage: float | None
+    message: str = ""
+
+
+@dataclass
+class ServiceReport:
+    """The outcome of a run (``to_dict`` is the ``--report`` JSON)."""
+
+    config: MissionConfig
+    snapshot: MonitorSnapshot
+    end_t: float
+    predicted_coverage: float | None
+    convoy_speed_mps: float
+    statuses: dict[int, str]
+    replans: list[dict[str, Any]] = field(default_factory=list)
+    alarms: list[dict[str, Any]] = field(default_factory=list)
+    events: list[str] = field(default_factory=list)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The report JSON (keys documented in the README)."""
+        snap = self.snapshot
+        craft = self.config.plan_aircraft
+        stats = snap.stats
+        scores = {v.sysid: v for v in snap.vehicles}
+        return {
+            "coverage_fraction": stats.fraction if snap.protect_start is not None else None,
+            "longest_gap_s": stats.longest_gap_s,
+            "gaps": stats.gaps,
+            "uav_count": len(self.config.uav_list),
+            "predicted_coverage": self.predicted_coverage,
+            "sensor_radius_m": self.config.sensor_radius_m,
+            "turn_radius_m": craft.turn_radius_m,
+            "airspeed_mps": craft.airspeed_mps,
+            "convoy_speed_mps": self.convoy_speed_mps,
+            "protect_start_s": snap.protect_start,
+            "end_s": self.end_t,
+            "protected_s": stats.elapsed_s,
+            "replans": self.replans,
+            "alarms": self.alarms,
+            "vehicles": [
+                {
+                    "sysid": uav.sysid,
+                    "status": self.statuses.get(uav.sysid, "unknown"),
+                    "time_in_circle_fraction": (
+                        scores[uav.sysid].time_in_circle_fraction if uav.sysid in scores else 0.0
+                    ),
+                    "mean_tracking_error_m": (
+                        scores[uav.sysid].mean_tracking_error_m if uav.sysid in scores else None
+                    ),
+                }
+                for uav in self.config.uav_list
+            ],
+        }
+
+
+def _firmware_family(vehicle: Vehicle) -> str | None:
+    """``px4`` or ``ardupilot`` (the MQTT schema's names), once recognised."""
+    if vehicle.firmware is None:
+        return None
+    return "px4" if vehicle.firmware.name == "PX4" else "ardupilot"
+
+
+def _is_stream_loss_failsafe(text: str | None) -> bool:
+    """Whether an autopilot's STATUSTEXT blames a lost offboard/guided setpoint stream."""
+    if not text:
+        return False
+    low = text.lower()
+    return "offboard" in low and ("signal" in low or "lost" in low or "loss" in low)
+
+
+class _Stop(Exception):
+    """Raised inside the task group to end the run after a clean hold."""
+
+
+class ConvoyService:
+    """The flight service for one mission (see the module docstring).
+
+    Args:
+        config: The mission.
+        rate_hint: Expected simulator speedup (mission seconds per wall second)
+            until the clock has measured it; None for real autopilots.
+        on_progress: Called about every ``progress_every`` mission seconds.
+        on_alarm: Called with every alarm (gaps, missed prediction, stale convoy).
+        thresholds: Replan thresholds (defaults: ``ReplanThresholds()``).
+        publisher: Something with ``publish(subtopic, payload)`` (the MQTT adapter),
+            or None.
+    """
+
+    def __init__(
+        self,
+        config: MissionConfig,
+        *,
+        rate_hint: float | None = None,
+        on_progress: Callable[[Progress], None] | None = None,
+        on_alarm: Callable[[Alarm], None] | None = None,
+        thresholds: ReplanThresholds | None = None,
+        publisher: Any = None,
+        control_rate_hz: float = 10.0,
+        progress_every: float = 10.0,
+        history_interval: float = 0.5,
+    ) -> None:
+        self.config = config
+        self.frame = LocalFrame(config.origin)
+        self.clock = MissionClock(rate_hint=rate_hint)
+        self.tracker = ConvoyTracker(stale_after=config.convoy.stale_after_s, window=4.0)
+        self.history = History(interval=history_interval)
+        self.monitor = Monitor(config.sensor_radius_m)
+        self.publisher = publisher
+        self._on_progress = on_progress
+        self._on_alarm = on_alarm
+        self._control_dt = 1.0 / control_rate_hz
+        self._progress_every = progress_every
+        self._publish_every = 1.0
+        self._started_wall = time.time()
+        self.vehicles: dict[int, Vehicle] = {}
+        self._ground_ids = {v.sysid for v in config.convoy.vehicles}
+        self._ground_heard: dict[int, float] = {}
+        self._altitudes = {
+            uav.sysid: uav.aircraft.altitude_m + i * config.altitude_step_m
+            for i, uav in enumerate(config.uav_list)
+        }
+        self.mission = Mission(
+            config.plan_request(),
+            [u.sysid for u in config.uav_list],
+            down=self._down,
+            thresholds=thresholds,
+        )
+        # What the streamer and the monitor read: swapped after each mission step.
+        self.view = MissionView()
+        self.replans: list[dict[str, Any]] = []
+        self.alarms: list[dict[str, Any]] = []
+        self.events: list[str] = []
+        self.paused = False
+        self._last_est: ConvoyEstimate | None = None
+
+    # ------------------------------------------------------------------ inputs
+
+    def _route(self, msg: Any) -> None:
+        """Every decoded message from every link lands here (must stay cheap)."""
+        sysid = msg.get_srcSystem()
+        vehicle = self.vehicles.get(sysid)
+        if vehicle is not None:
+            vehicle.handle(msg)
+        elif sysid in self._ground_ids and msg.get_type() == "GLOBAL_POSITION_INT":
+            self.clock.observe(msg.time_boot_ms, sysid)
+            if not self.clock.synced:
+                return
+            t = self.clock.to_mission(msg.time_boot_ms, sysid)
+            north, east, _ = self.frame.to_ned(GeoPoint(msg.lat * 1e-7, msg.lon * 1e-7))
+            self.tracker.update(t, north, east, source=sysid)
+            self._ground_heard[sysid] = t
+
+    def _on_mqtt_convoy(self, fix: Mapping[str, Any]) -> None:
+        """A convoy position from ``<prefix>/convoy/position`` (already validated)."""
+        if "lat" in fix:
+            north, east, _ = self.frame.to_ned(GeoPoint(fix["lat"], fix["lon"]))
+        else:
+            north, east = fix["north"], fix["east"]
+        if self.config.convoy.source == "mqtt" and self.clock.synced:
+            self.convoy_fix(north, east, fix.get("t"))
+
+    def convoy_fix(self, north: float, east: float, t: float | None = None) -> bool:
+        """An external convoy fix (MQTT, replay) in the mission frame."""
+        return self.tracker.update(self.clock.now() if t is None else t, north, east, "external")
+
+    def command(self, command: str) -> None:
+        """Operator command: ``pause`` (every UAV loiters) or ``resume``."""
+        if command == "pause" and not self.paused:
+            self.paused = True
+            for v in self.vehicles.values():
+                asyncio.get_running_loop().create_task(v.hold(), name=f"{v.name}.hold")
+            self._note("operator: pause, every UAV told to loiter")
+        elif command == "resume" and self.paused:
+            self.paused = False
+            for v in self.vehicles.values():
+                v.resume()
+            self._note("operator: resume")
+
+    def _on_vehicle_event(self, event: VehicleEvent) -> None:
+        self._note(event.message)
+        vehicle = self.vehicles.get(event.sysid)
+        if (
+            event.kind == EventKind.MODE
+            and vehicle is not None
+            and not self.paused
+            and _is_stream_loss_failsafe(vehicle.last_statustext)
+        ):
+            # Our own setpoint stream hiccupped (a stalled host, a lossy link) and
+            # the autopilot fell back to its hold: take control back.  A mode change
+            # without that reason is a pilot's, and is respected.
+            self._note(f"uav{event.sysid}: re-engaging after a setpoint-loss failsafe")
+            # The vehicle reports the mode change before it marks itself HOLDING:
+            # resume on the next turn of the loop, once it has.
+            asyncio.get_running_loop().call_soon(vehicle.resume)
+        if event.kind in (EventKind.LOST, EventKind.FAILED, EventKind.RECOVERED):
+            active = event.kind != EventKind.RECOVERED
+            kind = "uav_lost" if event.kind == EventKind.RECOVERED else f"uav_{event.kind}"
+            self._alarm(Alarm(event.t, kind, active, event.message), event.sysid)
+
+    def _note(self, text: str) -> None:
+        log.info("%s", text)
+        self.events.append(f"t={self.clock.now():.1f} {text}")
+
+    def _down(self, sysid: int) -> float:
+        return -self._altitudes[sysid]
+
+    # -------------------------------------------------------------- setpoints
+
+    def _setpoint(self, sysid: int, t: float) -> Setpoint | None:
+        if self.paused:
+            return None
+        return self.view.setpoint(sysid, t)
+
+    # ------------------------------------------------------------------- loop
+
+    async def run(
+        self, *, duration: float | None = None, stop: asyncio.Event | None = None
+    ) -> ServiceReport:
+        """Fly the mission until ``stop`` is set or ``duration`` mission seconds pass."""
+        stop = stop or asyncio.Event()
+        cfg = self.config
+        # Mission work runs in a worker thread; a short GIL switch interval lets the
+        # flight loop (setpoints, telemetry) in every millisecond meanwhile.
+        switch = sys.getswitchinterval()
+        sys.setswitchinterval(_GIL_SWITCH_S)
+        async with contextlib.AsyncExitStack() as stack:
+            stack.callback(sys.setswitchinterval, switch)
+            recorder = None
+            if cfg.tlog:
+                recorder = await stack.enter_async_context(TlogRecorder(cfg.tlog))
+            if cfg.mqtt is not None and self.publisher is None:
+                self.publisher = await stack.enter_async_context(
+                    MqttPublisher(
+                        cfg.mqtt.host,
+                        cfg.mqtt.port,
+                        cfg.mqtt.prefix,
+                        on_convoy=self._on_mqtt_convoy,
+                        on_command=self.command,
+                    )
+                )
+            for uav in cfg.uav_list:
+                link = await stack.enter_async_context(
+                    MavLink(uav.connection, self._route, recorder=recorder, name=f"uav{uav.sysid}")
+                )
+                self.vehicles[uav.sysid] = Vehicle(
+                    uav.sysid,
+                    link,
+                    self.clock,
+                    self.frame,
+                    on_event=self._on_vehicle_event,
+                    setup_timeout=cfg.setup_timeout_s,
+                    lost_after=cfg.lost_after_s,
+                    altitude=self._altitudes[uav.sysid],
+                )
+            ground_links = [
+                await stack.enter_async_context(
+                    MavLink(g.connection, self._route, recorder=recorder, name=f"ground{g.sysid}")
+                )
+                for g in cfg.convoy.vehicles
+            ]
+            streamer = SetpointStreamer(
+                list(self.vehicles.values()), self._setpoint, self.clock, cfg.setpoint_rate_hz
+            )
+            self.streamer = streamer
+            try:
+                async with asyncio.TaskGroup() as tg:
+                    for v in self.vehicles.values():
+                        tg.create_task(v.run(), name=f"{v.name}.run")
+                    tg.create_task(streamer.run(), name="convoy.stream")
+                    tg.create_task(self._control(), name="convoy.control")
+                    if ground_links:
+                        tg.create_task(self._ground_streams(ground_links), name="convoy.ground")
+                    tg.create_task(self._supervise(stop, duration), name="convoy.supervise")
+            except* _Stop:
+                pass
+        return self._report()
+
+    async def _supervise(self, stop: asyncio.Event, duration: float | None) -> None:
+        """Wait for the end, make every UAV loiter, then end the task group."""
+        if duration is not None:
+            await self.clock.wait_synced()
+            end = self.clock.now() + duration
+            stopper = asyncio.create_task(stop.wait(), name="convoy.stop-wait")
+            timer = asyncio.create_task(self.clock.sleep_until(end), name="convoy.timer")
+            try:
+                await asyncio.wait({stopper, timer}, return_when=asyncio.FIRST_COMPLETED)
+            finally:
+                stopper.cancel()
+                timer.cancel()
+        else:
+            await stop.wait()
+        self._end_t = self.clock.now()
+        self._note("shutting down: every UAV told to loiter where it is")
+        await asyncio.gather(*(v.hold() for v in self.vehicles.values()), return_exceptions=True)
+        raise _Stop
+
+    async def _ground_streams(self, links: list[MavLink]) -> None:
+        """Ask ground vehicles for positions until they send some (ArduPilot is silent)."""
+        msg_id = mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT
+        while True:
+            now = self.clock.now() if self.clock.synced else 0.0
+            for link, g in zip(links, self.config.convoy.vehicles, strict=True):
+                if now - self._ground_heard.get(g.sysid, -math.inf) > _GROUND_STREAM_RETRY:
+                    link.send(
+                        mavlink.MAVLink_command_long_message(
+                            g.sysid, 1, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, 0,
+                            msg_id, 100_000, 0, 0, 0, 0, 0,
+                        )
+                    )  # fmt: skip
+                    link.send(
+                        mavlink.MAVLink_request_data_stream_message(
+                            g.sysid, 1, mavlink.MAV_DATA_STREAM_POSITION, 10, 1
+                        )
+                    )
+            await asyncio.sleep(1.0 / max(1.0, self.clock.rate))
+
+    def _scripted_convoy(self, t: float) -> None:
+        c = self.config.convoy
+        heading = compass_to_planner(c.heading_deg)
+        north = c.start_north_m + c.speed_mps * t * math.sin(heading)
+        east = c.start_east_m + c.speed_mps * t * math.cos(heading)
+        self.tracker.update(t, north, east, "route")
+
+    async def _control(self) -> None:
+        await self.clock.wait_synced()
+        t = self.clock.now()
+        next_progress = next_publish = t
+        while True:
+            t = self.clock.now()
+            await self._control_step(t)
+            if t >= next_publish:
+                next_publish = t + self._publish_every
+                self._publish_state(t)
+            if t >= next_progress:
+                next_progress = t + self._progress_every
+                self._progress(t)
+            await self.clock.sleep_until(t + self._control_dt)
+
+    async def _control_step(self, t: float) -> None:
+        """One tick: inputs gathered here, mission work in a thread, the rest here."""
+        if self.config.convoy.source == "route":
+            self._scripted_convoy(t)
+        est = self.tracker.estimate(t)
+        self._last_est = est
+        view = self.view
+        lost = [
+            sysid
+            for sysid, v in self.vehicles.items()
+            if v.status in (VehicleStatus.LOST, VehicleStatus.FAILED) and sysid not in view.lost
+        ]
+        ready = {
+            sysid: (v.telemetry.north, v.telemetry.east, v.telemetry.yaw)
+            for sysid, v in self.vehicles.items()
+            if v.status == VehicleStatus.FLYING
+            and v.telemetry is not None
+            and view.phase(sysid, t) == "pending"
+        }
+        # Replans and joins cost tens of ms: off the loop, so setpoints keep flowing.
+        events, self.view = await asyncio.to_thread(self._mission_step, t, est, lost, ready)
+        for ev in events:
+            self._mission_event(ev)
+        view = self.view
+        if self.monitor.protect_start is None and view.protect_start is not None:
+            self.monitor.start_protect(view.protect_start)
+            self.monitor.predicted_coverage = view.predicted_coverage or 1.0
+            self._note(f"protect phase begins at t={view.protect_start:.1f}")
+        telemetry = self._live_telemetry()
+        planned = {}
+        for sysid, tel in telemetry.items():
+            if view.phase(sysid, tel.t) == "protect":
+                sp = view.setpoint(sysid, tel.t)
+                if sp is not None:
+                    planned[sysid] = sp
+        for alarm in self.monitor.update(t, est, telemetry, planned):
+            self._alarm(alarm)
+        self.history.record(
+            t,
+            (est.north, est.east) if est is not None else None,
+            {s: (tel.north, tel.east) for s, tel in telemetry.items()},
+            self.monitor.snapshot(t).covered,
+            self.monitor.protect_start is not None,
+        )
+
+    def _mission_step(
+        self,
+        t: float,
+        est: ConvoyEstimate | None,
+        lost: list[int],
+        ready: dict[int, tuple[float, float, float]],
+    ) -> tuple[list[Any], MissionView]:
+        """The only code that touches the Mission (runs in a worker thread)."""
+        mission = self.mission
+        events: list[Any] = []
+        if est is not None:
+            events += mission.on_convoy(est)
+        for sysid in lost:
+            if sysid in mission.live_uavs:
+                events += mission.on_lost(sysid, t)
+        if mission.plan is not None:
+            ready = {u: p for u, p in ready.items() if mission.phase(u, t) == "pending"}
+            if ready:
+                events += mission.join_many(ready, t)
+        events += mission.tick(t)
+        return events, MissionView.of(mission, self._down)
+
+    def _live_telemetry(self) -> dict[int, Telemetry]:
+        return {
+            sysid: v.telemetry
+            for sysid, v in self.vehicles.items()
+            if v.telemetry is not None and v.status not in (VehicleStatus.LOST,)
+        }
+
+    def _mission_event(self, ev: Any) -> None:
+        if isinstance(ev, Replanned):
+            self.replans.append(
+                {
+                    "t": ev.t,
+                    "reason": ev.reason,
+                    "case": ev.case,
+                    "uav_count": ev.uav_count,
+                    "min_uavs": ev.min_uavs,
+                    "predicted_coverage": ev.predicted_coverage,
+                }
+            )
+            if self.monitor.protect_start is not None:
+                self.monitor.restart_protect(ev.t, ev.predicted_coverage)
+            self._note(
+                f"replanned ({ev.reason}): {ev.case}, {ev.uav_count} UAVs "
+                f"(minimum {ev.min_uavs}), predicted coverage {100 * ev.predicted_coverage:.1f} %"
+            )
+        elif isinstance(ev, PhaseChanged):
+            self._note(f"uav{ev.uav}: {ev.phase}")
+        elif isinstance(ev, MissionAlarm):
+            self._alarm(Alarm(ev.t, "mission", True, ev.message))
+
+    def _alarm(self, alarm: Alarm, sysid: int | None = None) -> None:
+        entry = {"t": alarm.t, "kind": alarm.kind, "active": alarm.active, "message": alarm.message}
+        self.alarms.append(entry)
+        log.warning("alarm %s", entry)
+        self._publish(
+            topics.ALARM,
+            topics.alarm_payload(
+                t=alarm.t,
+                wall=time.time(),
+                seq=len(self.alarms),
+                kind=alarm.kind,
+                message=alarm.message,
+                severity="warning" if alarm.active else "info",
+                sysid=sysid,
+                data={"active": alarm.active},
+            ),
+        )
+        if self._on_alarm is not None:
+            self._on_alarm(alarm)
+
+    def _publish(self, subtopic: str, payload: Mapping[str, Any], retain: bool = False) -> None:
+        if self.publisher is not None:
+            self.publisher.publish(subtopic, payload, retain=retain)
+
+    def _publish_state(self, t: float) -> None:
+        """Status, coverage and every vehicle, as documented in the README (MQTT)."""
+        if self.publisher is None:
+            return
+        wall = time.time()
+        snap = self.monitor.snapshot(t)
+        active = sorted(self.monitor.active)
+        self._publish(
+            topics.STATUS,
+            topics.status_payload(
+                t=t,
+                wall=wall,
+                phase=self._phase(snap),
+                uptime_s=wall - self._started_wall,
+                vehicles={s: v.status for s, v in self.vehicles.items()},
+                alarms=active,
+                paused=self.paused,
+            ),
+            retain=True,
+        )
+        self._publish(
+            topics.COVERAGE,
+            topics.coverage_payload(
+                t=t,
+                wall=wall,
+                stats=snap.stats if snap.protect_start is not None else None,
+                sample=snap.sample,
+                predicted=self.view.predicted_coverage,
+                protect_start_s=snap.protect_start,
+            ),
+            retain=True,
+        )
+        errors = {v.sysid: v.tracking_error_m for v in snap.vehicles}
+        for sysid, v in self.vehicles.items():
+            self._publish(
+                topics.vehicle_topic(sysid),
+                topics.vehicle_payload(
+                    sysid=sysid,
+                    t=t,
+                    wall=wall,
+                    state=v.status,
+                    telemetry=v.telemetry,
+                    mode=v.mode or None,
+                    firmware=_firmware_family(v),
+                    phase=self.view.phase(sysid, t),
+                    tracking_error_m=errors.get(sysid),
+                    statustext=v.last_statustext,
+                ),
+                retain=True,
+            )
+
+    def _phase(self, snap: MonitorSnapshot) -> str:
+        flying = any(v.status == VehicleStatus.FLYING for v in self.vehicles.values())
+        if self.paused:
+            return "paused"
+        if snap.protect_start is not None:
+            return "protecting"
+        if self.view.slots and flying:
+            return "joining"
+        return "starting"
+
+    def _progress(self, t: float) -> None:
+        snap = self.monitor.snapshot(t)
+        protecting = snap.protect_start is not None
+        progress = Progress(
+            t=t,
+            phase=self._phase(snap),
+            flying=sum(v.status == VehicleStatus.FLYING for v in self.vehicles.values()),
+            uavs=len(self.vehicles),
+            covered=snap.covered,
+            coverage_fraction=snap.stats.fraction if protecting else None,
+            gaps=snap.stats.gaps,
+            longest_gap_s=snap.stats.longest_gap_s,
+            predicted_coverage=self.view.predicted_coverage,
+        )
+        if self._on_progress is not None:
+            self._on_progress(progress)
+
+    def _report(self) -> ServiceReport:
+        end_t = getattr(self, "_end_t", self.clock.now())
+        est = self._last_est
+        return ServiceReport(
+            config=self.config,
+            snapshot=self.monitor.snapshot(end_t),
+            end_t=end_t,
+            predicted_coverage=self.view.predicted_coverage,
+            convoy_speed_mps=est.speed if est is not None else 0.0,
+            statuses={s: str(v.status) for s, v in self.vehicles.items()},
+            replans=self.replans,
+            alarms=self.alarms,
+            events=self.events,
+        )

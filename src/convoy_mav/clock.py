@@ -1,0 +1,385 @@
+"""Mission time, estimated from the autopilots' own clocks.
+
+Mission time is the autopilots' clock, not the wall clock: under ``sitl_mock``
+(or a SITL run faster than real time) it runs ``speedup`` times faster than
+``time.monotonic``, and nothing in the service may assume otherwise. Every
+MAVLink message carrying ``time_boot_ms`` is one observation (wall time of
+arrival, vehicle boot time); from them :class:`MissionClock` fits
+
+    mission = m_a + rate * (wall - w_a)
+
+and answers ``now()``, ``rate`` (mission seconds per wall second) and
+``sleep_until(t)``, which converts a mission deadline to a wall delay.
+
+Design rules:
+    * Mission time is the boot time of the *reference* vehicle (the first one
+      heard). Each vehicle's boot time is first *unwrapped* (a reboot, seen as
+      ``time_boot_ms`` jumping back, re-anchors that vehicle so its unwrapped
+      time continues where it was) and every other vehicle is mapped onto mission
+      time with an offset (median of its recent differences to the fit).
+    * The fit is a least-squares line over a sliding window of the reference's
+      observations (sub-sampled in wall time so its cost does not grow with the
+      message rate), with outliers beyond 4 MADs dropped and the line refitted.
+      Arrival jitter is one-sided (late packets), so the fitted line trails the
+      autopilot by ``rate`` x the mean one-way delay: ~1 ms x speedup on loopback.
+    * Until the window spans ``min_span`` wall seconds the slope is not trusted:
+      ``rate_hint`` (or 1.0, or the last good rate) extrapolates the newest observation.
+    * If the reference goes silent for ``handover_after`` mission seconds, the
+      vehicle heard most recently becomes the reference, at its current offset,
+      so mission time stays continuous when the reference UAV is lost.
+    * ``now()`` never goes backwards once synchronised; before any observation it
+      is 0.0 and ``sleep_until`` waits for the first one.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import math
+import statistics
+import time
+from collections import deque
+from collections.abc import Awaitable, Callable
+from dataclasses import dataclass, field
+
+__all__ = ["MissionClock"]
+
+_REBOOT_JUMP = 1.0
+"""s: a ``time_boot_ms`` this much behind the last one is a reboot, not reordering."""
+_MIN_FIT_SAMPLES = 5
+_DENSE_SAMPLES = 32
+"""Observations kept before sub-sampling starts: a fresh clock fits its rate fast."""
+_OUTLIER_MADS = 4.0
+_TRIM_PASSES = 4
+_RESIDUAL_FLOOR = 0.005
+"""s of mission time: residuals below this are never outliers (``time_boot_ms`` is in ms)."""
+_REBOOT_CONFIRM = 5
+"""Consecutive packets on a new, earlier timeline that make a reboot."""
+_OFFSET_SAMPLES = 32
+_OFFSET_REFRESH = 1.0
+"""Wall s between recomputations of a vehicle's offset to the reference."""
+_REFIT_INTERVAL = 0.1
+"""Wall s between refits once the rate is trusted (the fit costs ~0.2 ms)."""
+_MAX_SLEEP_CHUNK = 0.25
+"""Wall s: ``sleep_until`` re-reads the estimate at least this often."""
+_GUESS_SLEEP_CHUNK = 0.01
+"""Wall s: the same while the rate is not measured yet."""
+
+
+@dataclass(slots=True)
+class _Track:
+    """One vehicle's boot clock as seen from here."""
+
+    epoch: float = 0.0  # unwrapped = boot + epoch (grows at each reboot)
+    last_boot: float = -math.inf
+    last_wall: float = -math.inf
+    last_stored: float = -math.inf
+    samples: deque[tuple[float, float]] = field(default_factory=deque)  # (wall, unwrapped)
+    offset: float = 0.0  # mission = unwrapped + offset
+    offset_wall: float = -math.inf  # wall time the offset was last computed
+    pending: float | None = None  # boot time of a possible reboot, awaiting confirmation
+    pending_count: int = 0
+    reboots: int = 0
+
+    @property
+    def last_unwrapped(self) -> float:
+        return self.last_boot + self.epoch
+
+
+class MissionClock:
+    """Mission time and its rate, estimated from the vehicles' ``time_boot_ms``.
+
+    Args:
+        wall: Monotonic wall clock (injected so tests can drive it by hand).
+        rate_hint: Expected mission seconds per wall second (the mock's speedup)
+            for the first ``min_span`` wall seconds; None: 1.0 until measured.
+        window: Wall seconds of observations the fit uses.
+        min_span: Wall seconds the window must span before its slope is trusted.
+        sample_spacing: Wall seconds between stored observations of one vehicle.
+        handover_after: Mission seconds of silence of the reference vehicle after
+            which another vehicle becomes the reference.
+        sleep: Awaitable wall sleep (``asyncio.sleep``), injected for tests.
+
+    Attributes:
+        reboots: Reboots seen (``time_boot_ms`` jumping back), all vehicles.
+        handovers: Times the reference vehicle changed.
+    """
+
+    def __init__(
+        self,
+        wall: Callable[[], float] = time.monotonic,
+        *,
+        rate_hint: float | None = None,
+        window: float = 10.0,
+        min_span: float = 0.05,
+        sample_spacing: float = 0.05,
+        handover_after: float = 2.0,
+        sleep: Callable[[float], Awaitable[None]] = asyncio.sleep,
+    ) -> None:
+        if rate_hint is not None and not (math.isfinite(rate_hint) and rate_hint > 0.0):
+            raise ValueError(f"rate_hint must be finite and > 0, got {rate_hint!r}")
+        self._wall = wall
+        self._sleep = sleep
+        self._hint = rate_hint
+        self._window = window
+        self._min_span = min_span
+        self._spacing = sample_spacing
+        self._handover_after = handover_after
+        self._tracks: dict[int, _Track] = {}
+        self._ref: int | None = None
+        # fitted line: mission = _m_a + _rate * (wall - _w_a)
+        self._w_a = 0.0
+        self._m_a = 0.0
+        self._rate = rate_hint if rate_hint is not None else 1.0
+        self._rate_trusted = False
+        self._dirty = False
+        self._fit_wall = -math.inf
+        self._last_now = -math.inf
+        self._synced = asyncio.Event()
+        self.reboots = 0
+        self.handovers = 0
+
+    # ------------------------------------------------------------------ queries
+    @property
+    def synced(self) -> bool:
+        """True once a vehicle has been heard (mission time is defined)."""
+        return self._ref is not None
+
+    @property
+    def reference(self) -> int | None:
+        """System id whose boot clock mission time follows."""
+        return self._ref
+
+    @property
+    def rate(self) -> float:
+        """Estimated mission seconds per wall second (the speedup)."""
+        self._refit()
+        return self._rate
+
+    @property
+    def rate_trusted(self) -> bool:
+        """True once the rate comes from a fit rather than the hint."""
+        self._refit()
+        return self._rate_trusted
+
+    def now(self) -> float:
+        """Mission seconds now (0.0 before any vehicle was heard)."""
+        if self._ref is None:
+            return 0.0
+        self._refit()
+        t = self._m_a + self._rate * (self._wall() - self._w_a)
+        if t < self._last_now:
+            return self._last_now
+        self._last_now = t
+        return t
+
+    def reboots_of(self, sysid: int) -> int:
+        """Reboots seen of vehicle ``sysid`` (its ``time_boot_ms`` restarting)."""
+        track = self._tracks.get(sysid)
+        return 0 if track is None else track.reboots
+
+    def to_mission(self, boot_ms: float, sysid: int) -> float:
+        """Mission time of a ``time_boot_ms`` stamp from vehicle ``sysid``.
+
+        Falls back to ``now()`` for a vehicle never observed.
+        """
+        track = self._tracks.get(sysid)
+        if track is None:
+            return self.now()
+        return boot_ms * 1e-3 + track.epoch + self._offset(sysid, track)
+
+    # ------------------------------------------------------------- observation
+    def observe(self, boot_ms: float, sysid: int) -> None:
+        """One message from ``sysid`` stamped ``boot_ms`` arrived just now.
+
+        Cheap: called for every message with a ``time_boot_ms`` field.
+        """
+        wall = self._wall()
+        boot = boot_ms * 1e-3
+        track = self._tracks.get(sysid)
+        if track is None:
+            track = self._new_track(sysid, boot, wall)
+        elif boot < track.last_boot - _REBOOT_JUMP:
+            if not self._reboot_confirmed(track, boot):
+                return
+            self._reanchor(track, boot, wall)
+        else:
+            track.pending = None
+        track.last_boot = max(track.last_boot, boot)
+        track.last_wall = wall
+        if len(track.samples) >= _DENSE_SAMPLES and wall - track.last_stored < self._spacing:
+            return
+        track.last_stored = wall
+        track.samples.append((wall, boot + track.epoch))
+        horizon = wall - self._window
+        while track.samples[0][0] < horizon:
+            track.samples.popleft()
+        if sysid == self._ref:
+            self._dirty = True
+            return
+        assert self._ref is not None
+        ref = self._tracks[self._ref]
+        if self._rate * (wall - ref.last_wall) > self._handover_after:
+            self._handover(sysid, track)
+
+    def _new_track(self, sysid: int, boot: float, wall: float) -> _Track:
+        track = _Track()
+        self._tracks[sysid] = track
+        if self._ref is None:
+            self._ref = sysid
+            self._w_a, self._m_a = wall, boot
+            self._synced.set()
+        else:
+            track.offset = self._line(wall) - boot
+        return track
+
+    @staticmethod
+    def _reboot_confirmed(track: _Track, boot: float) -> bool:
+        """A jump back is a reboot once ``_REBOOT_CONFIRM`` packets in a row agree.
+
+        A packet reordered on the way (delivered after newer ones) is isolated
+        and must not re-anchor the vehicle's clock; a reboot's timeline persists.
+        """
+        if track.pending is not None and boot >= track.pending - _REBOOT_JUMP:
+            track.pending_count += 1
+        else:
+            track.pending_count = 1
+        track.pending = boot
+        return track.pending_count >= _REBOOT_CONFIRM
+
+    def _reanchor(self, track: _Track, boot: float, wall: float) -> None:
+        """A reboot: the unwrapped time continues at the rate from the last observation."""
+        predicted = track.last_unwrapped + self._rate * (wall - track.last_wall)
+        track.epoch = predicted - boot
+        track.last_boot = boot
+        track.pending = None
+        track.reboots += 1
+        self.reboots += 1
+
+    def _handover(self, sysid: int, track: _Track) -> None:
+        assert self._ref is not None
+        self._tracks[self._ref].offset_wall = -math.inf  # re-measured against the new line
+        track.offset = self._offset(sysid, track, force=True)
+        self._ref = sysid
+        self.handovers += 1
+        self._refit(force=True)
+
+    # --------------------------------------------------------------------- fit
+    def _line(self, wall: float) -> float:
+        return self._m_a + self._rate * (wall - self._w_a)
+
+    def _offset(self, sysid: int, track: _Track, *, force: bool = False) -> float:
+        """mission - unwrapped time of a vehicle: for the reference a constant; for
+        the others the median of (fitted line - their time) over their latest
+        samples, refreshed about once a wall second (offsets only change slowly)."""
+        if sysid == self._ref and not force:
+            return track.offset
+        wall = self._wall()
+        every = _OFFSET_REFRESH if self._rate_trusted else 0.1 * _OFFSET_REFRESH
+        if (force or wall - track.offset_wall >= every) and track.samples:
+            self._refit()
+            n = len(track.samples)
+            recent = [track.samples[i] for i in range(max(0, n - _OFFSET_SAMPLES), n)]
+            track.offset = statistics.median(self._line(w) - u for w, u in recent)
+            track.offset_wall = wall
+        return track.offset
+
+    def _refit(self, *, force: bool = False) -> None:
+        if not (self._dirty or force) or self._ref is None:
+            return
+        wall = self._wall()
+        if not force and self._rate_trusted and wall - self._fit_wall < _REFIT_INTERVAL:
+            return
+        self._fit_wall = wall
+        self._dirty = False
+        track = self._tracks[self._ref]
+        samples = track.samples
+        if not samples:
+            return
+        ws = [w for w, _ in samples]
+        ms = [u + track.offset for _, u in samples]
+        span = ws[-1] - ws[0]
+        free = len(ws) >= _MIN_FIT_SAMPLES and span >= self._min_span
+        if free:
+            w_a, m_a, rate = _robust_line(ws, ms)
+            free = math.isfinite(rate) and rate > 0.0
+        if not free:  # slope unknown: extrapolate the newest observation at the fallback rate
+            w_a, m_a, rate = ws[-1], ms[-1], self._fallback_rate()
+        self._w_a, self._m_a, self._rate = w_a, m_a, rate
+        self._rate_trusted = free
+
+    def _fallback_rate(self) -> float:
+        if self._rate_trusted:
+            return self._rate  # e.g. after a handover: keep the last measured rate
+        return self._hint if self._hint is not None else 1.0
+
+    # ------------------------------------------------------------------- sleep
+    async def wait_synced(self) -> None:
+        """Wait until the first vehicle has been heard."""
+        await self._synced.wait()
+
+    async def sleep_until(self, t_mission: float) -> None:
+        """Sleep until mission time reaches ``t_mission``.
+
+        The wall delay is (t - now) / rate, re-evaluated at least every quarter
+        wall second so a changing rate estimate is followed. Before any vehicle
+        was heard this first waits for one.
+        """
+        if self._ref is None:
+            await self._synced.wait()
+        while True:
+            delay = self.wall_until(t_mission)
+            if delay <= 0.0:
+                return
+            await self._sleep(delay)
+
+    def wall_until(self, t_mission: float) -> float:
+        """Wall seconds to sleep towards mission time ``t_mission`` before looking again.
+
+        (t - now) / rate, but at most a quarter second -- and 10 ms while the rate
+        is still a guess, since a guess may be off by the whole speedup. <= 0: due.
+        """
+        remaining = t_mission - self.now()
+        if remaining <= 0.0:
+            return 0.0
+        chunk = _MAX_SLEEP_CHUNK if self.rate_trusted else _GUESS_SLEEP_CHUNK
+        return min(remaining / self._rate, chunk)
+
+
+def _robust_line(ws: list[float], ms: list[float]) -> tuple[float, float, float]:
+    """(w_a, m_a, rate) of ``m = m_a + rate (w - w_a)`` with outliers trimmed.
+
+    Least squares, then points further than 4 MADs from the median residual are
+    dropped and the line refitted, until nothing changes (at most 4 passes: a
+    burst of late packets pulls the first line towards itself). The anchor
+    ``w_a`` is the newest wall time (no cancellation when evaluating now).
+    """
+    w_a = ws[-1]
+    xs = [w - w_a for w in ws]
+    keep = list(range(len(xs)))
+    a, b = _fit(xs, ms)
+    for _ in range(_TRIM_PASSES):
+        residuals = [ms[i] - (a + b * xs[i]) for i in keep]
+        centre = statistics.median(residuals)
+        mad = statistics.median(abs(r - centre) for r in residuals)
+        limit = max(_OUTLIER_MADS * 1.4826 * mad, _RESIDUAL_FLOOR)
+        # every point is judged against the current line, so a point dropped by a
+        # bad first line can come back
+        kept = [i for i in range(len(xs)) if abs(ms[i] - (a + b * xs[i]) - centre) <= limit]
+        if kept == keep or len(kept) < 2:
+            break
+        keep = kept
+        a, b = _fit([xs[i] for i in keep], [ms[i] for i in keep])
+    return w_a, a, b
+
+
+def _fit(xs: list[float], ys: list[float]) -> tuple[float, float]:
+    """Least-squares intercept and slope (slope NaN if the xs do not spread)."""
+    n = len(xs)
+    mx = sum(xs) / n
+    my = sum(ys) / n
+    sxx = sum((x - mx) * (x - mx) for x in xs)
+    if sxx <= 0.0:
+        return my, math.nan
+    sxy = sum((x - mx) * (y - my) for x, y in zip(xs, ys, strict=True))
+    b = sxy / sxx
+    return my - b * mx, b

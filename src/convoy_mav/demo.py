@@ -1,0 +1,226 @@
+"""``convoy-mav demo``: the mock fleet, the service and a ground-truth score in one go.
+
+A scenario names the convoy's motion; the mock is started with the right number
+of aircraft (the paper's minimum unless ``uavs`` says otherwise) and the
+convoy's ground vehicles, the service connects to them exactly as it would to
+PX4/ArduPilot SITL (UDP, MAVLink), flies the mission, and the mission is scored
+twice: by the service's own monitor, and from the mock's ground truth.
+
+The mock's airframes turn tighter than the plan asks (``turn_margin``): a plan
+at the hard turn limit leaves the autopilot no authority to correct errors.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from typing import Any, Literal
+
+from convoy_mav.app import ConvoyService, Progress, ServiceReport
+from convoy_mav.config import (
+    AircraftConfig,
+    ConvoyConfig,
+    ConvoyVehicleConfig,
+    MissionConfig,
+    UavConfig,
+)
+from convoy_mav.coverage import CoverageStats
+from convoy_mav.planning import PlanRequest, make_plan
+from convoy_mav.planning.export import compass_to_planner
+from convoy_mav.scoring import TruthFix, score_truth
+from sitl_mock import MockFleet
+from sitl_mock.config import config_from_mapping
+
+__all__ = ["SCENARIOS", "DemoResult", "Scenario", "run_demo"]
+
+ScenarioName = Literal["stationary", "moving", "turning"]
+
+
+@dataclass(frozen=True, slots=True)
+class Scenario:
+    """A convoy motion and the aircraft that protect it."""
+
+    name: ScenarioName
+    convoy_speed_mps: float = 0.0
+    heading_deg: float = 45.0
+    turn_after_m: float | None = None  # turning: distance before the turn
+    turn_deg: float = 60.0  # turning: course change (positive = to the left)
+    sensor_radius_m: float = 100.0
+    turn_radius_m: float = 150.0
+    airspeed_mps: float = 18.0
+    altitude_m: float = 100.0
+    turn_margin: float = 0.85  # mock airframe min turn radius / planned radius
+
+    def plan_request(self, uavs: int | None = None) -> PlanRequest:
+        """The planner's view (the convoy at its cruise speed)."""
+        return PlanRequest(
+            self.turn_radius_m,
+            self.sensor_radius_m,
+            self.airspeed_mps,
+            convoy_speed=self.convoy_speed_mps,
+            convoy_heading=compass_to_planner(self.heading_deg),
+            uavs=uavs,
+        )
+
+    def ground_route(self, duration: float) -> dict[str, Any]:
+        """The mock's ``[ground]`` table for this scenario."""
+        if self.convoy_speed_mps <= 0.0:
+            return {"route": "stationary", "start": [0.0, 0.0]}
+        if self.turn_after_m is None:
+            return {
+                "route": "line",
+                "start": [0.0, 0.0],
+                "speed": self.convoy_speed_mps,
+                "heading": self.heading_deg,
+            }
+        first = math.radians(self.heading_deg)
+        second = math.radians(self.heading_deg - self.turn_deg)
+        corner = (self.turn_after_m * math.cos(first), self.turn_after_m * math.sin(first))
+        far = self.convoy_speed_mps * duration + 1000.0
+        end = (corner[0] + far * math.cos(second), corner[1] + far * math.sin(second))
+        return {
+            "route": "polyline",
+            "points": [[0.0, 0.0], list(corner), list(end)],
+            "speed": self.convoy_speed_mps,
+        }
+
+
+SCENARIOS: dict[str, Scenario] = {
+    "stationary": Scenario("stationary"),
+    "moving": Scenario("moving", convoy_speed_mps=8.0),
+    "turning": Scenario("turning", convoy_speed_mps=8.0, turn_after_m=2400.0),
+}
+
+
+@dataclass
+class DemoResult:
+    """The service's report and the ground truth's verdict over the same window."""
+
+    report: ServiceReport
+    truth: CoverageStats | None
+    scenario: Scenario
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``--report`` JSON: the service's report plus ``truth_*`` keys."""
+        out = self.report.to_dict()
+        out["scenario"] = self.scenario.name
+        out["truth_coverage_fraction"] = self.truth.fraction if self.truth else None
+        out["truth_longest_gap_s"] = self.truth.longest_gap_s if self.truth else None
+        return out
+
+
+def mock_mapping(
+    scenario: Scenario,
+    uavs: int,
+    *,
+    speedup: float,
+    duration: float,
+    personality: str = "px4",
+    frame: str = "plane",
+    ground: int = 2,
+    faults: dict[str, Any] | None = None,
+) -> dict[str, Any]:
+    """The sitl_mock configuration (as a mapping) for a scenario."""
+    mapping: dict[str, Any] = {
+        "speedup": speedup,
+        "base_port": 0,
+        "aircraft": {
+            "count": uavs,
+            "personality": personality,
+            "frame": frame,
+            "airspeed": scenario.airspeed_mps,
+            "turn_radius": scenario.turn_radius_m * scenario.turn_margin,
+            "warmup": 3.0,
+        },
+        "ground": {"count": ground, "spacing": 20.0, **scenario.ground_route(duration)},
+    }
+    if faults:
+        mapping["faults"] = faults
+    return mapping
+
+
+def mission_for(scenario: Scenario, fleet: Any, *, tlog: str | None = None) -> MissionConfig:
+    """The service's mission config pointing at a running ``MockFleet``'s endpoints."""
+    craft = AircraftConfig(scenario.airspeed_mps, scenario.turn_radius_m, scenario.altitude_m)
+    aircraft = [e for e in fleet.endpoints if e.kind == "aircraft"]
+    ground = [e for e in fleet.endpoints if e.kind == "ground"]
+    return MissionConfig(
+        sensor_radius_m=scenario.sensor_radius_m,
+        aircraft=craft,
+        uav_list=tuple(UavConfig(e.connect, e.sysid, craft) for e in aircraft),
+        convoy=ConvoyConfig(
+            source="mavlink",
+            vehicles=tuple(ConvoyVehicleConfig(e.connect, e.sysid) for e in ground),
+        ),
+        origin=fleet.config.origin,
+        tlog=tlog,
+    )
+
+
+async def run_demo(
+    scenario: Scenario,
+    *,
+    duration: float,
+    speedup: float = 40.0,
+    uavs: int | None = None,
+    personality: str = "px4",
+    frame: str = "plane",
+    tlog: str | None = None,
+    on_progress: Callable[[Progress], None] | None = None,
+    kill: tuple[int, float] | None = None,
+    configure: Callable[[MissionConfig], MissionConfig] | None = None,
+    stop: asyncio.Event | None = None,
+    history: list[ConvoyService] | None = None,
+) -> DemoResult:
+    """Start the mock, fly ``duration`` mission seconds, score from ground truth.
+
+    Args:
+        scenario: The convoy's motion and the aircraft.
+        duration: Mission seconds to fly (after the service has synced its clock).
+        speedup: The mock's sim-time speedup.
+        uavs: Aircraft to fly (default: the paper's minimum for the scenario).
+        personality: ``"px4"`` or ``"ardupilot"``.
+        frame: ``"plane"`` or ``"copter"``.
+        tlog: Record every MAVLink message to this file.
+        on_progress: Progress callback (about every 10 mission seconds).
+        kill: ``(sysid, sim_time)``: the mock kills that aircraft then.
+        configure: Adjust the mission config before the service starts.
+        stop: Set it to end the run early (SIGINT): the UAVs are told to loiter.
+        history: If given, the service is appended to it (for plots after the run).
+    """
+    count = uavs or make_plan(scenario.plan_request()).min_uavs
+    faults = {"kill": [f"{kill[0]}@{kill[1]}"]} if kill else None
+    mock = config_from_mapping(
+        mock_mapping(
+            scenario,
+            count,
+            speedup=speedup,
+            duration=duration,
+            personality=personality,
+            frame=frame,
+            faults=faults,
+        )
+    )
+    async with MockFleet(mock, record_truth=True) as fleet:
+        cfg = mission_for(scenario, fleet, tlog=tlog)
+        if uavs is not None:
+            cfg = replace(cfg, uav_count=uavs)
+        if configure is not None:
+            cfg = configure(cfg)
+        service = ConvoyService(cfg, rate_hint=speedup, on_progress=on_progress)
+        if history is not None:
+            history.append(service)
+        report = await service.run(duration=duration, stop=stop)
+        truth = None
+        start = report.snapshot.protect_start
+        if start is not None and fleet.history is not None:
+            fixes = (
+                TruthFix(r.t, r.sysid, r.kind, r.lat, r.lon, r.mode != "KILLED")
+                for r in fleet.history.rows
+            )
+            truth = score_truth(
+                fixes, cfg.origin, cfg.sensor_radius_m, start=start, end=report.end_t
+            )
+        return DemoResult(report, truth, scenario)

@@ -1,0 +1,280 @@
+"""ArduPilot: GUIDED mode, streams by request, planes steered by loiters.
+
+What differs from PX4 (ArduPilot's ``mode.h`` and ``GCS_Mavlink.cpp``):
+    * HEARTBEAT.custom_mode is the vehicle's own mode number (Copter GUIDED 4,
+      LOITER 5; Plane GUIDED 15, LOITER 12); DO_SET_MODE takes it in param2.
+    * Nothing but HEARTBEAT is sent until a ground station asks: the legacy
+      REQUEST_DATA_STREAM groups are requested as well as SET_MESSAGE_INTERVAL.
+    * Refusals are FAILED with a ``PreArm: ...`` / ``Mode change ... failed``
+      STATUSTEXT; COMMAND_LONG altitudes are relative to home.
+    * ArduCopter: GUIDED, arm, NAV_TAKEOFF (param7 above home), then position
+      + velocity + yaw targets exactly as for PX4 (GLOBAL_INT, AMSL).
+    * ArduPlane ignores the horizontal part of SET_POSITION_TARGET_*: the arc
+      being flown is sent as a DO_REPOSITION loiter (COMMAND_INT, GLOBAL_INT,
+      param3 radius, param4 = 1 counter-clockwise), re-sent only when the arc
+      changes (or until accepted), and the along-track phase is corrected with
+      rate-limited DO_CHANGE_SPEED. A straight segment is flown as a loiter
+      around a point far ahead on the line (a "carrot"), moved as the plane
+      advances. The mock's planes climb out when armed in GUIDED; a real
+      ArduPlane needs a takeoff (TAKEOFF mode or an AUTO mission) first.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import ClassVar
+
+from pymavlink.dialects.v20 import common as mavlink
+
+from convoy_mav.geo import LocalFrame
+from convoy_mav.mavlink.autopilots.base import (
+    Autopilot,
+    CommandSpec,
+    Message,
+    SetupStep,
+    VehicleClass,
+    global_setpoint,
+    phase_corrected_speed,
+)
+from convoy_mav.types import Setpoint
+
+__all__ = ["ArduCopter", "ArduPilot", "ArduPlane"]
+
+_M = mavlink
+
+_COPTER_MODES = {
+    0: "STABILIZE",
+    1: "ACRO",
+    2: "ALT_HOLD",
+    3: "AUTO",
+    4: "GUIDED",
+    5: "LOITER",
+    6: "RTL",
+    7: "CIRCLE",
+    9: "LAND",
+    11: "DRIFT",
+    13: "SPORT",
+    15: "AUTOTUNE",
+    16: "POSHOLD",
+    17: "BRAKE",
+    18: "THROW",
+    20: "GUIDED_NOGPS",
+    21: "SMART_RTL",
+}
+_PLANE_MODES = {
+    0: "MANUAL",
+    1: "CIRCLE",
+    2: "STABILIZE",
+    3: "TRAINING",
+    4: "ACRO",
+    5: "FBWA",
+    6: "FBWB",
+    7: "CRUISE",
+    8: "AUTOTUNE",
+    10: "AUTO",
+    11: "RTL",
+    12: "LOITER",
+    13: "TAKEOFF",
+    14: "AVOID_ADSB",
+    15: "GUIDED",
+    17: "QSTABILIZE",
+    18: "QHOVER",
+    19: "QLOITER",
+    20: "QLAND",
+    21: "QRTL",
+}
+
+_STREAM_GROUPS: Mapping[int, tuple[int, ...]] = {
+    _M.MAV_DATA_STREAM_POSITION: (_M.MAVLINK_MSG_ID_GLOBAL_POSITION_INT,),
+    _M.MAV_DATA_STREAM_EXTRA1: (_M.MAVLINK_MSG_ID_ATTITUDE,),
+    _M.MAV_DATA_STREAM_EXTENDED_STATUS: (
+        _M.MAVLINK_MSG_ID_SYS_STATUS,
+        _M.MAVLINK_MSG_ID_GPS_RAW_INT,
+        _M.MAVLINK_MSG_ID_EXTENDED_SYS_STATE,
+    ),
+    _M.MAV_DATA_STREAM_EXTRA3: (_M.MAVLINK_MSG_ID_SYSTEM_TIME,),
+}
+"""REQUEST_DATA_STREAM groups (ArduPilot's SRn_* parameters) of the messages we use."""
+
+
+class ArduPilot(Autopilot):
+    """What ArduCopter and ArduPlane share: mode numbers and stream requests."""
+
+    name: ClassVar[str] = "ArduPilot"
+    modes: ClassVar[Mapping[int, str]] = {}
+
+    def mode_name(self, custom_mode: int) -> str:
+        """``"GUIDED"``, ``"LOITER"``... (``"MODE(n)"`` if unknown)."""
+        return self.modes.get(custom_mode, f"MODE({custom_mode})")
+
+    @property
+    def external_mode(self) -> str:
+        return "GUIDED"
+
+    @property
+    def hold_mode(self) -> str:
+        return "LOITER"
+
+    def mode_command(self, name: str) -> CommandSpec:
+        number = next((n for n, m in self.modes.items() if m == name), None)
+        if number is None:
+            raise KeyError(name)
+        return CommandSpec.long(
+            _M.MAV_CMD_DO_SET_MODE, float(_M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED), float(number)
+        )
+
+    def stream_requests(self, rates: Mapping[int, float]) -> list[Message]:
+        """REQUEST_DATA_STREAM per group (integer Hz, the fastest member), then the
+        exact SET_MESSAGE_INTERVAL rates (ArduPilot >= 4.0 honours both)."""
+        out: list[Message] = []
+        for group, members in _STREAM_GROUPS.items():
+            wanted = [rates[m] for m in members if m in rates]
+            if wanted:
+                hz = max(1, math.ceil(max(wanted)))
+                out.append(
+                    _M.MAVLink_request_data_stream_message(self.sysid, self.compid, group, hz, 1)
+                )
+        return out + super().stream_requests(rates)
+
+
+class ArduCopter(ArduPilot):
+    """ArduCopter in GUIDED: position + velocity + yaw targets after NAV_TAKEOFF."""
+
+    name: ClassVar[str] = "ArduCopter"
+    modes: ClassVar[Mapping[int, str]] = _COPTER_MODES
+    setup_steps: ClassVar[tuple[SetupStep, ...]] = (
+        SetupStep.MODE,
+        SetupStep.ARM,
+        SetupStep.TAKEOFF,
+    )
+
+    def __str__(self) -> str:
+        return self.name
+
+    def takeoff_command(self, relative_alt: float, amsl: float) -> CommandSpec | None:
+        """NAV_TAKEOFF, param7 metres above home (ArduPilot's COMMAND_LONG convention)."""
+        return CommandSpec.long(_M.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, relative_alt)
+
+    def setpoint_messages(
+        self, sp: Setpoint, t: float, position: tuple[float, float] | None
+    ) -> list[Message]:
+        return [global_setpoint(sp, self.frame, self.sysid, self.compid, t)]
+
+
+class ArduPlane(ArduPilot):
+    """ArduPlane in GUIDED: DO_REPOSITION loiters plus DO_CHANGE_SPEED for the phase.
+
+    Args (besides the base's):
+        retry: Mission seconds before an unacknowledged or refused loiter is re-sent.
+        speed_interval: Least mission seconds between two DO_CHANGE_SPEED.
+        speed_step: Least change (m/s) worth a DO_CHANGE_SPEED.
+        carrot: Look-ahead (m) of the loiter point that flies a straight segment.
+    """
+
+    name: ClassVar[str] = "ArduPlane"
+    modes: ClassVar[Mapping[int, str]] = _PLANE_MODES
+    setup_steps: ClassVar[tuple[SetupStep, ...]] = (SetupStep.MODE, SetupStep.ARM)
+
+    retry = 1.0
+    speed_interval = 1.0
+    speed_step = 0.2
+    carrot = 600.0
+    _MOVE_TOL = 1.0  # m (centre, altitude) and 0.5 m (radius) before a loiter is re-sent
+    _RADIUS_TOL = 0.5
+
+    def __str__(self) -> str:
+        return self.name
+
+    def __init__(self, sysid: int, compid: int, frame: LocalFrame, kind: VehicleClass) -> None:
+        super().__init__(sysid, compid, frame, kind)
+        self.loiter: tuple[float, float, float, float, bool] | None = None
+        """(north, east, down, radius, clockwise) of the last DO_REPOSITION sent."""
+        self.loiter_sent_t = -math.inf
+        self.loiter_acked = False
+        self.speed: float | None = None
+        """The last speed commanded (m/s), None to re-send."""
+        self.speed_t = -math.inf
+        self.counters = {"reposition": 0, "change_speed": 0, "refused": 0}
+
+    def reposition(
+        self, north: float, east: float, down: float, radius: float, clockwise: bool
+    ) -> Message:
+        """DO_REPOSITION loiter as COMMAND_INT in MAV_FRAME_GLOBAL_INT (alt AMSL).
+
+        param1 -1 (speed unchanged), param2 0 (no mode change: only flown in
+        GUIDED, so a pilot's mode switch is never overridden), param3 radius
+        (0: WP_LOITER_RAD), param4 1 for counter-clockwise.
+        """
+        geo = self.frame.to_geo(north, east, down)
+        return _M.MAVLink_command_int_message(
+            self.sysid, self.compid, _M.MAV_FRAME_GLOBAL_INT, _M.MAV_CMD_DO_REPOSITION, 0, 0,
+            -1.0, 0.0, radius, 0.0 if clockwise else 1.0,
+            round(geo.lat * 1e7), round(geo.lon * 1e7), geo.alt,
+        )  # fmt: skip
+
+    def change_speed(self, speed: float) -> Message:
+        """DO_CHANGE_SPEED: param1 0 (airspeed), param2 speed, param3 -1 (throttle kept)."""
+        return CommandSpec.long(_M.MAV_CMD_DO_CHANGE_SPEED, 0.0, speed, -1.0).message(
+            self.sysid, self.compid
+        )
+
+    def _loiter_for(self, sp: Setpoint) -> tuple[float, float, float, float, bool]:
+        if sp.hold:
+            return sp.north, sp.east, sp.down, 0.0, True
+        if sp.center is not None and sp.radius > 0.0:
+            return sp.center[0], sp.center[1], sp.down, sp.radius, sp.clockwise
+        v = math.hypot(sp.vn, sp.ve)
+        if v < 1e-6:
+            return sp.north, sp.east, sp.down, 0.0, True
+        k = self.carrot / v
+        return sp.north + k * sp.vn, sp.east + k * sp.ve, sp.down, 0.0, True
+
+    def _loiter_changed(self, new: tuple[float, float, float, float, bool], straight: bool) -> bool:
+        old = self.loiter
+        if old is None or old[4] != new[4] or abs(old[3] - new[3]) > self._RADIUS_TOL:
+            return True
+        if abs(old[2] - new[2]) > self._MOVE_TOL:
+            return True
+        moved = math.hypot(old[0] - new[0], old[1] - new[1])
+        return moved > (0.1 * self.carrot if straight else self._MOVE_TOL)
+
+    def setpoint_messages(
+        self, sp: Setpoint, t: float, position: tuple[float, float] | None
+    ) -> list[Message]:
+        """DO_REPOSITION when the arc changes (or is unconfirmed), DO_CHANGE_SPEED
+        when the phase-corrected speed moved by ``speed_step`` (rate-limited)."""
+        out: list[Message] = []
+        loiter = self._loiter_for(sp)
+        straight = not sp.hold and (sp.center is None or sp.radius <= 0.0)
+        stale = not self.loiter_acked and t - self.loiter_sent_t >= self.retry
+        if self._loiter_changed(loiter, straight) or stale:
+            out.append(self.reposition(*loiter))
+            self.loiter, self.loiter_sent_t, self.loiter_acked = loiter, t, False
+            self.counters["reposition"] += 1
+        if sp.hold or position is None or t - self.speed_t < self.speed_interval:
+            return out
+        speed = phase_corrected_speed(sp, *position)
+        if speed > 0.0 and (self.speed is None or abs(speed - self.speed) >= self.speed_step):
+            out.append(self.change_speed(speed))
+            self.speed, self.speed_t = speed, t
+            self.counters["change_speed"] += 1
+        return out
+
+    def on_ack(self, command: int, result: int, t: float) -> None:
+        """Confirm a loiter; a refused loiter or speed change is re-sent."""
+        accepted = result == _M.MAV_RESULT_ACCEPTED
+        if command == _M.MAV_CMD_DO_REPOSITION:
+            self.loiter_acked = accepted
+            if not accepted:
+                self.counters["refused"] += 1
+        elif command == _M.MAV_CMD_DO_CHANGE_SPEED and not accepted:
+            self.speed = None
+            self.counters["refused"] += 1
+
+    def reset(self) -> None:
+        """Re-send everything at the next setpoint (after a mode change or reboot)."""
+        self.loiter = None
+        self.loiter_acked = False
+        self.speed = None
+        self.speed_t = -math.inf

@@ -1,0 +1,365 @@
+"""What every autopilot strategy offers, and the arithmetic they share.
+
+One :class:`Autopilot` object per vehicle (as skybrush-server's ``autopilots/``):
+it knows how *its* firmware names modes, which set-up steps make it flyable,
+how a :class:`~convoy_mav.types.Setpoint` becomes MAVLink, and how to make it
+hold. It builds message objects and remembers what it sent; it never touches a
+socket, a clock or asyncio (time comes in as ``t``, mission seconds), so the
+unit tests drive it directly and the :class:`~convoy_mav.vehicle.Vehicle` only
+executes what it decides.
+
+Conventions (shared by PX4 and ArduCopter):
+    * Setpoints go out as SET_POSITION_TARGET_GLOBAL_INT in MAV_FRAME_GLOBAL_INT,
+      altitude AMSL = mission origin altitude - ``down``. Every vehicle's home (and
+      local NED origin) differs and moves when it arms; latitude/longitude with
+      AMSL altitude is the one frame all autopilots share with the mission.
+    * Position + velocity + yaw (``SETPOINT_POS_VEL_YAW``: accelerations and yaw
+      rate ignored). Yaw is absolute, so a dropped packet costs nothing; the
+      velocity is the feed-forward along the arc.
+    * Fixed-wing aircraft fly ``|v|`` as their airspeed and cannot otherwise make
+      up a phase error along the path: :func:`phase_corrected_speed` scales the
+      commanded speed by up to +-15 % to converge in phase (see its docstring).
+"""
+
+from __future__ import annotations
+
+import math
+from abc import ABC, abstractmethod
+from collections.abc import Mapping
+from dataclasses import dataclass
+from enum import StrEnum
+from typing import Any, ClassVar
+
+from pymavlink.dialects.v20 import common as mavlink
+
+from convoy_mav.geo import LocalFrame
+from convoy_mav.types import Setpoint
+
+__all__ = [
+    "DEFAULT_STREAM_RATES",
+    "SETPOINT_POSITION_ONLY",
+    "SETPOINT_POS_VEL_YAW",
+    "Autopilot",
+    "CommandSpec",
+    "Message",
+    "SetupStep",
+    "VehicleClass",
+    "along_track_error",
+    "global_setpoint",
+    "phase_corrected_speed",
+    "set_message_interval",
+    "vehicle_class",
+]
+
+Message = Any
+"""A pymavlink ``MAVLink_message`` (the generated dialect is untyped)."""
+
+_M = mavlink
+
+SETPOINT_POS_VEL_YAW = (
+    _M.POSITION_TARGET_TYPEMASK_AX_IGNORE
+    | _M.POSITION_TARGET_TYPEMASK_AY_IGNORE
+    | _M.POSITION_TARGET_TYPEMASK_AZ_IGNORE
+    | _M.POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE
+)
+"""type_mask: position, velocity and yaw used; accelerations and yaw rate ignored."""
+
+SETPOINT_POSITION_ONLY = (
+    SETPOINT_POS_VEL_YAW
+    | _M.POSITION_TARGET_TYPEMASK_VX_IGNORE
+    | _M.POSITION_TARGET_TYPEMASK_VY_IGNORE
+    | _M.POSITION_TARGET_TYPEMASK_VZ_IGNORE
+    | _M.POSITION_TARGET_TYPEMASK_YAW_IGNORE
+)
+"""type_mask of a hold setpoint: go to (and stay at) a point."""
+
+DEFAULT_STREAM_RATES: Mapping[int, float] = {
+    _M.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: 10.0,
+    _M.MAVLINK_MSG_ID_ATTITUDE: 5.0,
+    _M.MAVLINK_MSG_ID_SYS_STATUS: 1.0,
+    _M.MAVLINK_MSG_ID_GPS_RAW_INT: 1.0,
+    _M.MAVLINK_MSG_ID_EXTENDED_SYS_STATE: 1.0,
+    _M.MAVLINK_MSG_ID_SYSTEM_TIME: 1.0,
+    _M.MAVLINK_MSG_ID_HOME_POSITION: 0.5,
+}
+"""Telemetry rates requested (Hz of mission time): position for the coverage
+monitor and the phase correction, the rest for set-up and liveness."""
+
+_COPTERS = frozenset(
+    getattr(_M, name)
+    for name in (
+        "MAV_TYPE_QUADROTOR",
+        "MAV_TYPE_COAXIAL",
+        "MAV_TYPE_HELICOPTER",
+        "MAV_TYPE_HEXAROTOR",
+        "MAV_TYPE_OCTOROTOR",
+        "MAV_TYPE_TRICOPTER",
+        "MAV_TYPE_DODECAROTOR",
+        "MAV_TYPE_DECAROTOR",
+        "MAV_TYPE_GENERIC_MULTIROTOR",
+    )
+    if hasattr(_M, name)
+)
+_PLANES = frozenset(
+    getattr(_M, name)
+    for name in (
+        "MAV_TYPE_FIXED_WING",
+        "MAV_TYPE_VTOL_DUOROTOR",
+        "MAV_TYPE_VTOL_QUADROTOR",
+        "MAV_TYPE_VTOL_TILTROTOR",
+        "MAV_TYPE_VTOL_RESERVED2",
+        "MAV_TYPE_VTOL_RESERVED3",
+        "MAV_TYPE_VTOL_RESERVED4",
+        "MAV_TYPE_VTOL_RESERVED5",
+    )
+    if hasattr(_M, name)
+)
+
+
+class VehicleClass(StrEnum):
+    """How a vehicle flies, from HEARTBEAT.type."""
+
+    PLANE = "plane"  # flies |v| as airspeed, cannot stop: phase by speed, loiters
+    COPTER = "copter"  # can hover and fly any speed up to its maximum
+    OTHER = "other"  # rovers, boats, gimbals...: not flown by this service
+
+
+def vehicle_class(mav_type: int) -> VehicleClass:
+    """Plane, copter or other from a HEARTBEAT.type (VTOLs count as planes)."""
+    if mav_type in _PLANES:
+        return VehicleClass.PLANE
+    if mav_type in _COPTERS:
+        return VehicleClass.COPTER
+    return VehicleClass.OTHER
+
+
+class SetupStep(StrEnum):
+    """One step of making a vehicle flyable; the Vehicle skips steps already true."""
+
+    SETPOINTS = "stream setpoints"  # PX4: OFFBOARD needs a live stream before the switch
+    MODE = "set mode"  # to the strategy's external (offboard/guided) mode
+    ARM = "arm"
+    TAKEOFF = "take off"  # climb to the flight altitude (ArduCopter NAV_TAKEOFF)
+
+
+@dataclass(frozen=True, slots=True)
+class CommandSpec:
+    """A MAV_CMD with its parameters, before it is addressed and numbered.
+
+    Attributes:
+        command: MAV_CMD id.
+        params: param1..param7. For COMMAND_INT, params 5/6 are the integer x/y
+            (degE7 in global frames) and param 7 is z.
+        use_int: Send as COMMAND_INT (positional commands) rather than COMMAND_LONG.
+        frame: MAV_FRAME of a COMMAND_INT.
+    """
+
+    command: int
+    params: tuple[float, float, float, float, float, float, float]
+    use_int: bool = False
+    frame: int = _M.MAV_FRAME_GLOBAL_INT
+
+    @classmethod
+    def long(cls, command: int, *params: float) -> CommandSpec:
+        """COMMAND_LONG with the given leading parameters (the rest 0)."""
+        p = tuple(float(x) for x in params) + (0.0,) * (7 - len(params))
+        return cls(command, p)  # type: ignore[arg-type]
+
+    def message(self, target_system: int, target_component: int, confirmation: int = 0) -> Message:
+        """The COMMAND_LONG / COMMAND_INT message (``confirmation`` counts retries)."""
+        p = self.params
+        if self.use_int:
+            return _M.MAVLink_command_int_message(
+                target_system, target_component, self.frame, self.command, 0, 0,
+                p[0], p[1], p[2], p[3], int(p[4]), int(p[5]), p[6],
+            )  # fmt: skip
+        return _M.MAVLink_command_long_message(
+            target_system, target_component, self.command, min(confirmation, 255), *p
+        )
+
+
+# ============================================================== shared arithmetic
+def _wrap_pi(angle: float) -> float:
+    a = math.remainder(angle, math.tau)
+    return math.pi if a == -math.pi else a
+
+
+def along_track_error(sp: Setpoint, north: float, east: float) -> float:
+    """How far (m) the UAV at (north, east) trails its setpoint along the path.
+
+    Positive: the setpoint is ahead, the UAV is behind and must speed up;
+    negative: the UAV is ahead. On an arc (``sp.center`` and ``sp.radius``) the
+    error is arc length at the setpoint's radius between the UAV's and the
+    setpoint's bearings from the centre, in the arc's direction, so it stays
+    meaningful half a lap away; on a straight it is the projection of the offset
+    on the setpoint's velocity.
+    """
+    if sp.center is not None and sp.radius > 0.0:
+        cn, ce = sp.center
+        ahead = _wrap_pi(
+            math.atan2(sp.east - ce, sp.north - cn) - math.atan2(east - ce, north - cn)
+        )  # bearings grow clockwise (north -> east)
+        return sp.radius * (ahead if sp.clockwise else -ahead)
+    speed = math.hypot(sp.vn, sp.ve)
+    if speed < 1e-6:
+        return 0.0
+    return ((sp.north - north) * sp.vn + (sp.east - east) * sp.ve) / speed
+
+
+def phase_corrected_speed(
+    sp: Setpoint,
+    north: float,
+    east: float,
+    *,
+    time_constant: float = 20.0,
+    limit: float = 0.15,
+) -> float:
+    """Speed (m/s) to command a fixed-wing aircraft so it converges in phase.
+
+    A plane flies its commanded speed as airspeed and steers only its course, so
+    a UAV that is behind its slot (along the path) stays behind for ever. The
+    commanded speed is ``V (1 + clamp(e / (V T), -limit, limit))`` with ``V`` the
+    setpoint's speed and ``e`` :func:`along_track_error`: a proportional phase
+    loop closing the gap with time constant ``T``, saturated at +-``limit`` so
+    the aircraft stays near its planned airspeed (turn radius ~ V^2, and the
+    plan's radii assume V).
+
+    Args:
+        sp: The setpoint (its velocity gives V and the path direction).
+        north, east: Where the UAV is now (mission frame, m).
+        time_constant: T, seconds.
+        limit: Largest relative speed change (0.15 = +-15 %).
+    """
+    v = math.hypot(sp.vn, sp.ve)
+    if v < 1e-6:
+        return 0.0
+    ratio = along_track_error(sp, north, east) / (v * time_constant)
+    ratio = min(max(ratio, -limit), limit)
+    return v * (1.0 + ratio)
+
+
+def global_setpoint(
+    sp: Setpoint,
+    frame: LocalFrame,
+    target_system: int,
+    target_component: int,
+    t: float,
+    *,
+    speed_scale: float = 1.0,
+) -> Message:
+    """SET_POSITION_TARGET_GLOBAL_INT for ``sp`` (MAV_FRAME_GLOBAL_INT, AMSL).
+
+    A ``hold`` setpoint is position-only (the aircraft goes there and stays:
+    a copter hovers, a plane circles); otherwise position, velocity (scaled by
+    ``speed_scale`` horizontally, the phase correction) and yaw.
+    """
+    geo = frame.to_geo(sp.north, sp.east, sp.down)
+    if sp.hold:
+        mask, vn, ve, vd = SETPOINT_POSITION_ONLY, 0.0, 0.0, 0.0
+    else:
+        mask, vn, ve, vd = SETPOINT_POS_VEL_YAW, sp.vn * speed_scale, sp.ve * speed_scale, sp.vd
+    return _M.MAVLink_set_position_target_global_int_message(
+        int(t * 1000.0) & 0xFFFFFFFF, target_system, target_component,
+        _M.MAV_FRAME_GLOBAL_INT, mask,
+        round(geo.lat * 1e7), round(geo.lon * 1e7), geo.alt,
+        vn, ve, vd, 0.0, 0.0, 0.0, _wrap_pi(sp.yaw), 0.0,
+    )  # fmt: skip
+
+
+def set_message_interval(rate_hz: float, msg_id: int) -> CommandSpec:
+    """MAV_CMD_SET_MESSAGE_INTERVAL for ``msg_id`` at ``rate_hz`` (<= 0: stop)."""
+    interval = 1e6 / rate_hz if rate_hz > 0.0 else -1.0
+    return CommandSpec.long(_M.MAV_CMD_SET_MESSAGE_INTERVAL, float(msg_id), interval)
+
+
+# ======================================================================= strategy
+class Autopilot(ABC):
+    """The firmware strategy of one vehicle.
+
+    Args:
+        sysid: The vehicle's system id.
+        compid: Its autopilot's component id (commands go there).
+        frame: The mission frame (setpoints are converted through it).
+        kind: Plane or copter, from HEARTBEAT.type.
+
+    Class attributes:
+        name: Firmware name for messages ("PX4", "ArduCopter"...).
+        setup_steps: What makes it flyable, in order.
+        streams_during_setup: Setpoints must flow while setting up (PX4 offboard).
+    """
+
+    name: ClassVar[str] = "autopilot"
+    setup_steps: ClassVar[tuple[SetupStep, ...]] = ()
+    streams_during_setup: ClassVar[bool] = False
+
+    def __init__(self, sysid: int, compid: int, frame: LocalFrame, kind: VehicleClass) -> None:
+        self.sysid = sysid
+        self.compid = compid
+        self.frame = frame
+        self.kind = kind
+
+    def __str__(self) -> str:
+        return f"{self.name} {self.kind}"
+
+    # ------------------------------------------------------------------- modes
+    @abstractmethod
+    def mode_name(self, custom_mode: int) -> str:
+        """Name of the mode a HEARTBEAT.custom_mode reports ("OFFBOARD", "GUIDED")."""
+
+    @property
+    @abstractmethod
+    def external_mode(self) -> str:
+        """The mode in which it flies our setpoints."""
+
+    @property
+    @abstractmethod
+    def hold_mode(self) -> str:
+        """The mode that loiters/hovers where it is."""
+
+    @abstractmethod
+    def mode_command(self, name: str) -> CommandSpec:
+        """MAV_CMD_DO_SET_MODE switching to mode ``name``.
+
+        Raises:
+            KeyError: The firmware has no such mode.
+        """
+
+    def hold_command(self) -> CommandSpec:
+        """The command that makes it hold where it is."""
+        return self.mode_command(self.hold_mode)
+
+    @staticmethod
+    def arm_command(arm: bool = True) -> CommandSpec:
+        """MAV_CMD_COMPONENT_ARM_DISARM."""
+        return CommandSpec.long(_M.MAV_CMD_COMPONENT_ARM_DISARM, 1.0 if arm else 0.0)
+
+    def takeoff_command(self, relative_alt: float, amsl: float) -> CommandSpec | None:
+        """MAV_CMD_NAV_TAKEOFF to ``relative_alt`` above home / ``amsl``; None if unused."""
+        return None
+
+    # --------------------------------------------------------------- telemetry
+    def stream_requests(self, rates: Mapping[int, float]) -> list[Message]:
+        """Messages asking for ``rates`` (message id -> Hz of mission time)."""
+        return [
+            set_message_interval(hz, msg_id).message(self.sysid, self.compid)
+            for msg_id, hz in rates.items()
+        ]
+
+    # ---------------------------------------------------------------- setpoints
+    @abstractmethod
+    def setpoint_messages(
+        self, sp: Setpoint, t: float, position: tuple[float, float] | None
+    ) -> list[Message]:
+        """What to send for setpoint ``sp`` at mission time ``t``.
+
+        Args:
+            sp: The setpoint (mission frame).
+            t: Mission time now.
+            position: The UAV's latest (north, east), None if unknown.
+        """
+
+    def on_ack(self, command: int, result: int, t: float) -> None:  # noqa: B027 - optional hook
+        """A COMMAND_ACK arrived (strategies re-send refused stream-path commands)."""
+
+    def reset(self) -> None:  # noqa: B027 - optional hook
+        """Forget what was sent: everything is re-sent (after a re-set-up or reboot)."""

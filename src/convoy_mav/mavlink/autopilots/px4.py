@@ -1,0 +1,113 @@
+"""PX4: OFFBOARD, entered only while setpoints flow.
+
+PX4 refuses to switch to OFFBOARD (and to arm in it) unless position setpoints
+have arrived within ``COM_OF_LOSS_T``, and leaves it (failsafe to Hold) when they
+stop. The set-up is therefore: stream setpoints first, then MAV_CMD_DO_SET_MODE
+with main mode 6, then arm; a fixed-wing PX4 armed in OFFBOARD climbs out and
+then flies the stream. Modes are packed in HEARTBEAT.custom_mode as
+``main << 16 | sub << 24`` (``px4_custom_mode.h``). NAV_TAKEOFF's altitude is
+AMSL on PX4, but the offboard flow does not need it. Hold is AUTO.LOITER
+(main 4, sub 3).
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+from pymavlink.dialects.v20 import common as mavlink
+
+from convoy_mav.mavlink.autopilots.base import (
+    Autopilot,
+    CommandSpec,
+    Message,
+    SetupStep,
+    VehicleClass,
+    global_setpoint,
+    phase_corrected_speed,
+)
+from convoy_mav.types import Setpoint
+
+__all__ = ["PX4"]
+
+_MAIN = {
+    1: "MANUAL",
+    2: "ALTCTL",
+    3: "POSCTL",
+    4: "AUTO",
+    5: "ACRO",
+    6: "OFFBOARD",
+    7: "STABILIZED",
+    8: "RATTITUDE",
+    9: "SIMPLE",
+    10: "TERMINATION",
+}
+_AUTO_SUB = {
+    1: "READY",
+    2: "TAKEOFF",
+    3: "LOITER",
+    4: "MISSION",
+    5: "RTL",
+    6: "LAND",
+    8: "FOLLOW_TARGET",
+    9: "PRECLAND",
+    10: "VTOL_TAKEOFF",
+}
+_MODES: dict[str, tuple[int, int]] = {name: (main, 0) for main, name in _MAIN.items()}
+_MODES.update({f"AUTO.{name}": (4, sub) for sub, name in _AUTO_SUB.items()})
+
+
+class PX4(Autopilot):
+    """PX4 multicopter or fixed-wing in OFFBOARD."""
+
+    name: ClassVar[str] = "PX4"
+    setup_steps: ClassVar[tuple[SetupStep, ...]] = (
+        SetupStep.SETPOINTS,
+        SetupStep.MODE,
+        SetupStep.ARM,
+    )
+    streams_during_setup: ClassVar[bool] = True
+
+    def mode_name(self, custom_mode: int) -> str:
+        """``"OFFBOARD"``, ``"AUTO.LOITER"``... (``"MODE(main,sub)"`` if unknown)."""
+        main = (custom_mode >> 16) & 0xFF
+        sub = (custom_mode >> 24) & 0xFF
+        name = _MAIN.get(main)
+        if name is None:
+            return f"MODE({main},{sub})"
+        if main == 4:
+            sub_name = _AUTO_SUB.get(sub or 4)  # AUTO without a sub mode is a mission
+            return f"AUTO.{sub_name}" if sub_name else f"AUTO({sub})"
+        return name
+
+    @property
+    def external_mode(self) -> str:
+        return "OFFBOARD"
+
+    @property
+    def hold_mode(self) -> str:
+        return "AUTO.LOITER"
+
+    def mode_command(self, name: str) -> CommandSpec:
+        main, sub = _MODES[name]
+        return CommandSpec.long(
+            mavlink.MAV_CMD_DO_SET_MODE,
+            float(mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED),
+            float(main),
+            float(sub),
+        )
+
+    def takeoff_command(self, relative_alt: float, amsl: float) -> CommandSpec | None:
+        """PX4 reads NAV_TAKEOFF param7 as AMSL (yaw NaN: keep the heading)."""
+        nan = float("nan")
+        return CommandSpec.long(mavlink.MAV_CMD_NAV_TAKEOFF, -1.0, 0, 0, nan, nan, nan, amsl)
+
+    def setpoint_messages(
+        self, sp: Setpoint, t: float, position: tuple[float, float] | None
+    ) -> list[Message]:
+        """One SET_POSITION_TARGET_GLOBAL_INT; planes get the phase-corrected speed."""
+        scale = 1.0
+        if self.kind is VehicleClass.PLANE and position is not None and not sp.hold:
+            v = (sp.vn * sp.vn + sp.ve * sp.ve) ** 0.5
+            if v > 1e-6:
+                scale = phase_corrected_speed(sp, *position) / v
+        return [global_setpoint(sp, self.frame, self.sysid, self.compid, t, speed_scale=scale)]

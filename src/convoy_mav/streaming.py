@@ -1,0 +1,205 @@
+"""Setpoints on mission-time deadlines: one task for the whole fleet.
+
+Latest-value streaming (STYLE principle 4): at every deadline ``k / rate_hz``
+of mission time the streamer asks the source for each flying (or setting-up)
+vehicle's setpoint *now* and sends it. Nothing is queued: a late loop skips the
+deadlines it missed (counted in ``missed``) and carries on from the next one, so
+an overloaded machine sends fresher setpoints less often, never a burst of
+stale ones. One task for all vehicles keeps the cost per setpoint at one
+function call (no per-vehicle task wake-ups) and makes all vehicles' setpoints
+of a tick refer to the same instant.
+
+``stats`` keeps, per vehicle, the intervals between consecutive sends in wall
+and in mission seconds (count, mean, max and the last few thousand samples for
+percentiles): the benchmark's setpoint-rate accuracy and jitter.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from array import array
+from collections.abc import Callable, Iterable
+from typing import Protocol
+
+from convoy_mav.clock import MissionClock
+from convoy_mav.types import Setpoint, VehicleStatus
+
+__all__ = ["IntervalStats", "SendStats", "SetpointStreamer", "StreamTarget"]
+
+log = logging.getLogger(__name__)
+
+_STREAMING = (VehicleStatus.FLYING, VehicleStatus.SETTING_UP)
+
+
+class StreamTarget(Protocol):
+    """What the streamer needs of a vehicle (``convoy_mav.vehicle.Vehicle`` is one)."""
+
+    @property
+    def sysid(self) -> int:
+        """MAVLink system id (the source is asked by it)."""
+        ...
+
+    @property
+    def status(self) -> VehicleStatus:
+        """Only FLYING and SETTING_UP vehicles are sent setpoints."""
+        ...
+
+    def send_setpoint(self, sp: Setpoint) -> None:
+        """Send one setpoint now (never blocks)."""
+        ...
+
+
+class IntervalStats:
+    """Running statistics of intervals plus a ring of the most recent samples.
+
+    Args:
+        keep: How many recent samples to keep for percentiles.
+    """
+
+    __slots__ = ("_i", "_ring", "count", "keep", "max", "total")
+
+    def __init__(self, keep: int = 2048) -> None:
+        self.keep = keep
+        self.count = 0
+        self.total = 0.0
+        self.max = 0.0
+        self._ring = array("d")
+        self._i = 0
+
+    def add(self, x: float) -> None:
+        """One interval (seconds)."""
+        self.count += 1
+        self.total += x
+        self.max = max(self.max, x)
+        if len(self._ring) < self.keep:
+            self._ring.append(x)
+        else:
+            self._ring[self._i] = x
+            self._i = (self._i + 1) % self.keep
+
+    @property
+    def mean(self) -> float:
+        """Mean of all intervals (NaN if none)."""
+        return self.total / self.count if self.count else math.nan
+
+    def samples(self) -> list[float]:
+        """The kept recent samples (unordered)."""
+        return list(self._ring)
+
+    def percentile(self, q: float) -> float:
+        """The ``q``-th percentile (0..100) of the kept samples (NaN if none)."""
+        data = sorted(self._ring)
+        if not data:
+            return math.nan
+        pos = min(max(q, 0.0), 100.0) / 100.0 * (len(data) - 1)
+        lo = math.floor(pos)
+        hi = min(lo + 1, len(data) - 1)
+        return data[lo] + (data[hi] - data[lo]) * (pos - lo)
+
+
+class SendStats:
+    """Per-vehicle send statistics: count and inter-send intervals (wall and mission)."""
+
+    __slots__ = ("count", "last_mission", "last_wall", "mission", "wall")
+
+    def __init__(self, keep: int = 2048) -> None:
+        self.count = 0
+        self.last_wall = math.nan
+        self.last_mission = math.nan
+        self.wall = IntervalStats(keep)
+        self.mission = IntervalStats(keep)
+
+    def record(self, wall: float, mission: float) -> None:
+        """A setpoint was sent at these times."""
+        if self.count:
+            self.wall.add(wall - self.last_wall)
+            self.mission.add(mission - self.last_mission)
+        self.count += 1
+        self.last_wall = wall
+        self.last_mission = mission
+
+
+class SetpointStreamer:
+    """Sends every streaming vehicle its latest setpoint at ``rate_hz`` of mission time.
+
+    Args:
+        vehicles: The vehicles, re-iterated at every tick (pass a live view such
+            as ``dict.values()`` to add vehicles while running).
+        source: ``source(sysid, t)`` -> the setpoint for mission time ``t``, or
+            None for nothing this tick. An exception is logged and counted; the
+            other vehicles still get theirs.
+        clock: The mission clock.
+        rate_hz: Setpoints per mission second per vehicle.
+        wall: Wall clock for the statistics (injected for tests).
+
+    Attributes:
+        ticks: Deadlines served.
+        missed: Deadlines skipped because the loop was late.
+        errors: Source calls that raised.
+        stats: Per-sysid :class:`SendStats`.
+    """
+
+    def __init__(
+        self,
+        vehicles: Iterable[StreamTarget],
+        source: Callable[[int, float], Setpoint | None],
+        clock: MissionClock,
+        rate_hz: float = 20.0,
+        *,
+        wall: Callable[[], float] = time.monotonic,
+    ) -> None:
+        if not (math.isfinite(rate_hz) and rate_hz > 0.0):
+            raise ValueError(f"rate_hz must be finite and > 0, got {rate_hz!r}")
+        self.vehicles = vehicles
+        self.source = source
+        self.clock = clock
+        self.period = 1.0 / rate_hz
+        self._wall = wall
+        self.ticks = 0
+        self.missed = 0
+        self.errors = 0
+        self.stats: dict[int, SendStats] = {}
+
+    async def run(self) -> None:
+        """Stream until cancelled (waits for the first vehicle to set mission time)."""
+        clock = self.clock
+        await clock.wait_synced()
+        period = self.period
+        k = math.floor(clock.now() / period) + 1  # deadlines are whole multiples of period
+        while True:
+            await clock.sleep_until(k * period)
+            late = math.floor(clock.now() / period) - k
+            if late > 0:  # missed deadlines are skipped, not sent in a burst
+                self.missed += late
+                k += late
+            self.tick()
+            k += 1
+
+    def tick(self) -> int:
+        """Send one round now (what ``run`` does at each deadline); returns sends."""
+        self.ticks += 1
+        t = self.clock.now()
+        wall = self._wall()
+        sent = 0
+        for vehicle in self.vehicles:
+            if vehicle.status not in _STREAMING:
+                continue
+            sysid = vehicle.sysid
+            try:
+                sp = self.source(sysid, t)
+            except Exception:
+                self.errors += 1
+                if self.errors == 1:
+                    log.exception("setpoint source failed for sysid %d at t=%.2f", sysid, t)
+                continue
+            if sp is None:
+                continue
+            vehicle.send_setpoint(sp)
+            stats = self.stats.get(sysid)
+            if stats is None:
+                stats = self.stats[sysid] = SendStats()
+            stats.record(wall, t)
+            sent += 1
+        return sent

@@ -1,0 +1,802 @@
+"""One UAV as the service sees it: its state, its set-up, its liveness.
+
+A :class:`Vehicle` is skybrush's per-UAV driver: it is fed every decoded message
+from its system id (``handle``, synchronous and cheap, dispatched through a dict
+of ``handle_<TYPE>`` methods), keeps the last message of each type with the
+mission time it arrived, and runs three small tasks (``run``): the life cycle,
+the liveness check and our own 1 Hz HEARTBEAT. Everything firmware-specific is
+asked of its :class:`~convoy_mav.mavlink.autopilots.Autopilot` strategy, chosen
+from the first HEARTBEAT.
+
+Life cycle (``VehicleStatus``)::
+
+    CONNECTING --heartbeat--> WAITING_FIX --fix--> SETTING_UP --steps done--> FLYING
+         any --silent lost_after--> LOST --heard again--> WAITING_FIX ... (re-set-up)
+         SETTING_UP --setup_timeout--> FAILED        hold() --> HOLDING --resume()--> ...
+
+* Streams are requested right after the first HEARTBEAT (and again when
+  position telemetry stops, e.g. after an ArduPilot reboot).
+* The fix is GPS_RAW_INT.fix_type >= 3, or SYS_STATUS reporting a healthy GPS,
+  plus a GLOBAL_POSITION_INT. ``fix_timeout`` lets set-up start without one (the
+  autopilot then says why it refuses, which is shown to the operator).
+* Set-up steps come from the strategy and are skipped when already true (armed,
+  in the right mode, airborne), so a re-set-up after a link outage is quick.
+  Commands are retried until COMMAND_ACK: ACCEPTED is done, IN_PROGRESS waits,
+  refusals are retried with exponential back-off and reported with the
+  autopilot's latest STATUSTEXT; no answer is re-sent after ``command_retry``.
+  After ``setup_timeout`` mission seconds the vehicle is FAILED, with a message
+  naming it and the autopilot's last reason.
+* While the autopilot needs a live stream (PX4 OFFBOARD) and the streamer is
+  silent for ``keepalive`` mission seconds, the vehicle sends its own hold
+  setpoint (the last setpoint's position, or where it is at flight altitude).
+* If the autopilot leaves the external mode on its own while FLYING (a
+  failsafe, a pilot), the vehicle goes to HOLDING and says so: the service never
+  fights a pilot; ``resume()`` re-engages.
+
+All durations are mission seconds (see :mod:`convoy_mav.clock`).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import functools
+import logging
+import math
+from collections import Counter
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from enum import StrEnum
+from typing import Any, Protocol
+
+from pymavlink.dialects.v20 import common as mavlink
+
+from convoy_mav.clock import MissionClock
+from convoy_mav.errors import AutopilotError
+from convoy_mav.geo import GeoPoint, LocalFrame
+from convoy_mav.mavlink.autopilots import (
+    DEFAULT_STREAM_RATES,
+    Autopilot,
+    CommandSpec,
+    SetupStep,
+    autopilot_for,
+    firmware_name,
+)
+from convoy_mav.types import Setpoint, Telemetry, VehicleStatus
+
+__all__ = ["EventKind", "LinkLike", "Vehicle", "VehicleEvent"]
+
+log = logging.getLogger(__name__)
+
+Message = Any
+_M = mavlink
+_S = VehicleStatus
+
+_ARMED = _M.MAV_MODE_FLAG_SAFETY_ARMED
+_GPS_BIT = _M.MAV_SYS_STATUS_SENSOR_GPS
+_REFUSALS = {
+    _M.MAV_RESULT_TEMPORARILY_REJECTED: "TEMPORARILY_REJECTED",
+    _M.MAV_RESULT_DENIED: "DENIED",
+    _M.MAV_RESULT_FAILED: "FAILED",
+}
+_REASON_WAIT = 0.3  # mission s to wait for the STATUSTEXT that explains a refusal
+_CONFIRM_WAIT = 2.5  # mission s for a HEARTBEAT to confirm an accepted mode/arm
+_FLYING_STATES = (
+    _M.MAV_LANDED_STATE_IN_AIR,
+    _M.MAV_LANDED_STATE_TAKEOFF,
+    _M.MAV_LANDED_STATE_LANDING,
+)
+_AIRBORNE_AGL = 3.0  # m above home: flying, whatever EXTENDED_SYS_STATE says
+_STREAM_RETRY = 5.0  # mission s between stream requests while no position arrives
+
+
+class LinkLike(Protocol):
+    """What a Vehicle needs of its link (``convoy_mav.mavlink.MavLink`` is one)."""
+
+    def send(self, msg: Any) -> bool:
+        """Send one message; never blocks; False if it could not go out."""
+        ...
+
+
+class EventKind(StrEnum):
+    """What a :class:`VehicleEvent` reports."""
+
+    STATUS = "status"  # a status transition
+    STATUSTEXT = "statustext"  # a text from the autopilot, as sent
+    REFUSED = "refused"  # a set-up command was refused (the autopilot's reason attached)
+    FAILED = "failed"  # set-up gave up, or the vehicle cannot be flown
+    LOST = "lost"  # silent for lost_after
+    RECOVERED = "recovered"  # heard again after LOST
+    REBOOTED = "rebooted"  # time_boot_ms jumped back
+    MODE = "mode"  # the autopilot left the external mode on its own
+    WARNING = "warning"  # anything else the operator should know
+
+
+@dataclass(frozen=True, slots=True)
+class VehicleEvent:
+    """Something the operator should see about one vehicle.
+
+    Attributes:
+        sysid: The vehicle.
+        t: Mission time, seconds.
+        kind: What happened.
+        message: One readable line, naming the vehicle.
+        status: The vehicle's status after the event.
+        severity: MAV_SEVERITY (0 emergency .. 7 debug).
+    """
+
+    sysid: int
+    t: float
+    kind: EventKind
+    message: str
+    status: VehicleStatus
+    severity: int = _M.MAV_SEVERITY_INFO
+
+
+class _SetupFailed(AutopilotError):
+    """Set-up cannot go on; the message is the operator's explanation (never escapes:
+    it ends in status FAILED, ``failure`` and a FAILED event)."""
+
+
+class Vehicle:
+    """The driver of one UAV (see the module docstring).
+
+    Args:
+        sysid: Its MAVLink system id.
+        link: Where to send (``send(msg) -> bool``); incoming messages are
+            passed to :meth:`handle` by whoever owns the link.
+        clock: The shared mission clock (fed here from ``time_boot_ms``).
+        frame: The mission frame.
+        on_event: Receives every :class:`VehicleEvent`.
+        on_telemetry: Receives each new :class:`Telemetry` (GLOBAL_POSITION_INT).
+        setup_timeout: Mission s from first heartbeat to FLYING before FAILED.
+        lost_after: Mission s of silence before LOST.
+        command_retry: Mission s to wait for a COMMAND_ACK before re-sending, and
+            the first back-off after a refusal (doubling up to ``max_backoff``).
+        max_backoff: Longest back-off between refused attempts, mission s.
+        altitude: Flight altitude above the mission origin, m (take-off and own
+            hold setpoints).
+        fix_timeout: Start set-up after this many mission s without a GPS fix
+            (None: wait for one until ``setup_timeout``).
+        keepalive: Mission s without a setpoint before the vehicle sends its own
+            (only for autopilots that need a live stream).
+        stream_rates: Message id -> Hz of mission time to request.
+        gcs_sysid: Our system id: COMMAND_ACKs for other ground stations are ignored.
+        heartbeat: Send our own HEARTBEAT at 1 Hz (False when the link owner does).
+
+    Attributes:
+        status, firmware, telemetry, mode, armed, last_statustext: As named.
+        last: Last message of each type; ``last_t``: mission time it arrived.
+        failure: Why set-up failed (None otherwise).
+        counters: ``ignored``, ``handler_error``, ``commands``, ``refused``,
+            ``ack_timeout``, ``setpoints``, ``setpoints_dropped``, ``keepalive``,
+            ``send_failed``, ``reboots``...
+    """
+
+    def __init__(
+        self,
+        sysid: int,
+        link: LinkLike,
+        clock: MissionClock,
+        frame: LocalFrame,
+        *,
+        on_event: Callable[[VehicleEvent], None] | None = None,
+        on_telemetry: Callable[[Telemetry], None] | None = None,
+        setup_timeout: float = 120.0,
+        lost_after: float = 3.0,
+        command_retry: float = 1.0,
+        max_backoff: float = 10.0,
+        altitude: float = 50.0,
+        fix_timeout: float | None = None,
+        keepalive: float = 0.3,
+        stream_rates: Mapping[int, float] = DEFAULT_STREAM_RATES,
+        gcs_sysid: int = 255,
+        heartbeat: bool = True,
+    ) -> None:
+        self.sysid = sysid
+        self.link = link
+        self.clock = clock
+        self.frame = frame
+        self.name = f"convoy[uav{sysid}]"
+        self._on_event = on_event
+        self._on_telemetry = on_telemetry
+        self.setup_timeout = setup_timeout
+        self.lost_after = lost_after
+        self.command_retry = command_retry
+        self.max_backoff = max_backoff
+        self.altitude = altitude
+        self.fix_timeout = fix_timeout
+        self.keepalive = keepalive
+        self.stream_rates = dict(stream_rates)
+        self.gcs_sysid = gcs_sysid
+        self._heartbeat = heartbeat
+
+        self.status: VehicleStatus = _S.CONNECTING
+        self.firmware: Autopilot | None = None
+        self.telemetry: Telemetry | None = None
+        self.mode = ""
+        self.armed = False
+        self.home: GeoPoint | None = None
+        self.last: dict[str, Message] = {}
+        self.last_t: dict[str, float] = {}
+        self.last_statustext: str | None = None
+        self.failure: str | None = None
+        self.counters: Counter[str] = Counter()
+        self._statustext_t = -math.inf
+        self._heard_t = -math.inf
+        self._acks: dict[int, tuple[int, int]] = {}  # command -> (result, seq)
+        self._ack_seq = 0
+        self._streams_t = -math.inf
+        self._last_sp: Setpoint | None = None
+        self._last_sp_t = -math.inf
+        self._setup_sent = 0  # setpoints sent since set-up began
+        self._airborne_already = False  # set-up found it flying: no take-off
+        self._hold_requested = False
+        self._unsupported = False
+        self._compid = _M.MAV_COMP_ID_AUTOPILOT1  # the autopilot's, once its HEARTBEAT says
+        self._changed = asyncio.Event()
+        self._start = asyncio.Event()
+        self._session: asyncio.Task[None] | None = None
+        self._handlers: dict[str, Callable[[Message, float], None]] = {
+            "HEARTBEAT": self.handle_HEARTBEAT,
+            "COMMAND_ACK": self.handle_COMMAND_ACK,
+            "STATUSTEXT": self.handle_STATUSTEXT,
+            "GLOBAL_POSITION_INT": self.handle_GLOBAL_POSITION_INT,
+            "HOME_POSITION": self.handle_HOME_POSITION,
+        }
+
+    def __repr__(self) -> str:
+        return f"<Vehicle {self.sysid} {self.firmware or '?'} {self.status}>"
+
+    # ================================================================= queries
+    @property
+    def position(self) -> tuple[float, float] | None:
+        """Latest (north, east) in the mission frame, if any."""
+        tel = self.telemetry
+        return None if tel is None else (tel.north, tel.east)
+
+    @property
+    def has_fix(self) -> bool:
+        """A 3D GPS fix (or a healthy GPS in SYS_STATUS) and a position."""
+        if self.telemetry is None:
+            return False
+        gps = self.last.get("GPS_RAW_INT")
+        if gps is not None and gps.fix_type >= _M.GPS_FIX_TYPE_3D_FIX:
+            return True
+        sys = self.last.get("SYS_STATUS")
+        return bool(
+            sys is not None
+            and sys.onboard_control_sensors_present & _GPS_BIT
+            and sys.onboard_control_sensors_health & _GPS_BIT
+        )
+
+    def _airborne(self) -> bool:
+        ext = self.last.get("EXTENDED_SYS_STATE")
+        if ext is not None and ext.landed_state in _FLYING_STATES:
+            return True
+        rel = self.relative_alt
+        return rel is not None and rel > _AIRBORNE_AGL
+
+    @property
+    def relative_alt(self) -> float | None:
+        """Height above home (m) from GLOBAL_POSITION_INT, if any."""
+        gpi = self.last.get("GLOBAL_POSITION_INT")
+        return None if gpi is None else gpi.relative_alt * 1e-3
+
+    # ================================================================ inbound
+    def handle(self, msg: Message) -> None:
+        """Take one decoded message (any sysid; others are counted and ignored)."""
+        if msg.get_srcSystem() != self.sysid:
+            self.counters["ignored"] += 1
+            return
+        boot_ms = getattr(msg, "time_boot_ms", None)
+        if boot_ms is not None and msg.get_srcComponent() == self._compid:
+            self._observe_boot(boot_ms)  # (a camera or companion has a boot clock of its own)
+        now = self.clock.now()
+        self._heard_t = now
+        kind = msg.get_type()
+        self.last[kind] = msg
+        self.last_t[kind] = now
+        handler = self._handlers.get(kind)
+        if handler is not None:
+            try:
+                handler(msg, now)
+            except Exception:
+                self.counters["handler_error"] += 1
+                if self.counters["handler_error"] == 1:
+                    log.exception("%s: handler for %s failed", self.name, kind)
+        if self.status is _S.LOST and self.firmware is not None:
+            self._set_status(_S.WAITING_FIX)
+            self._emit(EventKind.RECOVERED, "heard again; setting up anew", _M.MAV_SEVERITY_NOTICE)
+            self._start.set()
+        self._changed.set()
+
+    def _observe_boot(self, boot_ms: int) -> None:
+        clock = self.clock
+        clock.observe(boot_ms, self.sysid)
+        if clock.reboots_of(self.sysid) != self.counters["reboots"]:  # the clock tells reboots
+            self.counters["reboots"] = clock.reboots_of(self.sysid)  # from reordered packets
+            self._emit(EventKind.REBOOTED, "autopilot rebooted", _M.MAV_SEVERITY_WARNING)
+            if self.firmware is not None:
+                self.firmware.reset()
+                self._request_streams()
+            if not self._hold_requested and self.status in (_S.SETTING_UP, _S.FLYING, _S.HOLDING):
+                self._interrupt()
+                self._start.set()
+
+    def handle_HEARTBEAT(self, msg: Message, now: float) -> None:
+        """Recognise the firmware; track mode and armed state."""
+        if msg.autopilot == _M.MAV_AUTOPILOT_INVALID:
+            return  # a GCS, gimbal or camera sharing the sysid: not the autopilot
+        ap = self.firmware
+        if ap is None:
+            ap = autopilot_for(
+                msg.autopilot, msg.type, self.sysid, msg.get_srcComponent(), self.frame
+            )
+            if ap is None:
+                self._refuse_unsupported(msg)
+                return
+            self.firmware = ap
+            self._compid = ap.compid
+            self._emit(EventKind.STATUS, f"recognised {ap}")
+            if self.status is _S.CONNECTING:
+                self._start.set()
+        elif msg.get_srcComponent() != ap.compid:
+            return
+        self.armed = bool(msg.base_mode & _ARMED)
+        mode, self.mode = self.mode, ap.mode_name(msg.custom_mode)
+        if self.status is _S.FLYING and mode == ap.external_mode != self.mode:
+            self._emit(
+                EventKind.MODE,
+                f"autopilot left {mode} for {self.mode} (failsafe or pilot); "
+                "not taking control back until resumed",
+                _M.MAV_SEVERITY_WARNING,
+            )
+            self._set_status(_S.HOLDING)
+
+    def _refuse_unsupported(self, msg: Message) -> None:
+        if self._unsupported:
+            return
+        self._unsupported = True
+        self.failure = (
+            f"UAV {self.sysid}: {firmware_name(msg.autopilot)} with vehicle type {msg.type} "
+            "is not supported (PX4 or ArduPilot planes and copters only)"
+        )
+        self.status = _S.FAILED
+        self._emit(EventKind.FAILED, self.failure, _M.MAV_SEVERITY_ERROR)
+
+    def handle_COMMAND_ACK(self, msg: Message, now: float) -> None:
+        """Record the result for a waiting command; tell the strategy."""
+        target = getattr(msg, "target_system", 0)
+        if target not in (0, self.gcs_sysid):
+            return  # the answer to another ground station
+        self._ack_seq += 1
+        self._acks[msg.command] = (msg.result, self._ack_seq)
+        if self.firmware is not None:
+            self.firmware.on_ack(msg.command, msg.result, now)
+
+    def handle_STATUSTEXT(self, msg: Message, now: float) -> None:
+        """Keep the latest text (a refusal's reason) and pass it on to the operator."""
+        text = msg.text if isinstance(msg.text, str) else bytes(msg.text).decode(errors="replace")
+        text = text.rstrip("\x00").strip()
+        self.last_statustext = text
+        self._statustext_t = now
+        self._emit(EventKind.STATUSTEXT, text, int(msg.severity))
+
+    def handle_GLOBAL_POSITION_INT(self, msg: Message, now: float) -> None:
+        """Position, velocity and heading into the mission frame."""
+        lat, lon, alt = msg.lat * 1e-7, msg.lon * 1e-7, msg.alt * 1e-3
+        north, east, down = self.frame.to_ned(GeoPoint(lat, lon, alt))
+        vn, ve, vd = msg.vx * 0.01, msg.vy * 0.01, msg.vz * 0.01
+        if msg.hdg != 0xFFFF:
+            yaw = math.remainder(math.radians(msg.hdg * 0.01), math.tau)
+        elif (att := self.last.get("ATTITUDE")) is not None:
+            yaw = att.yaw
+        else:
+            yaw = math.atan2(ve, vn)
+        t = self.clock.to_mission(msg.time_boot_ms, self.sysid)
+        tel = Telemetry(self.sysid, t, north, east, down, vn, ve, vd, yaw, lat, lon, alt)
+        self.telemetry = tel
+        if self._on_telemetry is not None:
+            self._on_telemetry(tel)
+
+    def handle_HOME_POSITION(self, msg: Message, now: float) -> None:
+        """Home moves when the vehicle arms: the take-off altitude is relative to it."""
+        self.home = GeoPoint(msg.latitude * 1e-7, msg.longitude * 1e-7, msg.altitude * 1e-3)
+
+    # =============================================================== outbound
+    def _send(self, msg: Message) -> None:
+        if not self.link.send(msg):
+            self.counters["send_failed"] += 1
+
+    def send_setpoint(self, sp: Setpoint) -> None:
+        """Fly ``sp`` now (FLYING; also SETTING_UP for autopilots needing a stream).
+
+        Otherwise (connecting, holding, lost...) the setpoint is dropped and counted.
+        """
+        ap = self.firmware
+        st = self.status
+        if ap is None or not (st is _S.FLYING or (st is _S.SETTING_UP and ap.streams_during_setup)):
+            self.counters["setpoints_dropped"] += 1
+            return
+        now = self.clock.now()
+        for msg in ap.setpoint_messages(sp, now, self.position):
+            self._send(msg)
+        self._last_sp, self._last_sp_t = sp, now
+        self._setup_sent += 1
+        self.counters["setpoints"] += 1
+
+    def _own_setpoint(self) -> Setpoint | None:
+        """Hold where the last setpoint was, or where the UAV is at flight altitude."""
+        now = self.clock.now()
+        if self._last_sp is not None:
+            sp = self._last_sp
+            return Setpoint(now, sp.north, sp.east, sp.down, 0.0, 0.0, 0.0, sp.yaw, 0.0, hold=True)
+        tel = self.telemetry
+        if tel is None:
+            return None
+        return Setpoint(now, tel.north, tel.east, -self.altitude, 0, 0, 0, tel.yaw, 0, hold=True)
+
+    def _request_streams(self) -> None:
+        if self.firmware is None:
+            return
+        for msg in self.firmware.stream_requests(self.stream_rates):
+            self._send(msg)
+        self._streams_t = self.clock.now()
+        self.counters["stream_requests"] += 1
+
+    def _emit(self, kind: EventKind, text: str, severity: int = _M.MAV_SEVERITY_INFO) -> None:
+        who = f"UAV {self.sysid}" + (f" ({self.firmware})" if self.firmware else "")
+        message = text if text.startswith("UAV ") else f"{who}: {text}"
+        event = VehicleEvent(self.sysid, self.clock.now(), kind, message, self.status, severity)
+        log.log(
+            logging.WARNING if severity <= _M.MAV_SEVERITY_WARNING else logging.INFO, "%s", message
+        )
+        if self._on_event is not None:
+            try:
+                self._on_event(event)
+            except Exception:
+                log.exception("%s: on_event failed", self.name)
+
+    def _set_status(self, status: VehicleStatus) -> None:
+        if status is not self.status:
+            self.status = status
+            self._emit(EventKind.STATUS, str(status))
+
+    # ================================================================== tasks
+    async def run(self) -> None:
+        """Life cycle, liveness and heartbeat tasks; runs until cancelled."""
+        async with asyncio.TaskGroup() as tg:
+            tg.create_task(self._lifecycle(), name=f"{self.name}.lifecycle")
+            tg.create_task(self._liveness(), name=f"{self.name}.liveness")
+            tg.create_task(self._keepalive(), name=f"{self.name}.keepalive")
+            if self._heartbeat:
+                tg.create_task(self._heartbeats(), name=f"{self.name}.heartbeat")
+
+    async def _heartbeats(self) -> None:
+        hb = _M.MAVLink_heartbeat_message(
+            _M.MAV_TYPE_GCS, _M.MAV_AUTOPILOT_INVALID, 0, 0, _M.MAV_STATE_ACTIVE, 3
+        )
+        while True:
+            self._send(hb)
+            if self.clock.synced:
+                await self.clock.sleep_until(self.clock.now() + 1.0)
+            else:  # nobody heard yet: no mission time to pace by
+                await asyncio.sleep(0.5)
+
+    async def _liveness(self) -> None:
+        await self.clock.wait_synced()
+        while True:
+            await self.clock.sleep_until(self.clock.now() + self.lost_after / 4.0)
+            now = self.clock.now()
+            if self.status in (_S.CONNECTING, _S.LOST) or self.firmware is None:
+                continue
+            silent = now - self._heard_t
+            if silent > self.lost_after:
+                self._interrupt()
+                self._set_status(_S.LOST)
+                self._emit(EventKind.LOST, f"silent for {silent:.1f} s", _M.MAV_SEVERITY_CRITICAL)
+                continue
+            no_position = now - self.last_t.get("GLOBAL_POSITION_INT", -math.inf)
+            if no_position > 2 * self.lost_after and now - self._streams_t > _STREAM_RETRY:
+                self._request_streams()  # heartbeats only: streams were forgotten (reboot)
+
+    async def _keepalive(self) -> None:
+        await self.clock.wait_synced()
+        period = self.keepalive / 3.0
+        while True:
+            await self.clock.sleep_until(self.clock.now() + period)
+            ap = self.firmware
+            if ap is None or not ap.streams_during_setup:
+                continue
+            if self.status not in (_S.SETTING_UP, _S.FLYING):
+                continue
+            if self.clock.now() - self._last_sp_t < self.keepalive:
+                continue
+            sp = self._own_setpoint()
+            if sp is not None:
+                self.counters["keepalive"] += 1
+                self.send_setpoint(sp)
+
+    async def _lifecycle(self) -> None:
+        while True:
+            await self._start.wait()
+            self._start.clear()
+            self._session = asyncio.create_task(self._run_session(), name=f"{self.name}.setup")
+            try:
+                await self._session
+            except asyncio.CancelledError:
+                task = asyncio.current_task()
+                if task is not None and task.cancelling():
+                    raise
+            finally:
+                self._session = None
+
+    def _interrupt(self) -> None:
+        if self._session is not None and not self._session.done():
+            self._session.cancel()
+
+    async def _run_session(self) -> None:
+        try:
+            if self._hold_requested:
+                self._set_status(_S.HOLDING)
+                await self._hold_command(5.0)
+            else:
+                await self._set_up()
+        except _SetupFailed as e:
+            self.failure = str(e)
+            self._set_status(_S.FAILED)
+            self._emit(EventKind.FAILED, self.failure, _M.MAV_SEVERITY_ERROR)
+
+    # ================================================================= set-up
+    async def _set_up(self) -> None:
+        ap = self.firmware
+        assert ap is not None
+        start = self.clock.now()
+        deadline = start + self.setup_timeout
+        self.failure = None
+        self._set_status(_S.WAITING_FIX)
+        self._request_streams()
+        while not self.has_fix:
+            now = self.clock.now()
+            if (
+                self.fix_timeout is not None
+                and now - start >= self.fix_timeout
+                and self.telemetry is not None
+            ):
+                self._emit(EventKind.WARNING, "no GPS fix reported; setting up anyway")
+                break
+            if now >= deadline:
+                raise _SetupFailed(self._no_fix_message())
+            if self.telemetry is None and now - self._streams_t >= _STREAM_RETRY:
+                self._request_streams()
+            await self._wait_until(lambda: self.has_fix, min(1.0, deadline - now))
+        self._set_status(_S.SETTING_UP)
+        ap.reset()
+        self._setup_sent = 0
+        self._airborne_already = False
+        while True:
+            for step in ap.setup_steps:
+                if not self._step_done(step):
+                    await self._achieve(step, deadline)
+            if all(self._step_done(step) for step in ap.setup_steps):
+                break
+            if self.clock.now() >= deadline:
+                raise _SetupFailed(self._gave_up("final check", 0, None))
+            await self.clock.sleep_until(self.clock.now() + self.command_retry)
+        self._set_status(_S.FLYING)
+
+    def _no_fix_message(self) -> str:
+        gps = self.last.get("GPS_RAW_INT")
+        state = "no GPS_RAW_INT" if gps is None else f"GPS fix type {gps.fix_type}"
+        if self.telemetry is None:
+            state += ", no GLOBAL_POSITION_INT"
+        return (
+            f"UAV {self.sysid} ({self.firmware}): no position fix within "
+            f"{self.setup_timeout:.0f} s ({state}); {self._last_word()}"
+        )
+
+    def _last_word(self) -> str:
+        if self.last_statustext is None:
+            return "the autopilot sent no STATUSTEXT"
+        return f"last word from the autopilot: {self.last_statustext!r}"
+
+    def _gave_up(self, what: str, attempts: int, result: str | None) -> str:
+        how = f"; last answer {result}" if result else ""
+        return (
+            f"UAV {self.sysid} ({self.firmware}): set-up gave up after "
+            f"{self.setup_timeout:.0f} s at step '{what}' ({attempts} attempts{how}); "
+            f"{self._last_word()}"
+        )
+
+    def _target_relative_alt(self) -> tuple[float, float]:
+        """(metres above home, AMSL) of the flight altitude; home from GLOBAL_POSITION_INT
+        (alt - relative_alt), so it is the home the autopilot measures from."""
+        amsl = self.frame.origin.alt + self.altitude
+        gpi = self.last.get("GLOBAL_POSITION_INT")
+        if gpi is not None:
+            home = (gpi.alt - gpi.relative_alt) * 1e-3
+        elif self.home is not None:
+            home = self.home.alt
+        else:
+            home = self.frame.origin.alt
+        return max(amsl - home, 2.0), amsl
+
+    def _step_done(self, step: SetupStep) -> bool:
+        ap = self.firmware
+        assert ap is not None
+        if step is SetupStep.SETPOINTS:
+            return self._setup_sent >= 3 and self.clock.now() - self._last_sp_t < 1.0
+        if step is SetupStep.MODE:
+            return self.mode == ap.external_mode
+        if step is SetupStep.ARM:
+            return self.armed
+        rel = self.relative_alt
+        target, _ = self._target_relative_alt()
+        up = rel is not None and rel >= target - max(1.0, 0.05 * target)
+        return self.armed and (up or self._airborne_already)
+
+    async def _achieve(self, step: SetupStep, deadline: float) -> None:
+        ap = self.firmware
+        assert ap is not None
+        if step is SetupStep.SETPOINTS:  # the streamer or the keepalive sends them
+            if not await self._wait_until(
+                lambda: self._step_done(step), deadline - self.clock.now()
+            ):
+                raise _SetupFailed(self._gave_up(str(step), 0, None))
+        elif step is SetupStep.MODE:
+            target = ap.external_mode
+            in_mode = functools.partial(self._in_mode, target)
+            await self._command(ap.mode_command(target), f"mode {target}", deadline, in_mode)
+            await self._wait_until(in_mode, _CONFIRM_WAIT)
+        elif step is SetupStep.ARM:
+            await self._command(ap.arm_command(), "arm", deadline, self._is_armed)
+            await self._wait_until(self._is_armed, _CONFIRM_WAIT)
+        else:
+            rel, amsl = self._target_relative_alt()
+            takeoff = ap.takeoff_command(rel, amsl)
+            what = f"take off to {rel:.0f} m"
+            if takeoff is not None and not await self._command(
+                takeoff, what, deadline, self._airborne
+            ):  # already flying (a re-set-up after a link outage): setpoints will climb
+                self._airborne_already = True
+                return
+            reached = await self._wait_until(
+                lambda: self._step_done(step) or not self.armed, deadline - self.clock.now()
+            )
+            if not reached:
+                raise _SetupFailed(self._gave_up(str(step), 1, None))
+
+    def _in_mode(self, mode: str) -> bool:
+        return self.mode == mode
+
+    def _is_armed(self) -> bool:
+        return self.armed
+
+    async def _command(
+        self,
+        spec: CommandSpec,
+        what: str,
+        deadline: float,
+        moot: Callable[[], bool] | None = None,
+    ) -> bool:
+        """Send until ACCEPTED; refusals back off exponentially and are reported.
+
+        Returns:
+            True once ACCEPTED; False if ``moot()`` became true before an attempt
+            (someone else did it, or it no longer applies).
+
+        Raises:
+            _SetupFailed: ``deadline`` passed, or the autopilot does not support it.
+        """
+        ap = self.firmware
+        assert ap is not None
+        backoff = self.command_retry
+        attempts = 0
+        result_name: str | None = None
+        while True:
+            now = self.clock.now()
+            if moot is not None and moot():
+                return False
+            if now >= deadline:
+                raise _SetupFailed(self._gave_up(what, attempts, result_name))
+            seq = self._ack_seq
+            self._send(spec.message(self.sysid, ap.compid, attempts))
+            attempts += 1
+            self.counters["commands"] += 1
+            result = await self._wait_ack(spec.command, seq, self.command_retry)
+            while result == _M.MAV_RESULT_IN_PROGRESS:
+                result = await self._wait_ack(spec.command, self._ack_seq, 5 * self.command_retry)
+            if result is None:
+                self.counters["ack_timeout"] += 1
+                result_name = "no COMMAND_ACK"
+                continue
+            if result == _M.MAV_RESULT_ACCEPTED:
+                return True
+            if result not in _REFUSALS:
+                raise _SetupFailed(
+                    f"UAV {self.sysid} ({ap}): {what} is not supported by the autopilot "
+                    f"(COMMAND_ACK result {result}); {self._last_word()}"
+                )
+            result_name = _REFUSALS[result]
+            self.counters["refused"] += 1
+            await self._wait_until(functools.partial(self._text_since, now), _REASON_WAIT)
+            reason = self.last_statustext if self._text_since(now) else "no reason given"
+            wait = min(backoff, max(deadline - self.clock.now(), 0.0))
+            self._emit(
+                EventKind.REFUSED,
+                f"{what} refused ({result_name}): {reason!r}; retrying in {wait:.1f} s",
+                _M.MAV_SEVERITY_WARNING,
+            )
+            await self.clock.sleep_until(self.clock.now() + wait)
+            backoff = min(2.0 * backoff, self.max_backoff)
+
+    def _text_since(self, t: float) -> bool:
+        return self._statustext_t >= t
+
+    async def _wait_ack(self, command: int, seq: int, timeout: float) -> int | None:
+        def answered() -> bool:
+            entry = self._acks.get(command)
+            return entry is not None and entry[1] > seq
+
+        if not await self._wait_until(answered, timeout):
+            return None
+        return self._acks[command][0]
+
+    async def _wait_until(self, done: Callable[[], bool], timeout: float) -> bool:
+        """Wait (mission s) until ``done()``, re-checked whenever a message arrives."""
+        deadline = self.clock.now() + timeout
+        while True:
+            self._changed.clear()
+            if done():
+                return True
+            wall = self.clock.wall_until(deadline)
+            if wall <= 0.0:
+                return False
+            with contextlib.suppress(TimeoutError):
+                await asyncio.wait_for(self._changed.wait(), wall)
+
+    # ============================================================ hold, resume
+    async def hold(self, timeout: float = 5.0) -> bool:
+        """Loiter/hover where it is (pause, shutdown); waits up to ``timeout`` for the ACK.
+
+        Set-up in progress is abandoned; setpoints are dropped until :meth:`resume`.
+        A vehicle on the ground, disarmed, is left alone.
+
+        Returns:
+            True if the autopilot accepted the hold mode (or none was needed).
+        """
+        self._hold_requested = True
+        self._interrupt()
+        if self.status is _S.LOST:
+            return False  # sent when it is heard again
+        if self.firmware is None:
+            self._set_status(_S.HOLDING)
+            return True
+        self._set_status(_S.HOLDING)
+        if not self.armed:
+            return True
+        return await self._hold_command(timeout)
+
+    async def _hold_command(self, timeout: float) -> bool:
+        ap = self.firmware
+        assert ap is not None
+        try:
+            deadline = self.clock.now() + timeout
+            holding = functools.partial(self._in_mode, ap.hold_mode)  # (e.g. after a failsafe)
+            await self._command(ap.hold_command(), f"hold ({ap.hold_mode})", deadline, holding)
+        except _SetupFailed as e:
+            self._emit(EventKind.WARNING, f"hold not confirmed: {e}", _M.MAV_SEVERITY_ERROR)
+            return False
+        return True
+
+    def resume(self) -> None:
+        """Leave HOLDING (or retry after FAILED): set up again and fly setpoints."""
+        self._hold_requested = False
+        if self.status not in (_S.HOLDING, _S.FAILED) or self._unsupported:
+            return
+        if self.firmware is None:  # held before its first HEARTBEAT
+            self._set_status(_S.CONNECTING)
+            return
+        self._interrupt()
+        self._start.set()

@@ -1,0 +1,239 @@
+"""SetpointStreamer: mission-time deadlines, latest value, skipped ticks, real mock.
+
+The first tests drive fake vehicles with a MissionClock fed by a fake autopilot
+clock running ``speedup`` times faster than the wall (real asyncio time, no
+sockets); the last one streams to three PX4 planes of the mock over UDP and
+checks what the autopilots received.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import time
+from collections.abc import AsyncIterator
+from typing import TYPE_CHECKING
+
+import pytest
+
+from convoy_mav.clock import MissionClock
+from convoy_mav.geo import LocalFrame
+from convoy_mav.mavlink import MavLink
+from convoy_mav.streaming import IntervalStats, SetpointStreamer
+from convoy_mav.types import Setpoint, VehicleStatus
+from convoy_mav.vehicle import EventKind, Vehicle, VehicleEvent
+from sitl_mock.config import MockConfig
+
+if TYPE_CHECKING:
+    from tests.conftest import StartMock
+
+pytestmark = [pytest.mark.integration, pytest.mark.timeout(60)]
+
+
+class FakeVehicle:
+    """Records what it is sent, with the wall time."""
+
+    def __init__(self, sysid: int, status: VehicleStatus = VehicleStatus.FLYING) -> None:
+        self.sysid = sysid
+        self.status = status
+        self.sent: list[tuple[float, Setpoint]] = []
+
+    def send_setpoint(self, sp: Setpoint) -> None:
+        self.sent.append((time.monotonic(), sp))
+
+
+@contextlib.asynccontextmanager
+async def autopilot_clock(speedup: float) -> AsyncIterator[MissionClock]:
+    """A MissionClock fed every 2 ms of wall by an autopilot clock at ``speedup``."""
+    clock = MissionClock()
+    t0 = time.monotonic()
+
+    async def talk() -> None:
+        while True:
+            clock.observe(1000.0 * (5.0 + speedup * (time.monotonic() - t0)), 1)
+            await asyncio.sleep(0.002)
+
+    task = asyncio.create_task(talk(), name="test.autopilot-clock")
+    try:
+        await clock.wait_synced()
+        await asyncio.sleep(0.1)  # let the rate settle
+        yield clock
+    finally:
+        task.cancel()
+        with contextlib.suppress(asyncio.CancelledError):
+            await task
+
+
+def setpoint(sysid: int, t: float) -> Setpoint:
+    return Setpoint(t, float(sysid), 0.0, -40.0, 1.0, 0.0, 0.0, 0.0, 0.0)
+
+
+@contextlib.asynccontextmanager
+async def streaming(streamer: SetpointStreamer) -> AsyncIterator[None]:
+    task = asyncio.create_task(streamer.run(), name="test.streamer")
+    try:
+        yield
+    finally:
+        task.cancel()
+        with contextlib.suppress(asyncio.CancelledError):
+            await task
+
+
+async def mission_sleep(clock: MissionClock, seconds: float) -> None:
+    await clock.sleep_until(clock.now() + seconds)
+
+
+async def test_streams_on_mission_deadlines_to_flying_and_setting_up_only() -> None:
+    vehicles = [
+        FakeVehicle(1),
+        FakeVehicle(2, VehicleStatus.SETTING_UP),
+        FakeVehicle(3, VehicleStatus.HOLDING),
+        FakeVehicle(4, VehicleStatus.LOST),
+    ]
+    calls: list[tuple[int, float]] = []
+
+    def source(sysid: int, t: float) -> Setpoint:
+        calls.append((sysid, t))
+        return setpoint(sysid, t)
+
+    async with autopilot_clock(20.0) as clock:
+        streamer = SetpointStreamer(vehicles, source, clock, rate_hz=20.0)
+        async with streaming(streamer):
+            start = clock.now()
+            await mission_sleep(clock, 10.0)
+            duration = clock.now() - start
+    expected = 20.0 * duration
+    for v in vehicles[:2]:
+        assert expected - streamer.missed - 3 <= len(v.sent) <= expected + 2
+        assert [sp.north for _, sp in v.sent] == [float(v.sysid)] * len(v.sent)
+    assert vehicles[2].sent == vehicles[3].sent == []
+    assert {sysid for sysid, _ in calls} == {1, 2}
+    times = [t for sysid, t in calls if sysid == 1]
+    assert times == sorted(times)  # latest value: never an older instant
+    stats = streamer.stats[1]
+    assert stats.count == len(vehicles[0].sent)
+    assert stats.mission.percentile(50) == pytest.approx(0.05, rel=0.15)
+    assert stats.wall.percentile(50) == pytest.approx(0.05 / 20.0, rel=0.2)
+    assert streamer.ticks >= len(vehicles[0].sent)
+
+
+async def test_a_stalled_loop_skips_ticks_instead_of_bursting() -> None:
+    vehicle = FakeVehicle(1)
+    async with autopilot_clock(10.0) as clock:
+        streamer = SetpointStreamer([vehicle], setpoint, clock, rate_hz=10.0)  # 10 ms of wall
+        async with streaming(streamer):
+            await mission_sleep(clock, 2.0)
+            before = len(vehicle.sent)
+            time.sleep(0.2)  # the loop is blocked for 20 ticks (2 mission s)
+            stall_end = time.monotonic()
+            await mission_sleep(clock, 0.05)  # half a period after the stall
+            burst = [w for w, _ in vehicle.sent[before:] if w >= stall_end]
+            await mission_sleep(clock, 2.0)
+    assert streamer.missed >= 18
+    assert len(burst) <= 2, "missed deadlines are skipped, not sent in a burst"
+    # sends resume at the normal rate right after
+    assert len(vehicle.sent) - before >= 15
+
+
+async def test_a_failing_source_costs_only_its_own_vehicle() -> None:
+    ok, bad, idle = FakeVehicle(1), FakeVehicle(2), FakeVehicle(3)
+
+    def source(sysid: int, t: float) -> Setpoint | None:
+        if sysid == 2:
+            raise RuntimeError("no plan for 2")
+        if sysid == 3:
+            return None  # nothing to fly this tick
+        return setpoint(sysid, t)
+
+    async with autopilot_clock(20.0) as clock:
+        streamer = SetpointStreamer([ok, bad, idle], source, clock)
+        async with streaming(streamer):
+            await mission_sleep(clock, 2.0)
+    assert len(ok.sent) >= 30
+    assert bad.sent == idle.sent == []
+    assert streamer.errors >= 30
+    assert 2 not in streamer.stats and 3 not in streamer.stats
+
+
+async def test_streamer_waits_for_mission_time() -> None:
+    vehicle = FakeVehicle(1)
+    clock = MissionClock()
+    streamer = SetpointStreamer([vehicle], setpoint, clock)
+    async with streaming(streamer):
+        await asyncio.sleep(0.05)
+        assert vehicle.sent == [] and streamer.ticks == 0  # no vehicle heard: no time
+
+
+def test_interval_stats() -> None:
+    stats = IntervalStats(keep=4)
+    for x in (0.05, 0.06, 0.04, 0.05, 0.07, 0.05):
+        stats.add(x)
+    assert stats.count == 6
+    assert stats.mean == pytest.approx(0.32 / 6)
+    assert stats.max == 0.07
+    assert sorted(stats.samples()) == [0.04, 0.05, 0.05, 0.07]  # the last four
+    assert stats.percentile(0) == 0.04
+    assert stats.percentile(100) == 0.07
+    assert stats.percentile(50) == pytest.approx(0.05)
+    with pytest.raises(ValueError, match="rate_hz"):
+        SetpointStreamer([], setpoint, MissionClock(), rate_hz=0.0)
+
+
+async def test_three_px4_planes_get_every_setpoint(start_mock: StartMock) -> None:
+    """Over UDP: the mock's counters agree with the streamer, at the rate asked."""
+    n, speedup, rate = 3, 20.0, 20.0
+    config = MockConfig.simple(n, speedup=speedup, base_port=0, warmup=1.0, home_spacing=200.0)
+    fleet = await start_mock(config, record_truth=True)
+    clock = MissionClock(rate_hint=speedup)
+    frame = LocalFrame(config.origin)
+    events: list[VehicleEvent] = []
+    vehicles: dict[int, Vehicle] = {}
+    links: list[MavLink] = []
+    for i in range(1, n + 1):
+        link = MavLink(fleet.endpoint(i).connect, lambda m, i=i: vehicles[i].handle(m))  # type: ignore[misc]
+        links.append(link)
+        vehicles[i] = Vehicle(
+            i, link, clock, frame, on_event=events.append, altitude=40.0 + 10.0 * i
+        )
+
+    def source(sysid: int, t: float) -> Setpoint:  # straight and level, northbound
+        tel = vehicles[sysid].telemetry
+        east = tel.east if tel is not None else 0.0
+        return Setpoint(t, 18.0 * t, east, -40.0 - 10.0 * sysid, 18.0, 0.0, 0.0, 0.0, 0.0)
+
+    streamer = SetpointStreamer(vehicles.values(), source, clock, rate_hz=rate)
+    async with contextlib.AsyncExitStack() as stack:
+        for link in links:
+            await stack.enter_async_context(link)
+        async with asyncio.TaskGroup() as tg:
+            tasks = [tg.create_task(v.run()) for v in vehicles.values()]
+            tasks.append(tg.create_task(streamer.run()))
+            async with asyncio.timeout(10):
+                while any(v.status is not VehicleStatus.FLYING for v in vehicles.values()):
+                    await asyncio.sleep(0.01)
+            before = {i: fleet.counters(i)["setpoint"] for i in vehicles}
+            sent_before = {i: streamer.stats[i].count for i in vehicles}
+            t0 = clock.now()
+            await fleet.wait_until(fleet.now + 20.0)
+            duration = clock.now() - t0
+            received = {i: fleet.counters(i)["setpoint"] - before[i] for i in vehicles}
+            sent = {i: streamer.stats[i].count - sent_before[i] for i in vehicles}
+            for task in tasks:
+                task.cancel()
+    # with the fix awaited first, PX4 accepts OFFBOARD and arming at the first try
+    assert not [e for e in events if e.kind is EventKind.REFUSED]
+    for i in vehicles:
+        assert received[i] >= sent[i] - 2  # all but those still in flight arrived
+        assert sent[i] >= rate * duration - streamer.missed - 2
+        s = streamer.stats[i]
+        print(
+            f"\nuav{i}: {sent[i]} setpoints in {duration:.1f} mission s, mock got {received[i]}; "
+            f"mission interval p50 {1000 * s.mission.percentile(50):.1f} ms "
+            f"p99 {1000 * s.mission.percentile(99):.1f} ms; wall p50 "
+            f"{1000 * s.wall.percentile(50):.2f} ms p99 {1000 * s.wall.percentile(99):.2f} ms; "
+            f"missed ticks {streamer.missed}/{streamer.ticks}"
+        )
+        assert s.mission.percentile(50) == pytest.approx(1.0 / rate, rel=0.1)
+    assert fleet.history is not None
+    late = [r for r in fleet.history.rows if r.t > fleet.now - 10.0]
+    assert late and all(r.mode == "OFFBOARD" and r.armed for r in late)

@@ -1,0 +1,368 @@
+"""The autopilot strategies: recognition, modes, setpoints, loiters, phase correction.
+
+Besides checking field values, the messages are fed through MAVLink bytes into
+the mock's sans-I/O autopilot (``tests.fakes.Gcs``), which mirrors what PX4 and
+ArduPilot do with them: the mock is the independent reader here.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from typing import Any, Literal
+
+import pytest
+from pymavlink.dialects.v20 import common as mavlink
+
+from convoy_mav.geo import LocalFrame
+from convoy_mav.mavlink.autopilots import (
+    PX4,
+    ArduCopter,
+    ArduPlane,
+    Autopilot,
+    SetupStep,
+    VehicleClass,
+    along_track_error,
+    autopilot_for,
+    phase_corrected_speed,
+)
+from convoy_mav.mavlink.autopilots.base import (
+    SETPOINT_POS_VEL_YAW,
+    SETPOINT_POSITION_ONLY,
+    global_setpoint,
+)
+from convoy_mav.types import Setpoint
+from sitl_mock.kinematics import Loiter
+from sitl_mock.messages import Frames, decode_global_setpoint
+from sitl_mock.personality import Personality, firmware_for
+from tests.fakes import AP, WORLD, Gcs, make_vehicle, warm_gcs
+from tests.fakes import PX4 as MOCK_PX4
+
+M = mavlink
+FW, QUAD = M.MAV_TYPE_FIXED_WING, M.MAV_TYPE_QUADROTOR
+FRAME: LocalFrame = WORLD
+
+
+def strategy(autopilot: int, mav_type: int, sysid: int = 1) -> Autopilot:
+    ap = autopilot_for(autopilot, mav_type, sysid, 1, FRAME)
+    assert ap is not None
+    return ap
+
+
+def circle_setpoint(
+    bearing: float, *, radius: float = 100.0, speed: float = 18.0, clockwise: bool = True
+) -> Setpoint:
+    """The setpoint on a circle around (0, 0) at ``bearing`` (rad from north, cw)."""
+    n, e = radius * math.cos(bearing), radius * math.sin(bearing)
+    sign = 1.0 if clockwise else -1.0
+    vn, ve = -sign * speed * math.sin(bearing), sign * speed * math.cos(bearing)
+    return Setpoint(
+        0.0, n, e, -40.0, vn, ve, 0.0, math.atan2(ve, vn), sign * speed / radius,
+        center=(0.0, 0.0), radius=radius, clockwise=clockwise,
+    )  # fmt: skip
+
+
+def send_and_ack(gcs: Gcs, msg: object) -> tuple[Any, list[Any]]:
+    """Send through bytes to the mock vehicle; its COMMAND_ACK and other replies."""
+    replies = gcs.send(msg)
+    acks = [m for m in replies if m.get_type() == "COMMAND_ACK"]
+    assert len(acks) == 1, replies
+    return acks[0], [m for m in replies if m is not acks[0]]
+
+
+def roundtrip(msg: Any) -> Any:
+    """Pack with one MAVLink object, parse with another: what the autopilot receives."""
+    tx = M.MAVLink(None, srcSystem=255, srcComponent=190)
+    rx = M.MAVLink(None)
+    parsed = rx.parse_buffer(bytes(msg.pack(tx)))
+    assert parsed is not None and len(parsed) == 1
+    return parsed[0]
+
+
+# ======================================================================= recognition
+@pytest.mark.parametrize(
+    ("autopilot", "mav_type", "cls", "kind"),
+    [
+        (M.MAV_AUTOPILOT_PX4, FW, PX4, VehicleClass.PLANE),
+        (M.MAV_AUTOPILOT_PX4, QUAD, PX4, VehicleClass.COPTER),
+        (M.MAV_AUTOPILOT_PX4, M.MAV_TYPE_VTOL_TILTROTOR, PX4, VehicleClass.PLANE),
+        (M.MAV_AUTOPILOT_ARDUPILOTMEGA, FW, ArduPlane, VehicleClass.PLANE),
+        (M.MAV_AUTOPILOT_ARDUPILOTMEGA, M.MAV_TYPE_HEXAROTOR, ArduCopter, VehicleClass.COPTER),
+    ],
+)
+def test_firmware_and_airframe_are_recognised(
+    autopilot: int, mav_type: int, cls: type, kind: VehicleClass
+) -> None:
+    ap = strategy(autopilot, mav_type)
+    assert type(ap) is cls
+    assert ap.kind is kind
+
+
+@pytest.mark.parametrize(
+    ("autopilot", "mav_type"),
+    [
+        (M.MAV_AUTOPILOT_GENERIC, FW),
+        (M.MAV_AUTOPILOT_INVALID, M.MAV_TYPE_GCS),
+        (M.MAV_AUTOPILOT_ARDUPILOTMEGA, M.MAV_TYPE_GROUND_ROVER),
+        (M.MAV_AUTOPILOT_PX4, M.MAV_TYPE_GIMBAL),
+    ],
+)
+def test_unsupported_vehicles_get_no_strategy(autopilot: int, mav_type: int) -> None:
+    assert autopilot_for(autopilot, mav_type, 1, 1, FRAME) is None
+
+
+def test_setup_steps_per_firmware() -> None:
+    px4 = strategy(M.MAV_AUTOPILOT_PX4, FW)
+    assert px4.setup_steps == (SetupStep.SETPOINTS, SetupStep.MODE, SetupStep.ARM)
+    assert px4.streams_during_setup
+    copter = strategy(M.MAV_AUTOPILOT_ARDUPILOTMEGA, QUAD)
+    assert copter.setup_steps == (SetupStep.MODE, SetupStep.ARM, SetupStep.TAKEOFF)
+    plane = strategy(M.MAV_AUTOPILOT_ARDUPILOTMEGA, FW)
+    assert plane.setup_steps == (SetupStep.MODE, SetupStep.ARM)
+    assert not copter.streams_during_setup and not plane.streams_during_setup
+
+
+# ============================================================================ modes
+@pytest.mark.parametrize(
+    ("personality", "frame", "autopilot", "mav_type"),
+    [
+        (MOCK_PX4, "plane", M.MAV_AUTOPILOT_PX4, FW),
+        (MOCK_PX4, "copter", M.MAV_AUTOPILOT_PX4, QUAD),
+        (AP, "plane", M.MAV_AUTOPILOT_ARDUPILOTMEGA, FW),
+        (AP, "copter", M.MAV_AUTOPILOT_ARDUPILOTMEGA, QUAD),
+    ],
+)
+def test_mode_names_and_commands_match_the_firmware(
+    personality: Personality, frame: Literal["plane", "copter"], autopilot: int, mav_type: int
+) -> None:
+    ap = strategy(autopilot, mav_type)
+    firmware = firmware_for(personality, frame)
+    for mode in firmware.modes:
+        assert ap.mode_name(mode.custom_mode) == mode.name
+    # the external and hold modes, commanded our way, are what the mock switches to
+    gcs = warm_gcs(make_vehicle(personality, frame))
+    for name in (ap.hold_mode, ap.external_mode):
+        if name == "OFFBOARD":
+            continue  # needs a live setpoint stream (see the Vehicle tests)
+        ack, _ = send_and_ack(gcs, ap.mode_command(name).message(1, 1))
+        assert ack.result == M.MAV_RESULT_ACCEPTED
+        assert gcs.vehicle.mode == name
+
+
+def test_mode_command_parameters() -> None:
+    px4 = strategy(M.MAV_AUTOPILOT_PX4, FW)
+    assert px4.mode_command("OFFBOARD").params[:3] == (1.0, 6.0, 0.0)
+    assert px4.hold_command().params[:3] == (1.0, 4.0, 3.0)
+    assert px4.mode_name(6 << 16) == "OFFBOARD"
+    assert px4.mode_name(4 << 16) == "AUTO.MISSION"
+    assert px4.mode_name(42 << 16) == "MODE(42,0)"
+    copter = strategy(M.MAV_AUTOPILOT_ARDUPILOTMEGA, QUAD)
+    assert copter.mode_command("GUIDED").params[:2] == (1.0, 4.0)
+    assert copter.hold_command().params[:2] == (1.0, 5.0)
+    plane = strategy(M.MAV_AUTOPILOT_ARDUPILOTMEGA, FW)
+    assert plane.mode_command("GUIDED").params[:2] == (1.0, 15.0)
+    assert plane.hold_command().params[:2] == (1.0, 12.0)
+    assert plane.mode_name(99) == "MODE(99)"
+    with pytest.raises(KeyError):
+        plane.mode_command("OFFBOARD")
+    with pytest.raises(KeyError):
+        px4.mode_command("GUIDED")
+
+
+def test_takeoff_altitude_conventions() -> None:
+    copter = strategy(M.MAV_AUTOPILOT_ARDUPILOTMEGA, QUAD)
+    cmd = copter.takeoff_command(30.0, 518.0)
+    assert cmd is not None and cmd.command == M.MAV_CMD_NAV_TAKEOFF
+    assert cmd.params[6] == 30.0  # ArduPilot: above home
+    px4 = strategy(M.MAV_AUTOPILOT_PX4, QUAD)
+    cmd = px4.takeoff_command(30.0, 518.0)
+    assert cmd is not None and cmd.params[6] == 518.0  # PX4: AMSL
+    assert strategy(M.MAV_AUTOPILOT_ARDUPILOTMEGA, FW).takeoff_command(30.0, 518.0) is None
+
+
+def test_commands_carry_retry_count_and_target() -> None:
+    px4 = strategy(M.MAV_AUTOPILOT_PX4, FW, sysid=7)
+    msg = roundtrip(px4.arm_command().message(7, 1, confirmation=3))
+    assert msg.get_type() == "COMMAND_LONG"
+    assert (msg.target_system, msg.confirmation, msg.param1) == (7, 3, 1.0)
+
+
+# ======================================================================= telemetry
+def test_stream_requests() -> None:
+    rates = {M.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: 10.0, M.MAVLINK_MSG_ID_SYS_STATUS: 0.5}
+    px4 = strategy(M.MAV_AUTOPILOT_PX4, FW).stream_requests(rates)
+    assert [m.get_type() for m in px4] == ["COMMAND_LONG", "COMMAND_LONG"]
+    assert {(m.param1, m.param2) for m in px4} == {(33.0, 100_000.0), (1.0, 2_000_000.0)}
+    ardu = strategy(M.MAV_AUTOPILOT_ARDUPILOTMEGA, QUAD).stream_requests(rates)
+    groups = {(m.req_stream_id, m.req_message_rate) for m in ardu if m.get_type() != "COMMAND_LONG"}
+    assert groups == {(M.MAV_DATA_STREAM_POSITION, 10), (M.MAV_DATA_STREAM_EXTENDED_STATUS, 1)}
+    assert sum(m.get_type() == "COMMAND_LONG" for m in ardu) == 2
+
+
+def test_ardupilot_streams_start_on_request() -> None:
+    gcs = Gcs(make_vehicle(AP, "copter"))
+    assert not [m for m in gcs.run(1.0) if m.get_type() == "GLOBAL_POSITION_INT"]
+    ap = strategy(M.MAV_AUTOPILOT_ARDUPILOTMEGA, QUAD)
+    for msg in ap.stream_requests({M.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: 10.0}):
+        gcs.send(msg)
+    got = [m for m in gcs.run(1.0) if m.get_type() == "GLOBAL_POSITION_INT"]
+    assert 9 <= len(got) <= 11
+
+
+# ======================================================================== setpoints
+def test_global_setpoint_is_read_back_where_it_was_meant() -> None:
+    sp = circle_setpoint(0.3)
+    msg = roundtrip(global_setpoint(sp, FRAME, 3, 1, 12.345))
+    assert msg.coordinate_frame == M.MAV_FRAME_GLOBAL_INT
+    assert msg.type_mask == SETPOINT_POS_VEL_YAW
+    assert msg.time_boot_ms == 12345
+    assert msg.alt == pytest.approx(FRAME.origin.alt + 40.0)
+    target = decode_global_setpoint(msg, Frames(WORLD, WORLD), home_alt=400.0)
+    assert target is not None
+    assert (target.north, target.east, target.down) == pytest.approx(
+        (sp.north, sp.east, sp.down), abs=0.02
+    )
+    assert (target.vn, target.ve) == pytest.approx((sp.vn, sp.ve), abs=1e-4)
+    assert target.yaw == pytest.approx(sp.yaw, abs=1e-6)
+    assert target.yaw_rate is None  # ignored: yaw is absolute, robust to lost packets
+
+
+def test_hold_setpoint_is_position_only() -> None:
+    sp = Setpoint(0.0, 50.0, -20.0, -60.0, 5.0, 5.0, 0.0, 1.0, 0.0, hold=True)
+    msg = roundtrip(global_setpoint(sp, FRAME, 1, 1, 0.0))
+    assert msg.type_mask == SETPOINT_POSITION_ONLY
+    target = decode_global_setpoint(msg, Frames(WORLD, WORLD), home_alt=0.0)
+    assert target is not None and target.vn is None and target.yaw is None
+
+
+def test_along_track_error_on_arcs_and_straights() -> None:
+    r = 100.0
+    sp = circle_setpoint(math.radians(40.0), radius=r)
+    behind = (r * math.cos(math.radians(30.0)), r * math.sin(math.radians(30.0)))
+    assert along_track_error(sp, *behind) == pytest.approx(r * math.radians(10.0))
+    ahead = (r * math.cos(math.radians(55.0)), r * math.sin(math.radians(55.0)))
+    assert along_track_error(sp, *ahead) == pytest.approx(-r * math.radians(15.0))
+    # half a lap away the sign is still meaningful (wrapped to +-pi R)
+    opposite = circle_setpoint(math.radians(40.0 + 170.0), radius=r)
+    assert along_track_error(opposite, *behind) == pytest.approx(r * math.radians(180.0), rel=1e-6)
+    ccw = circle_setpoint(math.radians(40.0), radius=r, clockwise=False)
+    assert along_track_error(ccw, *behind) == pytest.approx(-r * math.radians(10.0))
+    # farther out than the circle: the phase is the bearing difference at radius R
+    assert along_track_error(sp, 2 * behind[0], 2 * behind[1]) == pytest.approx(
+        r * math.radians(10.0)
+    )
+    straight = Setpoint(0.0, 100.0, 0.0, -40.0, 10.0, 0.0, 0.0, 0.0, 0.0)
+    assert along_track_error(straight, 70.0, 25.0) == pytest.approx(30.0)
+    assert along_track_error(straight, 120.0, 0.0) == pytest.approx(-20.0)
+
+
+def test_phase_corrected_speed_is_bounded_and_signed() -> None:
+    v, r = 18.0, 100.0
+    sp = circle_setpoint(1.0, radius=r, speed=v)
+    on = (sp.north, sp.east)
+    assert phase_corrected_speed(sp, *on) == pytest.approx(v)
+    slightly = (r * math.cos(0.9), r * math.sin(0.9))  # 10 m behind
+    assert phase_corrected_speed(sp, *slightly) == pytest.approx(v * (1 + 10.0 / (v * 20.0)))
+    far_behind = (r * math.cos(-1.0), r * math.sin(-1.0))
+    assert phase_corrected_speed(sp, *far_behind) == pytest.approx(1.15 * v)
+    far_ahead = (r * math.cos(2.5), r * math.sin(2.5))
+    assert phase_corrected_speed(sp, *far_ahead) == pytest.approx(0.85 * v)
+    assert phase_corrected_speed(sp, *far_ahead, limit=0.05) == pytest.approx(0.95 * v)
+    still = Setpoint(0.0, 0.0, 0.0, -40.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    assert phase_corrected_speed(still, 10.0, 10.0) == 0.0
+
+
+def test_px4_plane_speeds_up_when_behind_copter_does_not() -> None:
+    sp = circle_setpoint(1.0)
+    behind = (100 * math.cos(0.2), 100 * math.sin(0.2))
+    (plane_msg,) = strategy(M.MAV_AUTOPILOT_PX4, FW).setpoint_messages(sp, 1.0, behind)
+    assert math.hypot(plane_msg.vx, plane_msg.vy) == pytest.approx(1.15 * 18.0)
+    (copter_msg,) = strategy(M.MAV_AUTOPILOT_PX4, QUAD).setpoint_messages(sp, 1.0, behind)
+    assert math.hypot(copter_msg.vx, copter_msg.vy) == pytest.approx(18.0)
+    (unknown,) = strategy(M.MAV_AUTOPILOT_PX4, FW).setpoint_messages(sp, 1.0, None)
+    assert math.hypot(unknown.vx, unknown.vy) == pytest.approx(18.0)
+
+
+# ========================================================================= ArduPlane
+def plane() -> ArduPlane:
+    ap = strategy(M.MAV_AUTOPILOT_ARDUPILOTMEGA, FW)
+    assert isinstance(ap, ArduPlane)
+    return ap
+
+
+def test_arduplane_reposition_only_when_the_arc_changes() -> None:
+    ap = plane()
+    sp = circle_setpoint(0.5, radius=120.0, clockwise=False)
+    (msg,) = ap.setpoint_messages(sp, 10.0, None)
+    msg = roundtrip(msg)
+    assert msg.get_type() == "COMMAND_INT"
+    assert msg.command == M.MAV_CMD_DO_REPOSITION
+    assert msg.frame == M.MAV_FRAME_GLOBAL_INT
+    assert (msg.param3, msg.param4) == (120.0, 1.0)
+    centre = FRAME.to_geo(0.0, 0.0, -40.0)
+    assert (msg.x, msg.y) == (round(centre.lat * 1e7), round(centre.lon * 1e7))
+    assert msg.z == pytest.approx(centre.alt)
+    # the same arc, further along: nothing new while waiting for the ACK
+    assert (
+        ap.setpoint_messages(circle_setpoint(0.6, radius=120.0, clockwise=False), 10.5, None) == []
+    )
+    # unacknowledged for `retry`: sent again; acknowledged: quiet
+    assert len(ap.setpoint_messages(sp, 11.0, None)) == 1
+    ap.on_ack(M.MAV_CMD_DO_REPOSITION, M.MAV_RESULT_ACCEPTED, 11.1)
+    assert ap.setpoint_messages(sp, 20.0, None) == []
+    # a new arc (another centre, radius or direction): sent at once
+    moved = replace(sp, center=(30.0, 0.0))
+    assert len(ap.setpoint_messages(moved, 20.1, None)) == 1
+    ap.on_ack(M.MAV_CMD_DO_REPOSITION, M.MAV_RESULT_FAILED, 20.2)
+    assert ap.setpoint_messages(moved, 20.5, None) == []
+    assert len(ap.setpoint_messages(moved, 21.2, None)) == 1  # refused: retried
+    flipped = replace(moved, clockwise=True)
+    assert len(ap.setpoint_messages(flipped, 21.3, None)) == 1
+
+
+def test_arduplane_speed_changes_are_rate_limited() -> None:
+    ap = plane()
+    sp = circle_setpoint(1.0)
+    ap.setpoint_messages(sp, 0.0, (sp.north, sp.east))  # reposition + first speed
+    assert ap.speed == pytest.approx(18.0)
+    behind = (100 * math.cos(0.5), 100 * math.sin(0.5))
+    assert ap.setpoint_messages(sp, 0.5, behind) == []  # too soon
+    ap.on_ack(M.MAV_CMD_DO_REPOSITION, M.MAV_RESULT_ACCEPTED, 0.5)
+    (msg,) = ap.setpoint_messages(sp, 1.0, behind)
+    assert msg.command == M.MAV_CMD_DO_CHANGE_SPEED
+    assert (msg.param1, msg.param3) == (0.0, -1.0)
+    assert msg.param2 == pytest.approx(phase_corrected_speed(sp, *behind))
+    assert ap.setpoint_messages(sp, 2.5, behind) == []  # no change worth sending
+    ap.on_ack(M.MAV_CMD_DO_CHANGE_SPEED, M.MAV_RESULT_FAILED, 2.6)
+    assert len(ap.setpoint_messages(sp, 3.6, behind)) == 1  # refused: sent again
+
+
+def test_arduplane_straight_is_a_moving_carrot() -> None:
+    ap = plane()
+    sp = Setpoint(0.0, 0.0, 0.0, -40.0, 0.0, 18.0, 0.0, math.pi / 2, 0.0)  # due east
+    ap.setpoint_messages(sp, 0.0, None)
+    assert ap.loiter is not None
+    assert ap.loiter[:2] == pytest.approx((0.0, ap.carrot))
+    ap.on_ack(M.MAV_CMD_DO_REPOSITION, M.MAV_RESULT_ACCEPTED, 0.1)
+    near = replace(sp, east=0.05 * ap.carrot)
+    assert ap.setpoint_messages(near, 1.0, None) == []
+    far = replace(sp, east=0.2 * ap.carrot)
+    assert len(ap.setpoint_messages(far, 2.0, None)) == 1
+
+
+def test_arduplane_loiter_is_flown_by_the_mock() -> None:
+    """Our DO_REPOSITION, through bytes, makes the mock's ArduPlane loiter as meant."""
+    gcs = warm_gcs(make_vehicle(AP, "plane"))
+    ap = plane()
+    assert send_and_ack(gcs, ap.mode_command("GUIDED").message(1, 1))[0].result == 0
+    assert send_and_ack(gcs, ap.arm_command().message(1, 1))[0].result == 0
+    sp = circle_setpoint(0.0, radius=150.0, clockwise=False)
+    (msg,) = ap.setpoint_messages(sp, gcs.now, None)
+    ack, _ = send_and_ack(gcs, msg)
+    assert ack.result == M.MAV_RESULT_ACCEPTED
+    goal = gcs.vehicle.flight.goal
+    assert isinstance(goal, Loiter)
+    assert (goal.north, goal.east, goal.radius, goal.clockwise) == pytest.approx(
+        (0.0, 0.0, 150.0, False), abs=0.02
+    )
+    assert goal.down == pytest.approx(-40.0, abs=0.01)

@@ -1,0 +1,244 @@
+"""MissionClock against a hand-cranked wall clock: speedups, jitter, reboots, handover."""
+
+from __future__ import annotations
+
+import asyncio
+import random
+
+import pytest
+
+from convoy_mav.clock import MissionClock
+
+
+class FakeWall:
+    """A wall clock that moves only when told to."""
+
+    def __init__(self, start: float = 1000.0) -> None:
+        self.value = start
+
+    def __call__(self) -> float:
+        return self.value
+
+
+class Autopilot:
+    """One simulated vehicle clock: boot time = speedup x wall since its boot."""
+
+    def __init__(self, wall: FakeWall, speedup: float, boot_offset: float = 0.0) -> None:
+        self.wall = wall
+        self.speedup = speedup
+        self.w0 = wall.value
+        self.offset = boot_offset  # mission seconds already elapsed at w0
+
+    def mission(self, wall: float | None = None) -> float:
+        w = self.wall.value if wall is None else wall
+        return self.offset + self.speedup * (w - self.w0)
+
+    def boot_ms(self, wall: float | None = None) -> int:
+        return int(self.mission(wall) * 1000.0)
+
+
+def feed(
+    clock: MissionClock,
+    wall: FakeWall,
+    sources: dict[int, Autopilot],
+    seconds: float,
+    *,
+    hz: float = 50.0,
+    jitter: float = 0.0,
+    rng: random.Random | None = None,
+) -> None:
+    """Advance the wall ``seconds``; each source sends ``hz`` messages per wall second.
+
+    A message is stamped when sent and observed ``delay`` later (0..jitter wall s).
+    """
+    rng = rng or random.Random(1)
+    steps = round(seconds * hz)
+    for _ in range(steps):
+        sent = wall.value + 1.0 / hz
+        for sysid, ap in sources.items():
+            stamp = ap.boot_ms(sent)
+            wall.value = sent + (rng.uniform(0.0, jitter) if jitter else 0.0)
+            clock.observe(stamp, sysid)
+        wall.value = sent
+
+
+@pytest.mark.parametrize("speedup", [1.0, 20.0, 40.0])
+def test_rate_and_time_follow_the_autopilot(speedup: float) -> None:
+    wall = FakeWall()
+    clock = MissionClock(wall)
+    ap = Autopilot(wall, speedup, boot_offset=12.5)
+    feed(clock, wall, {1: ap}, 5.0)
+    assert clock.rate == pytest.approx(speedup, rel=1e-3)
+    assert clock.rate_trusted
+    # at most one millisecond of time_boot_ms truncation
+    assert abs(clock.now() - ap.mission()) < 2e-3
+    wall.value += 0.2  # extrapolation between messages
+    assert abs(clock.now() - ap.mission()) < 2e-3
+
+
+@pytest.mark.parametrize("speedup", [1.0, 20.0, 40.0])
+def test_jitter_costs_at_most_the_delay(speedup: float) -> None:
+    wall = FakeWall()
+    clock = MissionClock(wall)
+    ap = Autopilot(wall, speedup)
+    jitter = 0.004  # up to 4 ms of wall delay per message
+    feed(clock, wall, {1: ap}, 8.0, jitter=jitter)
+    assert clock.rate == pytest.approx(speedup, rel=5e-3)
+    error = clock.now() - ap.mission()
+    # the line trails by ~ the mean delay; never more than the worst delay
+    assert -speedup * jitter - 2e-3 < error < 2e-3
+
+
+def test_event_loop_stalls_are_outliers() -> None:
+    """A stalled loop reads a burst of queued packets late, in order: ignored by the fit."""
+    wall = FakeWall()
+    clock = MissionClock(wall)
+    ap = Autopilot(wall, 40.0)
+    start = wall.value
+    for i in range(400):
+        sent = start + 0.02 * (i + 1)
+        arrival = sent
+        if i % 50 in range(40, 47):  # every second a 150 ms stall: read at its end, in order
+            arrival = start + 0.02 * (i - i % 50 + 47) + 0.001
+        wall.value = arrival
+        clock.observe(ap.boot_ms(sent), 1)
+    assert clock.reboots == 0
+    assert clock.rate == pytest.approx(40.0, rel=5e-3)
+    assert abs(clock.now() - ap.mission()) < 0.04  # 1 ms of wall at 40x
+
+
+def test_reordered_packets_are_not_reboots() -> None:
+    wall = FakeWall()
+    clock = MissionClock(wall)
+    ap = Autopilot(wall, 40.0)
+    feed(clock, wall, {1: ap}, 1.0)
+    # two packets delivered 200 ms of wall (8 mission s) late, after newer ones
+    clock.observe(ap.boot_ms(wall.value - 0.2), 1)
+    clock.observe(ap.boot_ms(wall.value - 0.18), 1)
+    feed(clock, wall, {1: ap}, 1.0)
+    assert clock.reboots == 0
+    assert abs(clock.now() - ap.mission()) < 2e-3
+
+
+def test_rate_hint_is_used_until_the_window_is_long_enough() -> None:
+    wall = FakeWall()
+    hinted = MissionClock(wall, rate_hint=40.0)
+    blind = MissionClock(wall)
+    ap = Autopilot(wall, 40.0)
+    for _ in range(3):
+        wall.value += 0.05
+        hinted.observe(ap.boot_ms(), 1)
+        blind.observe(ap.boot_ms(), 1)
+    assert not hinted.rate_trusted
+    assert hinted.rate == 40.0
+    assert blind.rate == 1.0
+    wall.value += 0.05  # between messages the hint extrapolates correctly
+    assert abs(hinted.now() - ap.mission()) < 2e-3
+    feed(blind, wall, {1: ap}, 1.0)
+    assert blind.rate_trusted
+    assert blind.rate == pytest.approx(40.0, rel=1e-3)
+
+
+def test_before_any_vehicle_time_is_zero() -> None:
+    clock = MissionClock(FakeWall())
+    assert not clock.synced
+    assert clock.now() == 0.0
+    assert clock.reference is None
+
+
+def test_mission_time_is_the_first_vehicles_boot_time() -> None:
+    wall = FakeWall()
+    clock = MissionClock(wall)
+    first = Autopilot(wall, 20.0, boot_offset=100.0)
+    second = Autopilot(wall, 20.0, boot_offset=3.0)  # booted 97 mission s later
+    feed(clock, wall, {1: first, 2: second}, 3.0)
+    assert clock.reference == 1
+    assert abs(clock.now() - first.mission()) < 2e-3
+    # a stamp of vehicle 2 maps onto mission time
+    assert clock.to_mission(second.boot_ms(), 2) == pytest.approx(first.mission(), abs=3e-3)
+
+
+@pytest.mark.parametrize("speedup", [1.0, 40.0])
+def test_reboot_reanchors_without_a_jump(speedup: float) -> None:
+    wall = FakeWall()
+    clock = MissionClock(wall)
+    ap = Autopilot(wall, speedup, boot_offset=50.0)
+    feed(clock, wall, {1: ap}, 3.0)
+    before = clock.now()
+    true_before = ap.mission()
+    # reboot: its clock restarts from 0 at this wall time
+    rebooted = Autopilot(wall, speedup, boot_offset=0.0)
+    feed(clock, wall, {1: rebooted}, 2.0)
+    assert clock.reboots == 1
+    elapsed = speedup * 2.0
+    assert clock.now() == pytest.approx(before + elapsed, abs=speedup * 0.03)
+    assert clock.now() == pytest.approx(true_before + elapsed, abs=speedup * 0.03)
+    assert clock.rate == pytest.approx(speedup, rel=1e-2)
+    # stamps after the reboot map to continuing mission time
+    assert clock.to_mission(rebooted.boot_ms(), 1) == pytest.approx(clock.now(), abs=0.01)
+
+
+def test_reference_silent_hands_over_continuously() -> None:
+    wall = FakeWall()
+    clock = MissionClock(wall, handover_after=2.0)
+    first = Autopilot(wall, 40.0, boot_offset=10.0)
+    second = Autopilot(wall, 40.0, boot_offset=500.0)
+    feed(clock, wall, {1: first, 2: second}, 2.0)
+    last = clock.now()
+    feed(clock, wall, {2: second}, 2.0)  # vehicle 1 is gone
+    assert clock.reference == 2
+    assert clock.handovers == 1
+    # mission time keeps following vehicle 1's (dead) clock: no jump at the handover
+    assert clock.now() == pytest.approx(first.mission(), abs=0.05)
+    assert clock.now() > last
+    assert clock.rate == pytest.approx(40.0, rel=1e-2)
+
+
+def test_now_never_goes_backwards() -> None:
+    wall = FakeWall()
+    clock = MissionClock(wall)
+    ap = Autopilot(wall, 40.0)
+    rng = random.Random(3)
+    previous = -1.0
+    for _ in range(500):
+        wall.value += 0.01
+        clock.observe(ap.boot_ms(wall.value - rng.uniform(0, 0.01)), 1)
+        t = clock.now()
+        assert t >= previous
+        previous = t
+
+
+def test_bad_rate_hint_is_refused() -> None:
+    with pytest.raises(ValueError, match="rate_hint"):
+        MissionClock(rate_hint=0.0)
+
+
+async def test_sleep_until_converts_with_the_rate() -> None:
+    wall = FakeWall()
+    slept: list[float] = []
+    ap = Autopilot(wall, 40.0, boot_offset=5.0)
+
+    async def fake_sleep(dt: float) -> None:  # wall passes, the vehicle keeps talking
+        slept.append(dt)
+        wall.value += dt
+        clock.observe(ap.boot_ms(), 1)
+        await asyncio.sleep(0)
+
+    clock = MissionClock(wall, rate_hint=40.0, sleep=fake_sleep)
+    feed(clock, wall, {1: ap}, 1.0)
+    start = clock.now()
+    await clock.sleep_until(start + 20.0)  # 20 mission s = 0.5 wall s at 40x
+    assert clock.now() >= start + 20.0
+    assert sum(slept) == pytest.approx(0.5, abs=0.01)
+    await clock.sleep_until(start)  # in the past: returns at once
+    assert sum(slept) == pytest.approx(0.5, abs=0.01)
+
+
+async def test_sleep_until_waits_for_the_first_vehicle() -> None:
+    clock = MissionClock(rate_hint=1000.0)
+    task = asyncio.create_task(clock.sleep_until(1.0))
+    await asyncio.sleep(0.01)
+    assert not task.done()
+    clock.observe(5000, 1)  # mission time is 5 s: already past
+    await asyncio.wait_for(task, 1.0)
+    assert clock.synced
