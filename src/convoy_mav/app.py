@@ -619,7 +619,11 @@ class ConvoyService:
             snapshot=self.monitor.snapshot(end_t),
             end_t=end_t,
             predicted_coverage=self.view.predicted_coverage,
-            convoy_speed_mps=est.speed if est is not None else 0.0,
+            convoy_speed_mps=(
+                self.view.convoy_speed
+                if self.view.convoy_speed is not None
+                else (est.speed if est is not None else 0.0)
+            ),
             statuses={s: str(v.status) for s, v in self.vehicles.items()},
             replans=self.replans,
             alarms=self.alarms,

@@ -5,10 +5,6 @@ Two codecs are joined through plain bytes (h11 style); no sockets.
 
 from __future__ import annotations
 
-import ast
-import subprocess
-import sys
-from pathlib import Path
 from typing import Any
 
 import pytest
@@ -260,29 +256,6 @@ def test_any_single_corruption_costs_at_most_that_datagram(data: st.DataObject) 
 
 
 # -- purity ----------------------------------------------------------------------------
-
-
-def test_codec_and_connection_import_no_io() -> None:
-    root = Path(__file__).resolve().parents[2] / "src" / "convoy_mav" / "mavlink"
-    for name in ("codec.py", "connection.py"):
-        tree = ast.parse((root / name).read_text())
-        imported = {
-            alias.name.split(".")[0]
-            for node in ast.walk(tree)
-            if isinstance(node, ast.Import)
-            for alias in node.names
-        } | {
-            (node.module or "").split(".")[0]
-            for node in ast.walk(tree)
-            if isinstance(node, ast.ImportFrom)
-        }
-        assert not imported & {"asyncio", "socket", "time", "selectors"}, name
-    code = (
-        "import sys, convoy_mav.mavlink.codec, convoy_mav.mavlink.connection;"
-        "print(sorted({'asyncio', 'socket'} & set(sys.modules)))"
-    )
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert out.stdout.strip() == "[]"
 
 
 @settings(max_examples=100, deadline=None)

@@ -2,13 +2,10 @@
 
 from __future__ import annotations
 
-import ast
 import math
-from pathlib import Path
 
 import pytest
 
-import convoy_mav
 from convoy_mav.errors import PlanningError
 from convoy_mav.mission import (
     Mission,
@@ -250,18 +247,3 @@ def test_join_refuses_non_finite_poses() -> None:
     mission, _ = _joined_mission()
     with pytest.raises(ValueError):
         mission.join(11, math.nan, 0.0, 0.0, 5.0)
-
-
-@pytest.mark.parametrize(
-    "module",
-    ["schedule.py", "convoy.py", "mission/join.py", "mission/replan.py", "mission/mission.py"],
-)
-def test_mission_layer_is_pure(module: str) -> None:
-    source = Path(convoy_mav.__file__).parent / module
-    imported: set[str] = set()
-    for node in ast.walk(ast.parse(source.read_text())):
-        if isinstance(node, ast.Import):
-            imported |= {a.name.split(".")[0] for a in node.names}
-        elif isinstance(node, ast.ImportFrom) and node.module:
-            imported.add(node.module.split(".")[0])
-    assert not imported & {"asyncio", "socket", "time", "aiomqtt", "pymavlink"}

@@ -182,29 +182,3 @@ def test_refusals_speak_each_firmware() -> None:
         "Mode change to GUIDED failed: requires position"
     )
     assert px4.streams_on_boot and not ap.streams_on_boot
-
-
-@pytest.mark.parametrize(
-    "module", ["autopilot", "flight", "messages", "personality", "params", "streams"]
-)
-def test_layer_two_is_pure(module: str) -> None:
-    """Sans-I/O: no sockets, event loops or clocks in the autopilot layer."""
-    import ast
-    import importlib
-
-    source = importlib.import_module(f"sitl_mock.{module}").__file__
-    assert source is not None
-    with open(source, encoding="utf-8") as f:
-        tree = ast.parse(f.read())
-    imported = {
-        alias.name.split(".")[0]
-        for node in ast.walk(tree)
-        if isinstance(node, ast.Import)
-        for alias in node.names
-    } | {
-        (node.module or "").split(".")[0]
-        for node in ast.walk(tree)
-        if isinstance(node, ast.ImportFrom)
-    }
-    assert not imported & {"asyncio", "socket", "time", "threading"}
-    assert "mavutil" not in ast.dump(tree)  # the generated dialect only

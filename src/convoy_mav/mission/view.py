@@ -41,6 +41,7 @@ class MissionView:
     lost: frozenset[int] = frozenset()
     predicted_coverage: float | None = None
     protect_start: float | None = None
+    convoy_speed: float | None = None  # what the plan in force assumes, m/s
 
     @classmethod
     def of(cls, mission: Mission, down: Callable[[int], float]) -> MissionView:
@@ -58,6 +59,7 @@ class MissionView:
             lost=frozenset(mission.lost_uavs),
             predicted_coverage=mission.predicted_coverage,
             protect_start=mission.protect_start,
+            convoy_speed=None if mission.motion is None else mission.motion.speed,
         )
 
     def setpoint(self, uav: int, t: float) -> Setpoint | None:
