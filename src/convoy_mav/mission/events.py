@@ -13,6 +13,15 @@ __all__ = ["MissionAlarm", "MissionEvent", "Phase", "PhaseChanged", "Replanned"]
 Phase = Literal["pending", "join", "protect", "lost"]
 
 
+def phase_at(lost: bool, arrival: float | None, t: float) -> Phase:
+    """A UAV's phase at mission time ``t``: lost, no slot yet, joining or protecting."""
+    if lost:
+        return "lost"
+    if arrival is None:
+        return "pending"
+    return "protect" if t >= arrival else "join"
+
+
 @dataclass(frozen=True, slots=True)
 class Replanned:
     """A new plan is in force from mission time ``t``.

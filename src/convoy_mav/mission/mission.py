@@ -33,6 +33,7 @@ from convoy_mav.mission.events import (
     Phase,
     PhaseChanged,
     Replanned,
+    phase_at,
 )
 from convoy_mav.mission.join import Join, earliest_arrival, plan_join
 from convoy_mav.mission.replan import ChangeDetector, ConvoyMotion, ReplanThresholds
@@ -189,12 +190,7 @@ class Mission:
 
     def phase(self, uav: int, t: float) -> Phase:
         """Where ``uav`` is at mission time ``t``."""
-        if uav in self._lost:
-            return "lost"
-        a = self._assigned.get(uav)
-        if a is None:
-            return "pending"
-        return "protect" if t >= a.arrival(self.plan_t0) else "join"
+        return phase_at(uav in self._lost, self.arrival(uav), t)
 
     def convoy_position(self, t: float) -> tuple[float, float] | None:
         """Where the plan in force expects the convoy at mission time ``t``."""

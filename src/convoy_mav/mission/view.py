@@ -13,7 +13,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
-from convoy_mav.mission.events import Phase
+from convoy_mav.mission.events import Phase, phase_at
 from convoy_mav.mission.mission import Mission
 from convoy_mav.planning.plan import Trajectory
 from convoy_mav.schedule import setpoint_on
@@ -73,9 +73,5 @@ class MissionView:
 
     def phase(self, uav: int, t: float) -> Phase:
         """``pending``, ``join``, ``protect`` or ``lost`` at mission time ``t``."""
-        if uav in self.lost:
-            return "lost"
         slot = self.slots.get(uav)
-        if slot is None:
-            return "pending"
-        return "protect" if t >= slot.arrival else "join"
+        return phase_at(uav in self.lost, None if slot is None else slot.arrival, t)
