@@ -37,6 +37,7 @@ from convoy_mav.convoy import ConvoyTracker
 from convoy_mav.geo import GeoPoint, LocalFrame
 from convoy_mav.history import History
 from convoy_mav.mavlink import MavLink
+from convoy_mav.mavlink.autopilots.base import set_message_interval
 from convoy_mav.mission import (
     Mission,
     MissionAlarm,
@@ -60,6 +61,7 @@ log = logging.getLogger(__name__)
 
 _GIL_SWITCH_S = 0.001  # s: how long the mission worker may hold the GIL at a time
 _GROUND_STREAM_RETRY = 5.0  # mission s between stream requests to a silent ground vehicle
+_GROUND_POSITION_HZ = 10  # GLOBAL_POSITION_INT rate asked of ground vehicles
 
 
 @dataclass(frozen=True, slots=True)
@@ -372,20 +374,22 @@ class ConvoyService:
 
     async def _ground_streams(self, links: list[MavLink]) -> None:
         """Ask ground vehicles for positions until they send some (ArduPilot is silent)."""
-        msg_id = mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT
+        interval = set_message_interval(
+            _GROUND_POSITION_HZ, mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT
+        )
         while True:
             now = self.clock.now() if self.clock.synced else 0.0
             for link, g in zip(links, self.config.convoy.vehicles, strict=True):
                 if now - self._ground_heard.get(g.sysid, -math.inf) > _GROUND_STREAM_RETRY:
-                    link.send(
-                        mavlink.MAVLink_command_long_message(
-                            g.sysid, 1, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, 0,
-                            msg_id, 100_000, 0, 0, 0, 0, 0,
-                        )
-                    )  # fmt: skip
+                    # Firmware unknown here: the modern request, and ArduPilot's stream group.
+                    link.send(interval.message(g.sysid, 1))
                     link.send(
                         mavlink.MAVLink_request_data_stream_message(
-                            g.sysid, 1, mavlink.MAV_DATA_STREAM_POSITION, 10, 1
+                            g.sysid,
+                            1,
+                            mavlink.MAV_DATA_STREAM_POSITION,
+                            _GROUND_POSITION_HZ,
+                            1,
                         )
                     )
             await asyncio.sleep(1.0 / max(1.0, self.clock.rate))
