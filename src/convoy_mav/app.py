@@ -353,13 +353,18 @@ class ConvoyService:
                 pass
         return self._report()
 
+    async def _until(self, t: float) -> None:
+        """Sleep until mission time ``t``, through steps of the autopilots' clock."""
+        while self.clock.now() < t:
+            await self.clock.sleep_until(t)
+
     async def _supervise(self, stop: asyncio.Event, duration: float | None) -> None:
         """Wait for the end, make every UAV loiter, then end the task group."""
         if duration is not None:
             await self.clock.wait_synced()
             end = self.clock.now() + duration
             stopper = asyncio.create_task(stop.wait(), name="convoy.stop-wait")
-            timer = asyncio.create_task(self.clock.sleep_until(end), name="convoy.timer")
+            timer = asyncio.create_task(self._until(end), name="convoy.timer")
             try:
                 await asyncio.wait({stopper, timer}, return_when=asyncio.FIRST_COMPLETED)
             finally:

@@ -27,8 +27,18 @@ Design rules:
     * If the reference goes silent for ``handover_after`` mission seconds, the
       vehicle heard most recently becomes the reference, at its current offset,
       so mission time stays continuous when the reference UAV is lost.
-    * ``now()`` never goes backwards once synchronised; before any observation it
-      is 0.0 and ``sleep_until`` waits for the first one.
+    * The autopilot's clock may *step*: a simulator that cannot keep up pauses
+      (PX4 lockstep SITL, ``sitl_mock`` slipping its clock when its host stalls),
+      and then runs on from where it was. Late packets look the same one at a
+      time, so a step is confirmed only when ``_STEP_CONFIRM`` consecutive packets
+      of the reference, spread over ``_STEP_SPAN`` wall seconds (a stalled loop
+      reads its backlog in one instant), all sit off the line by more than
+      ``_step_threshold`` in the same direction. The line is then rebuilt from
+      those packets at the last measured rate, and ``steps`` counts it.
+    * ``now()`` never goes backwards once synchronised, except at a confirmed
+      step, where it follows the autopilot (``sleep_until`` returns early so
+      deadline loops re-plan). Before any observation it is 0.0 and
+      ``sleep_until`` waits for the first one.
 """
 
 from __future__ import annotations
@@ -59,6 +69,14 @@ _OFFSET_REFRESH = 1.0
 """Wall s between recomputations of a vehicle's offset to the reference."""
 _REFIT_INTERVAL = 0.1
 """Wall s between refits once the rate is trusted (the fit costs ~0.2 ms)."""
+_STEP_CONFIRM = 8
+"""Consecutive packets of the reference off the line that confirm a clock step."""
+_STEP_SPAN = 0.02
+"""Wall s those packets must spread over: a backlog read in one go is not a step."""
+_STEP_FLOOR = 0.1
+"""Mission s: the smallest step followed (the threshold grows with the rate)."""
+_STEP_WALL = 0.01
+"""Wall s of arrival delay, times the rate, that is still jitter rather than a step."""
 _MAX_SLEEP_CHUNK = 0.25
 """Wall s: ``sleep_until`` re-reads the estimate at least this often."""
 _GUESS_SLEEP_CHUNK = 0.01
@@ -102,6 +120,7 @@ class MissionClock:
     Attributes:
         reboots: Reboots seen (``time_boot_ms`` jumping back), all vehicles.
         handovers: Times the reference vehicle changed.
+        steps: Steps of the reference's clock followed (a simulator pausing).
     """
 
     def __init__(
@@ -131,12 +150,15 @@ class MissionClock:
         self._m_a = 0.0
         self._rate = rate_hint if rate_hint is not None else 1.0
         self._rate_trusted = False
+        self._measured: float | None = None  # the last rate a fit gave
+        self._step_run: list[tuple[float, float, float]] = []  # (wall, unwrapped, residual)
         self._dirty = False
         self._fit_wall = -math.inf
         self._last_now = -math.inf
         self._synced = asyncio.Event()
         self.reboots = 0
         self.handovers = 0
+        self.steps = 0
 
     # ------------------------------------------------------------------ queries
     @property
@@ -206,6 +228,8 @@ class MissionClock:
             track.pending = None
         track.last_boot = max(track.last_boot, boot)
         track.last_wall = wall
+        if sysid == self._ref and self._check_step(track, wall, boot + track.epoch):
+            return
         if len(track.samples) >= _DENSE_SAMPLES and wall - track.last_stored < self._spacing:
             return
         track.last_stored = wall
@@ -255,8 +279,39 @@ class MissionClock:
         track.reboots += 1
         self.reboots += 1
 
+    def _step_threshold(self) -> float:
+        return max(_STEP_FLOOR, _STEP_WALL * self._rate)
+
+    def _check_step(self, track: _Track, wall: float, unwrapped: float) -> bool:
+        """Follow the reference's clock if it has stepped; True if it just did."""
+        self._refit()
+        if not self._rate_trusted:
+            return False
+        residual = unwrapped + track.offset - self._line(wall)
+        run = self._step_run
+        if abs(residual) <= self._step_threshold() or (run and (residual > 0) != (run[-1][2] > 0)):
+            run.clear()
+            if abs(residual) <= self._step_threshold():
+                return False
+        run.append((wall, unwrapped, residual))
+        if len(run) < _STEP_CONFIRM or wall - run[0][0] < _STEP_SPAN:
+            return False
+        # Rebuild from the packets on the new timeline; the other vehicles' samples
+        # straddle the step too (a simulator pauses them all), so they restart.
+        track.samples = deque((w, u) for w, u, _ in run)
+        track.last_stored = wall
+        for other in self._tracks.values():
+            if other is not track:
+                other.samples.clear()
+        run.clear()
+        self.steps += 1
+        self._last_now = -math.inf
+        self._refit(force=True)
+        return True
+
     def _handover(self, sysid: int, track: _Track) -> None:
         assert self._ref is not None
+        self._step_run.clear()
         self._tracks[self._ref].offset_wall = -math.inf  # re-measured against the new line
         track.offset = self._offset(sysid, track, force=True)
         self._ref = sysid
@@ -302,14 +357,16 @@ class MissionClock:
         if free:
             w_a, m_a, rate = _robust_line(ws, ms)
             free = math.isfinite(rate) and rate > 0.0
+            if free:
+                self._measured = rate
         if not free:  # slope unknown: extrapolate the newest observation at the fallback rate
             w_a, m_a, rate = ws[-1], ms[-1], self._fallback_rate()
         self._w_a, self._m_a, self._rate = w_a, m_a, rate
         self._rate_trusted = free
 
     def _fallback_rate(self) -> float:
-        if self._rate_trusted:
-            return self._rate  # e.g. after a handover: keep the last measured rate
+        if self._measured is not None:
+            return self._measured  # e.g. after a handover or a step: the last measured rate
         return self._hint if self._hint is not None else 1.0
 
     # ------------------------------------------------------------------- sleep
@@ -321,12 +378,14 @@ class MissionClock:
         """Sleep until mission time reaches ``t_mission``.
 
         The wall delay is (t - now) / rate, re-evaluated at least every quarter
-        wall second so a changing rate estimate is followed. Before any vehicle
-        was heard this first waits for one.
+        wall second so a changing rate estimate is followed. Returns early if the
+        clock steps meanwhile (the deadline may now be far off: the caller decides).
+        Before any vehicle was heard this first waits for one.
         """
         if self._ref is None:
             await self._synced.wait()
-        while True:
+        steps = self.steps
+        while steps == self.steps:
             delay = self.wall_until(t_mission)
             if delay <= 0.0:
                 return

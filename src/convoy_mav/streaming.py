@@ -170,7 +170,11 @@ class SetpointStreamer:
         k = math.floor(clock.now() / period) + 1  # deadlines are whole multiples of period
         while True:
             await clock.sleep_until(k * period)
-            late = math.floor(clock.now() / period) - k
+            due = math.floor(clock.now() / period + 1e-9)
+            if due < k:  # woken early: the autopilots' clock stepped back; re-anchor
+                k = due + 1
+                continue
+            late = due - k
             if late > 0:  # missed deadlines are skipped, not sent in a burst
                 self.missed += late
                 k += late

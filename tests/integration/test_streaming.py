@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import itertools
+import math
 import time
 from collections.abc import AsyncIterator
 from typing import TYPE_CHECKING
@@ -133,6 +135,49 @@ async def test_a_stalled_loop_skips_ticks_instead_of_bursting() -> None:
     assert len(burst) <= 2, "missed deadlines are skipped, not sent in a burst"
     # sends resume at the normal rate right after
     assert len(vehicle.sent) - before >= 15
+
+
+async def test_a_paused_simulator_steps_the_clock_and_streaming_goes_on() -> None:
+    """The simulator stands still (its host stalled) while we keep running."""
+    vehicle = FakeVehicle(1)
+    clock = MissionClock()
+    speedup = 20.0
+    paused = [0.0, math.inf]  # total wall s paused, wall end of the current pause
+    t0 = time.monotonic()
+
+    def sim() -> float:
+        wall = time.monotonic()
+        return 5.0 + speedup * (min(wall, paused[1]) - t0 - paused[0])
+
+    async def talk() -> None:
+        while True:
+            if time.monotonic() >= paused[1]:  # the pause is over
+                paused[0] += 0.2
+                paused[1] = math.inf
+            if paused[1] == math.inf:
+                clock.observe(1000.0 * sim(), 1)
+            await asyncio.sleep(0.002)
+
+    task = asyncio.create_task(talk(), name="test.paused-autopilot")
+    try:
+        await clock.wait_synced()
+        await asyncio.sleep(0.3)
+        streamer = SetpointStreamer([vehicle], setpoint, clock, rate_hz=20.0)
+        async with streaming(streamer):
+            await asyncio.sleep(0.2)
+            paused[1] = time.monotonic() + 0.2  # 4 s of sim time never happen
+            await asyncio.sleep(0.6)
+            assert abs(clock.now() - sim()) < 0.2
+    finally:
+        task.cancel()
+        with contextlib.suppress(asyncio.CancelledError):
+            await task
+    assert clock.steps == 1
+    walls = [w for w, _ in vehicle.sent]
+    gaps = [b - a for a, b in itertools.pairwise(walls)]
+    assert max(gaps) < 0.02  # 8 periods of wall at most: no pause in the stream
+    times = [sp.t for _, sp in vehicle.sent]
+    assert min(times[i + 1] - times[i] for i in range(len(times) - 1)) < -2.0  # it stepped
 
 
 async def test_a_failing_source_costs_only_its_own_vehicle() -> None:

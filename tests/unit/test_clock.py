@@ -208,6 +208,66 @@ def test_now_never_goes_backwards() -> None:
         previous = t
 
 
+def pause(wall: FakeWall, aps: dict[int, Autopilot], seconds: float) -> None:
+    """The simulator stands still for ``seconds`` of wall time (a stalled host)."""
+    wall.value += seconds
+    for ap in aps.values():
+        ap.offset -= ap.speedup * seconds
+
+
+@pytest.mark.parametrize(("stall", "skip"), [(0.1, 0.0), (0.03, 0.0), (0.0, 1.5)])
+def test_a_simulator_step_is_followed(stall: float, skip: float) -> None:
+    """A simulator that pauses (or skips ahead) is followed within a few packets."""
+    wall = FakeWall()
+    clock = MissionClock(wall)
+    aps = {1: Autopilot(wall, 25.0), 2: Autopilot(wall, 25.0, boot_offset=3.0)}
+    feed(clock, wall, aps, 4.0, hz=100.0)
+    pause(wall, aps, stall)
+    for ap in aps.values():  # both run on one simulator clock
+        ap.offset += skip
+    feed(clock, wall, aps, 0.05, hz=100.0)  # 5 packets each: not confirmed yet
+    assert clock.steps == 0
+    feed(clock, wall, aps, 0.1, hz=100.0)
+    assert clock.steps == 1
+    assert clock.rate == pytest.approx(25.0, rel=1e-2)  # the measured rate is kept
+    assert clock.now() == pytest.approx(aps[1].mission(), abs=0.05)
+    feed(clock, wall, aps, 2.0, hz=100.0)
+    assert clock.steps == 1
+    assert clock.now() == pytest.approx(aps[1].mission(), abs=0.01)
+    stamp = aps[2].boot_ms()
+    assert clock.to_mission(stamp, 2) == pytest.approx(aps[1].mission(), abs=0.05)
+
+
+def test_small_steps_and_jitter_are_not_steps() -> None:
+    wall = FakeWall()
+    clock = MissionClock(wall)
+    ap = Autopilot(wall, 25.0)
+    feed(clock, wall, {1: ap}, 4.0, hz=100.0, jitter=0.004)
+    pause(wall, {1: ap}, 0.003)  # 75 ms of sim: below the threshold at 25x
+    feed(clock, wall, {1: ap}, 2.0, hz=100.0, jitter=0.004)
+    assert clock.steps == 0
+
+
+async def test_sleep_until_returns_early_at_a_step() -> None:
+    wall = FakeWall()
+    ap = Autopilot(wall, 25.0)
+
+    async def fake_sleep(dt: float) -> None:
+        for _ in range(max(1, round(dt / 0.01))):
+            wall.value += 0.01
+            clock.observe(ap.boot_ms(), 1)
+        await asyncio.sleep(0)
+
+    clock = MissionClock(wall, sleep=fake_sleep)
+    feed(clock, wall, {1: ap}, 2.0, hz=100.0)
+    target = clock.now() + 10.0
+    pause(wall, {1: ap}, 0.2)  # 5 s of sim time lost
+    await clock.sleep_until(target)
+    assert clock.steps == 1
+    assert clock.now() < target  # woken early: the caller re-plans its deadline
+    assert clock.now() == pytest.approx(ap.mission(), abs=0.05)
+
+
 def test_bad_rate_hint_is_refused() -> None:
     with pytest.raises(ValueError, match="rate_hint"):
         MissionClock(rate_hint=0.0)
