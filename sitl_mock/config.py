@@ -35,13 +35,14 @@ Schema (every key optional)::
 
     [ground]
     count = 0
-    route = "line"                    # stationary | line | polyline | csv
+    route = "line"                    # stationary | line | polyline | csv | track
     start = [0.0, 0.0]                # world north, east (m)
     speed = 5.0
     heading = 90.0                    # degrees cw from north
     points = [[0, 0], [500, 0]]       # polyline vertices, world north/east (m)
     loop = false
     csv = "track.csv"                 # time,lat,lon (relative to this file)
+    track = [[0.0, 47.3977, 8.5456], [60.0, 47.4019, 8.5456]]  # the csv's rows, inline
     spacing = 20.0                    # m between successive ground vehicles
 
     [faults]
@@ -65,9 +66,18 @@ from typing import Any
 
 from convoy_mav.errors import ConfigError
 from convoy_mav.geo import GeoPoint, LocalFrame
+from convoy_mav.tracks import GeoTrack
 from sitl_mock.autopilot import Personality, VehicleSpec
 from sitl_mock.faults import FaultSpec, TimedFault
-from sitl_mock.ground import Polyline, Route, Stationary, StraightLine, Track, load_csv_track
+from sitl_mock.ground import (
+    Polyline,
+    Route,
+    Stationary,
+    StraightLine,
+    Track,
+    load_csv_track,
+    track_from_geo,
+)
 from sitl_mock.kinematics import AirframeParams, Frame
 
 __all__ = [
@@ -118,6 +128,7 @@ _GROUND_KEYS = {
     "points",
     "loop",
     "csv",
+    "track",
     "spacing",
     "personality",
     "warmup",
@@ -495,7 +506,8 @@ def _ground_specs(
     g: _Table, count: int, first_sysid: int, world: LocalFrame, base_dir: str, personality: str
 ) -> list[VehicleSpec]:
     speed = g.number("speed", 0.0, lo=0.0)
-    kind = g.text("route", "csv" if "csv" in g.data else ("line" if speed > 0 else "stationary"))
+    default = next((k for k in ("csv", "track") if k in g.data), "")
+    kind = g.text("route", default or ("line" if speed > 0 else "stationary"))
     start = g.pair("start", (0.0, 0.0))
     spacing = g.number("spacing", 20.0, lo=0.0)
     route: Route
@@ -514,9 +526,11 @@ def _ground_specs(
             route = load_csv_track(_resolve(path, base_dir), world)
         except (OSError, ValueError) as e:
             raise ConfigError(g.key("csv"), path, str(e)) from None
+    elif kind == "track":
+        route = track_from_geo(_inline_track(g), world)
     else:
-        raise ConfigError(g.key("route"), kind, "must be stationary, line, polyline or csv")
-    lead_speed = speed if kind != "csv" else _track_speed(route)
+        raise ConfigError(g.key("route"), kind, "must be stationary, line, polyline, csv or track")
+    lead_speed = speed if kind not in ("csv", "track") else _track_speed(route)
     specs: list[VehicleSpec] = []
     for j in range(count):
         member: Route = route
@@ -547,8 +561,31 @@ def _points(g: _Table) -> tuple[tuple[float, float], ...]:
     )
 
 
+def _inline_track(g: _Table) -> GeoTrack:
+    """``track = [[time, lat, lon], ...]``: the CSV route's rows, inline."""
+    raw = g.get("track")
+    if not isinstance(raw, list) or not raw:
+        raise ConfigError(g.key("track"), raw, "route 'track' needs [[time, lat, lon], ...] rows")
+    rows: list[tuple[float, float, float]] = []
+    for i, row in enumerate(raw):
+        key = f"{g.key('track')}[{i}]"
+        ok = isinstance(row, list | tuple) and len(row) == 3
+        if not ok or not all(
+            isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) for v in row
+        ):
+            raise ConfigError(key, row, "expected [time, lat, lon] finite numbers")
+        t, lat, lon = (float(v) for v in row)
+        if not (-90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0):
+            raise ConfigError(key, row, "latitude must be in [-90, 90], longitude in [-180, 180]")
+        if rows and t <= rows[-1][0]:
+            raise ConfigError(key, row, f"time does not increase (previous {rows[-1][0]!r})")
+        rows.append((t, lat, lon))
+    times, lats, lons = zip(*rows, strict=True)
+    return GeoTrack(times, lats, lons)
+
+
 def _track_speed(route: Route) -> float:
-    """Mean speed of a CSV track, to turn the convoy spacing into a time lag."""
+    """Mean speed of a recorded track, to turn the convoy spacing into a time lag."""
     if isinstance(route, Track) and len(route.times) >= 2:
         length = sum(
             math.dist((route.norths[i], route.easts[i]), (route.norths[i + 1], route.easts[i + 1]))

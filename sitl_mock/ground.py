@@ -12,14 +12,14 @@ Design rules:
 from __future__ import annotations
 
 import bisect
-import csv
 import itertools
 import math
 import os
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
-from convoy_mav.geo import GeoPoint, LocalFrame
+from convoy_mav.geo import LocalFrame
+from convoy_mav.tracks import GeoTrack, parse_csv_track
 
 __all__ = [
     "Polyline",
@@ -28,6 +28,7 @@ __all__ = [
     "StraightLine",
     "Track",
     "load_csv_track",
+    "track_from_geo",
 ]
 
 
@@ -234,24 +235,21 @@ class Track:
         )
 
 
-_COLUMN_NAMES = {
-    "time": "time",
-    "t": "time",
-    "lat": "lat",
-    "latitude": "lat",
-    "lon": "lon",
-    "lng": "lon",
-    "longitude": "lon",
-}
+def track_from_geo(track: GeoTrack, frame: LocalFrame) -> Track:
+    """A recorded :class:`~convoy_mav.tracks.GeoTrack` in the mock's world frame.
+
+    Times are kept as they are: they are sim times (rebase the track first to
+    start it at ``t = 0``).
+    """
+    norths, easts = track.in_frame(frame)
+    return Track(track.times, norths, easts)
 
 
 def load_csv_track(path: str | os.PathLike[str], frame: LocalFrame) -> Track:
     """Read a recorded convoy track from CSV into the mock's world frame.
 
-    Rows are ``time,lat,lon`` (seconds of sim time, WGS-84 degrees); extra columns
-    are ignored. A first row that is not numeric is a header naming the columns
-    (``time``/``t``, ``lat``/``latitude``, ``lon``/``lng``/``longitude``, any order).
-    Blank lines and lines starting with ``#`` are skipped.
+    Rows are ``time,lat,lon`` (seconds of sim time, WGS-84 degrees); the format
+    (header, comments, extra columns) is :func:`convoy_mav.tracks.parse_csv_track`'s.
 
     Args:
         path: The CSV file.
@@ -265,69 +263,5 @@ def load_csv_track(path: str | os.PathLike[str], frame: LocalFrame) -> Track:
         OSError: The file cannot be read.
     """
     name = os.fspath(path)
-    times: list[float] = []
-    norths: list[float] = []
-    easts: list[float] = []
-    columns = (0, 1, 2)
-    seen_row = False
-    with open(name, newline="", encoding="utf-8") as handle:
-        for lineno, row in enumerate(csv.reader(handle), start=1):
-            cells = [c.strip() for c in row]
-            if not any(cells) or cells[0].startswith("#"):
-                continue
-            if not seen_row:
-                seen_row = True
-                if not _is_number(cells[0]):
-                    columns = _header_columns(cells, name, lineno)
-                    continue
-            if len(cells) <= max(columns):
-                raise ValueError(
-                    f"{name}:{lineno}: expected columns time,lat,lon, got {len(cells)} field(s)"
-                )
-            try:
-                t, lat, lon = (float(cells[i]) for i in columns)
-            except ValueError:
-                raise ValueError(
-                    f"{name}:{lineno}: time, lat and lon must be numbers, got "
-                    f"{', '.join(repr(cells[i]) for i in columns)}"
-                ) from None
-            if not all(math.isfinite(v) for v in (t, lat, lon)):
-                raise ValueError(f"{name}:{lineno}: time, lat and lon must be finite")
-            if not -90.0 <= lat <= 90.0:
-                raise ValueError(f"{name}:{lineno}: latitude {lat!r} outside [-90, 90]")
-            if not -180.0 <= lon <= 180.0:
-                raise ValueError(f"{name}:{lineno}: longitude {lon!r} outside [-180, 180]")
-            if times and t <= times[-1]:
-                raise ValueError(
-                    f"{name}:{lineno}: time {t!r} does not increase (previous {times[-1]!r})"
-                )
-            n, e, _ = frame.to_ned(GeoPoint(lat, lon))
-            times.append(t)
-            norths.append(n)
-            easts.append(e)
-    if not times:
-        raise ValueError(f"{name}: no data rows (expected time,lat,lon)")
-    return Track(tuple(times), tuple(norths), tuple(easts))
-
-
-def _is_number(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
-
-
-def _header_columns(cells: list[str], name: str, lineno: int) -> tuple[int, int, int]:
-    found: dict[str, int] = {}
-    for i, cell in enumerate(cells):
-        key = _COLUMN_NAMES.get(cell.lower())
-        if key is not None and key not in found:
-            found[key] = i
-    missing = [k for k in ("time", "lat", "lon") if k not in found]
-    if missing:
-        raise ValueError(
-            f"{name}:{lineno}: header {cells!r} lacks column(s) {', '.join(missing)} "
-            "(expected time,lat,lon)"
-        )
-    return found["time"], found["lat"], found["lon"]
+    with open(name, newline="", encoding="utf-8-sig") as handle:
+        return track_from_geo(parse_csv_track(handle, name), frame)

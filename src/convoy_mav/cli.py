@@ -13,6 +13,7 @@ import contextlib
 import json
 import logging
 import math
+import os
 import signal
 import sys
 from collections.abc import Sequence
@@ -22,11 +23,12 @@ from typing import Any, NoReturn, TypeVar
 from convoy_mav import __version__
 from convoy_mav.app import ConvoyService, Progress
 from convoy_mav.config import AircraftConfig, ConvoyConfig, MissionConfig, load_config
-from convoy_mav.demo import SCENARIOS, run_demo
+from convoy_mav.demo import SCENARIOS, Scenario, replay_scenario, run_demo
 from convoy_mav.errors import ConfigError, ConvoyError
 from convoy_mav.planning import Pose, make_plan, optimal_path_from_entry
 from convoy_mav.planning.export import entry_to_dict, plan_to_dict
 from convoy_mav.plot import plot_mission
+from convoy_mav.tracks import FORMATS, load_track
 
 __all__ = ["main"]
 
@@ -96,18 +98,49 @@ def _build_parser() -> argparse.ArgumentParser:
         "ground vehicles, fly the mission, score it from the mock's ground truth.",
     )
     demo.add_argument("--scenario", choices=sorted(SCENARIOS), default="stationary")
-    demo.add_argument("--duration", type=float, default=1200.0, metavar="S",
-                      help="mission (sim) seconds to fly (default 1200)")  # fmt: skip
-    demo.add_argument("--speedup", type=float, default=40.0, metavar="X",
-                      help="sim seconds per wall second (default 40)")  # fmt: skip
-    demo.add_argument("--uavs", type=int, metavar="N", help="aircraft (default: the minimum)")
-    demo.add_argument("--personality", choices=["px4", "ardupilot"], default="px4")
-    demo.add_argument("--frame", choices=["plane", "copter"], default="plane")
-    demo.add_argument("--report", metavar="FILE.json", help="write the mission report here")
-    demo.add_argument("--plot", metavar="FILE.png", help="draw tracks and coverage here")
-    demo.add_argument("--tlog", metavar="FILE.tlog", help="record every MAVLink message")
-    demo.add_argument("--quiet", action="store_true", help="no progress lines")
+    _add_mock_flight_options(demo, 1200.0, "mission (sim) seconds to fly (default 1200)")
+
+    replay = sub.add_parser(
+        "replay",
+        help="fly the mock with the convoy replaying a recorded track",
+        description="Start sitl_mock with the convoy's ground vehicles driving a recorded "
+        "track (CSV time,lat,lon; GPX; or the ground vehicles of a .tlog) and the aircraft "
+        "it needs (the paper's minimum at the track's planning speed), fly the mission, "
+        "score it from the mock's ground truth.",
+    )
+    replay.add_argument("track", metavar="TRACK", help="the track: .csv, .gpx or .tlog")
+    replay.add_argument(
+        "--format", choices=FORMATS, help="the track's format (default: from the extension)"
+    )
+    replay.add_argument(
+        "--sysid",
+        type=int,
+        nargs="+",
+        action="extend",
+        metavar="N",
+        help="tlog: the convoy's system ids, after TRACK (default: every ground rover)",
+    )
+    _add_mock_flight_options(
+        replay, None, "mission (sim) seconds to fly (default: the track's length)"
+    )
     return parser
+
+
+def _add_mock_flight_options(
+    parser: argparse.ArgumentParser, duration: float | None, duration_help: str
+) -> None:
+    """The options ``demo`` and ``replay`` share (flying against the in-process mock)."""
+    parser.add_argument("--duration", type=float, default=duration, metavar="S",
+                        help=duration_help)  # fmt: skip
+    parser.add_argument("--speedup", type=float, default=40.0, metavar="X",
+                        help="sim seconds per wall second (default 40)")  # fmt: skip
+    parser.add_argument("--uavs", type=int, metavar="N", help="aircraft (default: the minimum)")
+    parser.add_argument("--personality", choices=["px4", "ardupilot"], default="px4")
+    parser.add_argument("--frame", choices=["plane", "copter"], default="plane")
+    parser.add_argument("--report", metavar="FILE.json", help="write the mission report here")
+    parser.add_argument("--plot", metavar="FILE.png", help="draw tracks and coverage here")
+    parser.add_argument("--tlog", metavar="FILE.tlog", help="record every MAVLink message")
+    parser.add_argument("--quiet", action="store_true", help="no progress lines")
 
 
 def _require(value: float | None, flag: str) -> float:
@@ -295,7 +328,9 @@ def _write_outputs(
             service.history,
             args.plot,
             sensor_radius=service.config.sensor_radius_m,
-            title=f"convoy-mav: {report.get('scenario', 'mission')}, "
+            title=f"convoy-mav: {report.get('scenario', 'mission')}"
+            + (f" of {os.path.basename(report['track'])}" if report.get("track") else "")
+            + ", "
             f"{report['uav_count']} UAVs, coverage "
             + (
                 "-"
@@ -340,20 +375,55 @@ async def _cmd_run(args: argparse.Namespace) -> int:
     return 0
 
 
-async def _cmd_demo(args: argparse.Namespace) -> int:
-    if not (math.isfinite(args.duration) and args.duration > 0):
+def _check_mock_flight_options(args: argparse.Namespace) -> None:
+    if args.duration is not None and not (math.isfinite(args.duration) and args.duration > 0):
         raise ConfigError("--duration", args.duration, "must be > 0")
     if not (math.isfinite(args.speedup) and args.speedup > 0):
         raise ConfigError("--speedup", args.speedup, "must be > 0")
     if args.uavs is not None and args.uavs < 1:
         raise ConfigError("--uavs", args.uavs, "must be >= 1")
+
+
+async def _cmd_demo(args: argparse.Namespace) -> int:
+    _check_mock_flight_options(args)
+    return await _fly_mock(args, SCENARIOS[args.scenario], args.duration)
+
+
+async def _cmd_replay(args: argparse.Namespace) -> int:
+    _check_mock_flight_options(args)
+    for sysid in args.sysid or ():
+        if not 1 <= sysid <= 255:
+            raise ConfigError("--sysid", sysid, "must be a MAVLink system id in 1..255")
+    try:
+        track = load_track(args.track, args.format, sysids=args.sysid or ())
+    except OSError as e:
+        raise ConvoyError(f"{args.track}: cannot read the track: {e.strerror or e}") from e
+    except ValueError as e:  # the message names the file and the line
+        raise ConvoyError(str(e)) from e
+    scenario = replay_scenario(track)
+    duration = track.duration if args.duration is None else args.duration
+    if duration <= 0.0:
+        raise ConfigError(
+            "--duration", args.duration, f"{args.track} spans 0 s: give the seconds to fly"
+        )
+    if not args.quiet:
+        uavs = args.uavs or make_plan(scenario.plan_request()).min_uavs
+        print(
+            f"replaying {args.track}: {len(track.times)} fixes over {track.duration:.1f} s, "
+            f"planning speed {scenario.convoy_speed_mps:.1f} m/s, {uavs} UAVs",
+            flush=True,
+        )
+    return await _fly_mock(args, scenario, duration)
+
+
+async def _fly_mock(args: argparse.Namespace, scenario: Scenario, duration: float) -> int:
+    """Fly ``scenario`` against the in-process mock; summary, report, plot."""
     stop = asyncio.Event()
     _stop_on_signals(stop)
     services: list[ConvoyService] = []
-    scenario = SCENARIOS[args.scenario]
     result = await run_demo(
         scenario,
-        duration=args.duration,
+        duration=duration,
         speedup=args.speedup,
         uavs=args.uavs,
         personality=args.personality,
@@ -380,6 +450,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return int(asyncio.run(_cmd_run(args)))
         if args.command == "demo":
             return int(asyncio.run(_cmd_demo(args)))
+        if args.command == "replay":
+            return int(asyncio.run(_cmd_replay(args)))
     except ConvoyError as exc:
         print(f"convoy-mav: error: {exc}", file=sys.stderr)
         return EXIT_USAGE

@@ -1,10 +1,15 @@
-"""``convoy-mav demo``: the mock fleet, the service and a ground-truth score in one go.
+"""``convoy-mav demo`` and ``replay``: the mock fleet, the service and a ground-truth score.
 
 A scenario names the convoy's motion; the mock is started with the right number
 of aircraft (the paper's minimum unless ``uavs`` says otherwise) and the
 convoy's ground vehicles, the service connects to them exactly as it would to
 PX4/ArduPilot SITL (UDP, MAVLink), flies the mission, and the mission is scored
 twice: by the service's own monitor, and from the mock's ground truth.
+
+A replay scenario (:func:`replay_scenario`) drives the ground vehicles along a
+recorded track instead, the mock's world origin at the track's first fix. Only
+the mock is given the track: the service locates the convoy from the ground
+vehicles' GLOBAL_POSITION_INT, as in every other scenario.
 
 The mock's airframes turn tighter than the plan asks (``turn_margin``): a plan
 at the hard turn limit leaves the autopilot no authority to correct errors.
@@ -27,15 +32,18 @@ from convoy_mav.config import (
     UavConfig,
 )
 from convoy_mav.coverage import CoverageStats
+from convoy_mav.errors import PlanningError
 from convoy_mav.planning import PlanRequest, make_plan
 from convoy_mav.planning.export import compass_to_planner
 from convoy_mav.scoring import TruthFix, score_truth
+from convoy_mav.tracks import GeoTrack, track_speeds
+from convoy_mav.tracks.geotrack import SPEED_WINDOW_S
 from sitl_mock import MockFleet
 from sitl_mock.config import config_from_mapping
 
-__all__ = ["SCENARIOS", "DemoResult", "Scenario", "run_demo"]
+__all__ = ["SCENARIOS", "DemoResult", "Scenario", "replay_scenario", "run_demo"]
 
-ScenarioName = Literal["stationary", "moving", "turning"]
+ScenarioName = Literal["stationary", "moving", "turning", "replay"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -52,6 +60,7 @@ class Scenario:
     airspeed_mps: float = 18.0
     altitude_m: float = 100.0
     turn_margin: float = 0.85  # mock airframe min turn radius / planned radius
+    track: GeoTrack | None = None  # replay: the convoy's recorded route, t = 0 at its start
 
     def plan_request(self, uavs: int | None = None) -> PlanRequest:
         """The planner's view (the convoy at its cruise speed)."""
@@ -66,6 +75,10 @@ class Scenario:
 
     def ground_route(self, duration: float) -> dict[str, Any]:
         """The mock's ``[ground]`` table for this scenario."""
+        if self.track is not None:
+            track = self.track
+            rows = zip(track.times, track.lats, track.lons, strict=True)
+            return {"route": "track", "track": [list(row) for row in rows]}
         if self.convoy_speed_mps <= 0.0:
             return {"route": "stationary", "start": [0.0, 0.0]}
         if self.turn_after_m is None:
@@ -94,6 +107,47 @@ SCENARIOS: dict[str, Scenario] = {
 }
 
 
+def replay_scenario(track: GeoTrack, base: Scenario | None = None) -> Scenario:
+    """The demo's aircraft and sensor, with the convoy replaying ``track``.
+
+    The scenario's convoy speed, from which :func:`run_demo` takes the paper's
+    minimum aircraft count, is the track's *planning speed*: the speed the convoy
+    is at least as fast as 90 % of the time (over 10-s windows, see
+    :func:`~convoy_mav.tracks.track_speeds`). A low quantile, not a high one,
+    because the paper's minimum grows as the convoy slows (with the demo's
+    aircraft: 5 up to 5.8 m/s, 4 up to 9.5 m/s, 3 up to 12.1 m/s): the slow
+    stretches decide how many aircraft the whole mission needs, while one short
+    stop should not cost an extra aircraft for all of it. The fastest window
+    must still be slower than the aircraft.
+
+    Args:
+        track: The recorded track (rebased here to start at ``t = 0``).
+        base: Aircraft, sensor and altitude (default: the demo's).
+
+    Raises:
+        PlanningError: Somewhere the convoy is not slower than the aircraft.
+    """
+    track = track.rebased()
+    speeds = track_speeds(track)
+    scenario = replace(
+        base or Scenario("replay"),
+        name="replay",
+        convoy_speed_mps=speeds.planning_mps,
+        heading_deg=speeds.heading_deg,
+        turn_after_m=None,
+        track=track,
+    )
+    try:
+        replace(scenario, convoy_speed_mps=speeds.max_mps).plan_request()
+    except PlanningError as e:
+        raise PlanningError(
+            f"{track.source or 'the track'}: the convoy drives at up to "
+            f"{speeds.max_mps:.1f} m/s (over {SPEED_WINDOW_S:g}-s windows), not below the "
+            f"UAVs' airspeed of {scenario.airspeed_mps:g} m/s: they cannot keep up"
+        ) from e
+    return scenario
+
+
 @dataclass
 class DemoResult:
     """The service's report and the ground truth's verdict over the same window."""
@@ -106,6 +160,12 @@ class DemoResult:
         """The ``--report`` JSON: the service's report plus ``truth_*`` keys."""
         out = self.report.to_dict()
         out["scenario"] = self.scenario.name
+        track = self.scenario.track
+        if track is not None:
+            out["track"] = track.source
+            out["track_format"] = track.format
+            out["track_duration_s"] = track.duration
+            out["track_planning_speed_mps"] = self.scenario.convoy_speed_mps
         out["truth_coverage_fraction"] = self.truth.fraction if self.truth else None
         out["truth_longest_gap_s"] = self.truth.longest_gap_s if self.truth else None
         return out
@@ -136,6 +196,8 @@ def mock_mapping(
         },
         "ground": {"count": ground, "spacing": 20.0, **scenario.ground_route(duration)},
     }
+    if scenario.track is not None:  # the world (and mission) origin at the first fix
+        mapping["origin"] = [scenario.track.lats[0], scenario.track.lons[0]]
     if faults:
         mapping["faults"] = faults
     return mapping

@@ -1,0 +1,101 @@
+"""Recorded convoy tracks: CSV, GPX and tlog files -> one :class:`GeoTrack` value.
+
+``convoy-mav replay`` drives the mock's ground vehicles along a track recorded
+elsewhere; the mock's ``csv`` ground route reads the same CSV format. Three
+formats, one value (times + WGS-84 samples):
+
+    CSV   ``time,lat,lon`` rows (seconds, degrees), optional header naming the
+          columns in any order, ``#`` comments (:func:`parse_csv_track`).
+    GPX   1.0/1.1 ``<trkpt lat lon><time>ISO-8601</time>``, or ``<rtept>`` when
+          there is no ``<trkpt>``; every point needs a time (:func:`parse_gpx_track`).
+    tlog  The ground vehicles' GLOBAL_POSITION_INT in a MAVLink telemetry log,
+          the convoy being their centroid (:func:`parse_tlog_track`).
+
+Design rules:
+    * Parsing is pure: the ``parse_*`` functions take text or bytes and a name for
+      messages; :func:`load_track` alone opens a file.
+    * Bad input is a ``ValueError`` whose message starts with ``file:line:`` (CSV,
+      GPX) or ``file: message #N:`` (tlog) and says what is wrong; nothing is
+      guessed or silently dropped except what the docstrings list.
+    * Parsers keep the source's clock (CSV seconds, POSIX seconds, vehicle boot
+      seconds); :meth:`GeoTrack.rebased` (done by :func:`load_track`) starts it at 0.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Collection
+from typing import Literal
+
+from convoy_mav.tracks.csvfile import parse_csv_track
+from convoy_mav.tracks.geotrack import GeoTrack, TrackSpeeds, track_speeds
+from convoy_mav.tracks.gpx import parse_gpx_track
+from convoy_mav.tracks.tlog import parse_tlog_track
+
+__all__ = [
+    "FORMATS",
+    "GeoTrack",
+    "TrackFormat",
+    "TrackSpeeds",
+    "format_of",
+    "load_track",
+    "parse_csv_track",
+    "parse_gpx_track",
+    "parse_tlog_track",
+    "track_speeds",
+]
+
+TrackFormat = Literal["csv", "gpx", "tlog"]
+FORMATS: tuple[TrackFormat, ...] = ("csv", "gpx", "tlog")
+
+
+def format_of(path: str | os.PathLike[str]) -> TrackFormat:
+    """The track format a file name's extension says.
+
+    Raises:
+        ValueError: An extension other than ``.csv``, ``.gpx`` or ``.tlog``.
+    """
+    name = os.fspath(path)
+    ext = os.path.splitext(name)[1].lower().lstrip(".")
+    for fmt in FORMATS:
+        if ext == fmt:
+            return fmt
+    raise ValueError(
+        f"{name}: cannot tell the track format from the extension {ext or '(none)'!r}; "
+        "expected .csv, .gpx or .tlog (or name the format)"
+    )
+
+
+def load_track(
+    path: str | os.PathLike[str],
+    fmt: TrackFormat | None = None,
+    *,
+    sysids: Collection[int] = (),
+) -> GeoTrack:
+    """Read a recorded convoy track, times rebased to start at 0.
+
+    Args:
+        path: A CSV, GPX or tlog file.
+        fmt: Its format (default: from the extension, see :func:`format_of`).
+        sysids: tlog only: the convoy's vehicles (default: every ground rover).
+
+    Raises:
+        ValueError: The file is malformed or holds no usable track; the message
+            names the file and the line (message number for a tlog).
+        OSError: The file cannot be read.
+    """
+    name = os.fspath(path)
+    kind = fmt or format_of(name)
+    if sysids and kind != "tlog":
+        raise ValueError(f"{name}: vehicle system ids only apply to a tlog, not a {kind} track")
+    if kind == "csv":
+        with open(name, newline="", encoding="utf-8-sig") as handle:
+            track = parse_csv_track(handle, name)
+    else:
+        with open(name, "rb") as binary:
+            data = binary.read()
+        if kind == "gpx":
+            track = parse_gpx_track(data, name)
+        else:
+            track = parse_tlog_track(data, name, sysids=sysids)
+    return track.rebased()

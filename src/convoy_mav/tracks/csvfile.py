@@ -1,0 +1,101 @@
+"""CSV convoy tracks: ``time,lat,lon`` rows (also the mock's ``csv`` ground route)."""
+
+from __future__ import annotations
+
+import csv
+import math
+from collections.abc import Iterable
+
+from convoy_mav.tracks.geotrack import GeoTrack, check_fix
+
+__all__ = ["parse_csv_track"]
+
+_COLUMN_NAMES = {
+    "time": "time",
+    "t": "time",
+    "lat": "lat",
+    "latitude": "lat",
+    "lon": "lon",
+    "lng": "lon",
+    "longitude": "lon",
+}
+
+
+def parse_csv_track(lines: Iterable[str], name: str) -> GeoTrack:
+    """Parse ``time,lat,lon`` rows (seconds, WGS-84 degrees); extra columns are ignored.
+
+    A first row that is not numeric is a header naming the columns (``time``/``t``,
+    ``lat``/``latitude``, ``lon``/``lng``/``longitude``, any order). Blank lines and
+    lines starting with ``#`` are skipped.
+
+    Args:
+        lines: The file's lines (an open text file will do).
+        name: The file name, for messages.
+
+    Returns:
+        The track with the file's times (not rebased).
+
+    Raises:
+        ValueError: A row is malformed or out of order; the message gives file and line.
+    """
+    times: list[float] = []
+    lats: list[float] = []
+    lons: list[float] = []
+    columns = (0, 1, 2)
+    seen_row = False
+    for lineno, row in enumerate(csv.reader(lines), start=1):
+        cells = [c.strip() for c in row]
+        if not any(cells) or cells[0].startswith("#"):
+            continue
+        if not seen_row:
+            seen_row = True
+            if not _is_number(cells[0]):
+                columns = _header_columns(cells, name, lineno)
+                continue
+        if len(cells) <= max(columns):
+            raise ValueError(
+                f"{name}:{lineno}: expected columns time,lat,lon, got {len(cells)} field(s)"
+            )
+        try:
+            t, lat, lon = (float(cells[i]) for i in columns)
+        except ValueError:
+            raise ValueError(
+                f"{name}:{lineno}: time, lat and lon must be numbers, got "
+                f"{', '.join(repr(cells[i]) for i in columns)}"
+            ) from None
+        if not all(math.isfinite(v) for v in (t, lat, lon)):
+            raise ValueError(f"{name}:{lineno}: time, lat and lon must be finite")
+        check_fix(f"{name}:{lineno}", lat, lon)
+        if times and t <= times[-1]:
+            raise ValueError(
+                f"{name}:{lineno}: time {t!r} does not increase (previous {times[-1]!r})"
+            )
+        times.append(t)
+        lats.append(lat)
+        lons.append(lon)
+    if not times:
+        raise ValueError(f"{name}: no data rows (expected time,lat,lon)")
+    return GeoTrack(tuple(times), tuple(lats), tuple(lons), name, "csv")
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _header_columns(cells: list[str], name: str, lineno: int) -> tuple[int, int, int]:
+    found: dict[str, int] = {}
+    for i, cell in enumerate(cells):
+        key = _COLUMN_NAMES.get(cell.lower())
+        if key is not None and key not in found:
+            found[key] = i
+    missing = [k for k in ("time", "lat", "lon") if k not in found]
+    if missing:
+        raise ValueError(
+            f"{name}:{lineno}: header {cells!r} lacks column(s) {', '.join(missing)} "
+            "(expected time,lat,lon)"
+        )
+    return found["time"], found["lat"], found["lon"]

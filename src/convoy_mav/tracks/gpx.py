@@ -1,0 +1,132 @@
+"""GPX 1.0/1.1 convoy tracks: ``<trkpt>`` (or ``<rtept>``) with ``<time>``."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from xml.parsers import expat
+
+from convoy_mav.tracks.geotrack import GeoTrack, check_fix
+
+__all__ = ["parse_gpx_track"]
+
+
+@dataclass(slots=True)
+class _GpxPoint:
+    kind: str  # "trkpt" or "rtept"
+    number: int  # 1-based among points of its kind
+    line: int
+    lat: str | None
+    lon: str | None
+    time: str | None = None
+
+
+def parse_gpx_track(data: bytes | str, name: str) -> GeoTrack:
+    """Parse a GPX 1.0/1.1 file: its ``<trkpt>`` (all tracks and segments, in order).
+
+    Without any ``<trkpt>`` the ``<rtept>`` of its routes are used, which must then
+    carry times too. Namespaces are matched by local name, so GPX 1.0, 1.1 and
+    un-namespaced files read alike; ``<time>`` is ISO-8601 (``Z`` or an offset;
+    none means UTC). Parsed with expat, the parser ``xml.etree`` itself uses,
+    because expat reports the line of each point for error messages.
+
+    Returns:
+        The track, times in POSIX seconds (not rebased).
+
+    Raises:
+        ValueError: Malformed XML, no points, a point without ``lat``/``lon`` or
+            ``<time>``, or times that do not increase; ``file:line:`` first.
+    """
+    parser = expat.ParserCreate(namespace_separator=" ")
+    points: list[_GpxPoint] = []
+    counts = {"trkpt": 0, "rtept": 0}
+    stack: list[str] = []
+    text: list[str] | None = None
+    root: list[str] = []
+
+    def start(tag: str, attrs: dict[str, str]) -> None:
+        nonlocal text
+        local = tag.rpartition(" ")[2]
+        if not stack:
+            root.append(local)
+        if local in counts:
+            counts[local] += 1
+            line = parser.CurrentLineNumber
+            points.append(_GpxPoint(local, counts[local], line, attrs.get("lat"), attrs.get("lon")))
+        elif local == "time" and stack and stack[-1] in counts:
+            text = []
+        stack.append(local)
+
+    def end(tag: str) -> None:
+        nonlocal text
+        stack.pop()
+        if text is not None and tag.rpartition(" ")[2] == "time":
+            points[-1].time = "".join(text).strip()
+            text = None
+
+    def chars(data: str) -> None:
+        if text is not None:
+            text.append(data)
+
+    parser.StartElementHandler = start
+    parser.EndElementHandler = end
+    parser.CharacterDataHandler = chars
+    try:
+        parser.Parse(data, True)
+    except expat.ExpatError as e:
+        reason = expat.ErrorString(e.code)
+        raise ValueError(f"{name}:{e.lineno}: not well-formed GPX: {reason}") from None
+    if root and root[0] != "gpx":
+        raise ValueError(f"{name}:1: the root element is <{root[0]}>, not <gpx>")
+    kind = "trkpt" if counts["trkpt"] else "rtept"
+    chosen = [p for p in points if p.kind == kind]
+    if not chosen:
+        raise ValueError(f"{name}: no <trkpt> or <rtept> points")
+    times: list[float] = []
+    lats: list[float] = []
+    lons: list[float] = []
+    previous = ""
+    for p in chosen:
+        where = f"{name}:{p.line}"
+        what = f"{p.kind} #{p.number}"
+        lat = _gpx_coordinate(where, what, "lat", p.lat)
+        lon = _gpx_coordinate(where, what, "lon", p.lon)
+        check_fix(where, lat, lon)
+        if p.time is None:
+            raise ValueError(
+                f"{where}: {what} has no <time>: replaying a track needs when the convoy "
+                "was at each point"
+            )
+        t = _iso_seconds(where, what, p.time)
+        if times and t <= times[-1]:
+            raise ValueError(
+                f"{where}: {what} time {p.time} does not increase (previous point {previous})"
+            )
+        previous = p.time
+        times.append(t)
+        lats.append(lat)
+        lons.append(lon)
+    return GeoTrack(tuple(times), tuple(lats), tuple(lons), name, "gpx")
+
+
+def _gpx_coordinate(where: str, what: str, attr: str, value: str | None) -> float:
+    if value is None:
+        raise ValueError(f"{where}: {what} has no {attr} attribute")
+    try:
+        x = float(value)
+    except ValueError:
+        raise ValueError(f"{where}: {what} {attr}={value!r} is not a number") from None
+    if not math.isfinite(x):
+        raise ValueError(f"{where}: {what} {attr}={value!r} must be finite")
+    return x
+
+
+def _iso_seconds(where: str, what: str, text: str) -> float:
+    try:
+        when = datetime.fromisoformat(text)
+    except ValueError:
+        raise ValueError(f"{where}: {what} time {text!r} is not ISO-8601") from None
+    if when.tzinfo is None:
+        when = when.replace(tzinfo=UTC)
+    return when.timestamp()
