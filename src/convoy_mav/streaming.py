@@ -37,8 +37,8 @@ class StreamTarget(Protocol):
     """What the streamer needs of a vehicle (``convoy_mav.vehicle.Vehicle`` is one)."""
 
     @property
-    def sysid(self) -> int:
-        """MAVLink system id (the source is asked by it)."""
+    def uid(self) -> int:
+        """The UAV's id in the service (the source is asked by it; its MAVLink sysid)."""
         ...
 
     @property
@@ -127,7 +127,7 @@ class SetpointStreamer:
     Args:
         vehicles: The vehicles, re-iterated at every tick (pass a live view such
             as ``dict.values()`` to add vehicles while running).
-        source: ``source(sysid, t)`` -> the setpoint for mission time ``t``, or
+        source: ``source(uid, t)`` -> the setpoint for mission time ``t``, or
             None for nothing this tick. An exception is logged and counted; the
             other vehicles still get theirs.
         clock: The mission clock.
@@ -138,7 +138,7 @@ class SetpointStreamer:
         ticks: Deadlines served.
         missed: Deadlines skipped because the loop was late.
         errors: Source calls that raised.
-        stats: Per-sysid :class:`SendStats`.
+        stats: Per-uid :class:`SendStats`.
     """
 
     def __init__(
@@ -190,20 +190,20 @@ class SetpointStreamer:
         for vehicle in self.vehicles:
             if vehicle.status not in _STREAMING:
                 continue
-            sysid = vehicle.sysid
+            uid = vehicle.uid
             try:
-                sp = self.source(sysid, t)
+                sp = self.source(uid, t)
             except Exception:
                 self.errors += 1
                 if self.errors == 1:
-                    log.exception("setpoint source failed for sysid %d at t=%.2f", sysid, t)
+                    log.exception("setpoint source failed for UAV %d at t=%.2f", uid, t)
                 continue
             if sp is None:
                 continue
             vehicle.send_setpoint(sp)
-            stats = self.stats.get(sysid)
+            stats = self.stats.get(uid)
             if stats is None:
-                stats = self.stats[sysid] = SendStats()
+                stats = self.stats[uid] = SendStats()
             stats.record(wall, t)
             sent += 1
         return sent

@@ -117,7 +117,7 @@ class VehicleEvent:
     """Something the operator should see about one vehicle.
 
     Attributes:
-        sysid: The vehicle.
+        sysid: The vehicle (its ``uid``: the MAVLink sysid unless configured otherwise).
         t: Mission time, seconds.
         kind: What happened.
         message: One readable line, naming the vehicle.
@@ -163,6 +163,10 @@ class Vehicle:
         stream_rates: Message id -> Hz of mission time to request.
         gcs_sysid: Our system id: COMMAND_ACKs for other ground stations are ignored.
         heartbeat: Send our own HEARTBEAT at 1 Hz (False when the link owner does).
+        uid: This UAV's id in the service (clock, telemetry, events, setpoints);
+            default ``sysid``. A link is one vehicle, so system ids may repeat
+            across links (PX4s leave the factory as sysid 1; a MAVLink network
+            has at most 255), as long as uids do not.
 
     Attributes:
         status, firmware, telemetry, mode, armed, last_statustext: As named.
@@ -192,8 +196,10 @@ class Vehicle:
         stream_rates: Mapping[int, float] = DEFAULT_STREAM_RATES,
         gcs_sysid: int = 255,
         heartbeat: bool = True,
+        uid: int | None = None,
     ) -> None:
         self.sysid = sysid
+        self.uid = sysid if uid is None else uid
         self.link = link
         self.clock = clock
         self.frame = frame
@@ -313,9 +319,9 @@ class Vehicle:
 
     def _observe_boot(self, boot_ms: int) -> None:
         clock = self.clock
-        clock.observe(boot_ms, self.sysid)
-        if clock.reboots_of(self.sysid) != self.counters["reboots"]:  # the clock tells reboots
-            self.counters["reboots"] = clock.reboots_of(self.sysid)  # from reordered packets
+        clock.observe(boot_ms, self.uid)
+        if clock.reboots_of(self.uid) != self.counters["reboots"]:  # the clock tells reboots
+            self.counters["reboots"] = clock.reboots_of(self.uid)  # from reordered packets
             self._emit(EventKind.REBOOTED, "autopilot rebooted", _M.MAV_SEVERITY_WARNING)
             if self.firmware is not None:
                 self.firmware.reset()
@@ -394,8 +400,8 @@ class Vehicle:
             yaw = att.yaw
         else:
             yaw = math.atan2(ve, vn)
-        t = self.clock.to_mission(msg.time_boot_ms, self.sysid)
-        tel = Telemetry(self.sysid, t, north, east, down, vn, ve, vd, yaw, lat, lon, alt)
+        t = self.clock.to_mission(msg.time_boot_ms, self.uid)
+        tel = Telemetry(self.uid, t, north, east, down, vn, ve, vd, yaw, lat, lon, alt)
         self.telemetry = tel
         if self._on_telemetry is not None:
             self._on_telemetry(tel)
@@ -448,7 +454,7 @@ class Vehicle:
     def _emit(self, kind: EventKind, text: str, severity: int = _M.MAV_SEVERITY_INFO) -> None:
         who = f"UAV {self.sysid}" + (f" ({self.firmware})" if self.firmware else "")
         message = text if text.startswith("UAV ") else f"{who}: {text}"
-        event = VehicleEvent(self.sysid, self.clock.now(), kind, message, self.status, severity)
+        event = VehicleEvent(self.uid, self.clock.now(), kind, message, self.status, severity)
         log.log(
             logging.WARNING if severity <= _M.MAV_SEVERITY_WARNING else logging.INFO, "%s", message
         )

@@ -36,7 +36,7 @@ class FakeVehicle:
     """Records what it is sent, with the wall time."""
 
     def __init__(self, sysid: int, status: VehicleStatus = VehicleStatus.FLYING) -> None:
-        self.sysid = sysid
+        self.sysid = self.uid = sysid
         self.status = status
         self.sent: list[tuple[float, Setpoint]] = []
 
@@ -282,3 +282,46 @@ async def test_three_px4_planes_get_every_setpoint(start_mock: StartMock) -> Non
     assert fleet.history is not None
     late = [r for r in fleet.history.rows if r.t > fleet.now - 10.0]
     assert late and all(r.mode == "OFFBOARD" and r.armed for r in late)
+
+
+async def test_two_autopilots_with_the_same_sysid_are_two_uavs(start_mock: StartMock) -> None:
+    """Two PX4s both left at sysid 1 (two mock processes): one link and one uid each."""
+    speedup = 20.0
+    fleets = [
+        await start_mock(MockConfig.simple(1, speedup=speedup, base_port=0, warmup=1.0))
+        for _ in range(2)
+    ]
+    clock = MissionClock(rate_hint=speedup)
+    frame = LocalFrame(fleets[0].config.origin)
+    vehicles: dict[int, Vehicle] = {}
+    links = [
+        MavLink(fleet.endpoint(1).connect, lambda m, uid=uid: vehicles[uid].handle(m))  # type: ignore[misc]
+        for uid, fleet in enumerate(fleets, start=1)
+    ]
+    telemetry: list[int] = []
+    for uid, link in enumerate(links, start=1):
+        vehicles[uid] = Vehicle(
+            1, link, clock, frame, uid=uid, on_telemetry=lambda tel: telemetry.append(tel.sysid)
+        )
+
+    def source(uid: int, t: float) -> Setpoint:
+        return Setpoint(t, 18.0 * t, 100.0 * uid, -40.0, 18.0, 0.0, 0.0, 0.0, 0.0)
+
+    streamer = SetpointStreamer(vehicles.values(), source, clock, rate_hz=20.0)
+    async with contextlib.AsyncExitStack() as stack:
+        for link in links:
+            await stack.enter_async_context(link)
+        async with asyncio.TaskGroup() as tg:
+            tasks = [tg.create_task(v.run()) for v in vehicles.values()]
+            tasks.append(tg.create_task(streamer.run()))
+            async with asyncio.timeout(10):
+                while any(v.status is not VehicleStatus.FLYING for v in vehicles.values()):
+                    await asyncio.sleep(0.01)
+            await fleets[0].wait_until(fleets[0].now + 5.0)
+            for task in tasks:
+                task.cancel()
+    assert set(streamer.stats) == {1, 2}
+    for uid, fleet in enumerate(fleets, start=1):
+        assert fleet.counters(1)["setpoint"] >= streamer.stats[uid].count - 2 > 50
+    assert set(telemetry) == {1, 2}
+    assert clock.reboots == 0  # two boot clocks under one sysid were not mistaken for reboots
