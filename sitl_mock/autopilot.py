@@ -51,7 +51,7 @@ from sitl_mock.params import Knob, ParamTable
 from sitl_mock.personality import Firmware, Personality, firmware_for
 from sitl_mock.streams import AIRCRAFT_DEFAULT_INTERVALS, GROUND_DEFAULT_INTERVALS, StreamScheduler
 
-__all__ = ["Personality", "SimVehicle", "TruthRow", "VehicleSpec"]
+__all__ = ["SENSORS", "Personality", "SimVehicle", "TruthRow", "VehicleSpec"]
 
 Message = Any  # a pymavlink MAVLink_message (the dialect is untyped)
 
@@ -61,7 +61,7 @@ _UNIX_AT_SIM_ZERO_US = 1_704_067_200_000_000  # SYSTEM_TIME: sim t=0 is 2024-01-
 _BATTERY_ENDURANCE_S = 1800.0  # s of armed time from full to empty
 _DEFAULT_AIRFRAME = AirframeParams()
 
-_SENSORS = (
+SENSORS = (  # SYS_STATUS sensors a healthy mock reports present and healthy
     _R.MAV_SYS_STATUS_SENSOR_3D_GYRO
     | _R.MAV_SYS_STATUS_SENSOR_3D_ACCEL
     | _R.MAV_SYS_STATUS_SENSOR_3D_MAG
@@ -333,7 +333,7 @@ class SimVehicle:
         fl, fw = self.flight, self.firmware
         airborne = fl.airborne
         plane_bits = _R.MAV_SYS_STATUS_SENSOR_DIFFERENTIAL_PRESSURE if fl.plane else 0
-        health = _SENSORS if fl.warm else _SENSORS & ~_NEEDS_WARMUP
+        health = SENSORS if fl.warm else SENSORS & ~_NEEDS_WARMUP
         remaining = max(0.0, 1.0 - self._battery_s / _BATTERY_ENDURANCE_S)
         return Snapshot(
             time_boot_ms=max(0, round((now - self._boot_t) * 1000.0)) & 0xFFFFFFFF,
@@ -362,7 +362,7 @@ class SimVehicle:
             base_mode=fw.base_mode(fl.mode, fl.armed),
             custom_mode=fl.mode.custom_mode,
             system_status=fw.system_status(fl.armed, airborne, fl.failsafe),
-            sensors_present=_SENSORS | plane_bits,
+            sensors_present=SENSORS | plane_bits,
             sensors_health=health | plane_bits,
             gps_fix=_R.GPS_FIX_TYPE_3D_FIX if fl.warm else _R.GPS_FIX_TYPE_NO_FIX,
             satellites=14 if fl.warm else 0,

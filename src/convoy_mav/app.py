@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import gc
 import logging
 import math
 import sys
@@ -340,6 +341,11 @@ class ConvoyService:
                 list(self.vehicles.values()), self._setpoint, self.clock, cfg.setpoint_rate_hz
             )
             self.streamer = streamer
+            # What exists now lives for the whole mission: out of the collector's
+            # sight, a full collection no longer walks it (tens of ms, a stalled
+            # setpoint stream at high speedups).
+            gc.freeze()
+            stack.callback(gc.unfreeze)
             try:
                 async with asyncio.TaskGroup() as tg:
                     for v in self.vehicles.values():

@@ -33,7 +33,8 @@ Design rules:
       time, so a step is confirmed only when ``_STEP_CONFIRM`` consecutive packets
       of the reference, spread over ``_STEP_SPAN`` wall seconds (a stalled loop
       reads its backlog in one instant), all sit off the line by more than
-      ``_step_threshold`` in the same direction. The line is then rebuilt from
+      ``_step_threshold`` in the same direction and agree with each other (a
+      congested queue makes delays that vary). The line is then rebuilt from
       those packets at the last measured rate, and ``steps`` counts it.
     * ``now()`` never goes backwards once synchronised, except at a confirmed
       step, where it follows the autopilot (``sleep_until`` returns early so
@@ -296,6 +297,9 @@ class MissionClock:
         run.append((wall, unwrapped, residual))
         if len(run) < _STEP_CONFIRM or wall - run[0][0] < _STEP_SPAN:
             return False
+        residuals = [r for _, _, r in run[-_STEP_CONFIRM:]]
+        if max(residuals) - min(residuals) > 0.5 * self._step_threshold():
+            return False  # a queue filling or draining (congestion), not a clock that moved
         # Rebuild from the packets on the new timeline; the other vehicles' samples
         # straddle the step too (a simulator pauses them all), so they restart.
         track.samples = deque((w, u) for w, u, _ in run)

@@ -511,7 +511,10 @@ class Vehicle:
         await self.clock.wait_synced()
         period = self.keepalive / 3.0
         while True:
-            await self.clock.sleep_until(self.clock.now() + period)
+            # Not before the stream could have gone quiet: while setpoints flow
+            # this wakes once per ``keepalive``, not three times.
+            due = max(self._last_sp_t + self.keepalive, self.clock.now() + period)
+            await self.clock.sleep_until(due)
             ap = self.firmware
             if ap is None or not ap.streams_during_setup:
                 continue

@@ -56,12 +56,6 @@ async def test_stationary_convoy_minimum_uavs(personality: str, tmp_path: Path) 
     assert (255, ours) in seen
 
 
-@pytest.mark.xfail(
-    strict=False,
-    reason="issue 4 (open): under full-suite CPU load the moving convoy with the minimum "
-    "4 UAVs is intermittently covered 98.9-99.4 % (short handover gaps of ~2 s); passes "
-    "when run alone. The 99.5 % bound is the requirement and stays.",
-)
 async def test_moving_convoy_minimum_uavs() -> None:
     scenario = SCENARIOS["moving"]
     result = await run_demo(scenario, duration=300.0, speedup=SPEEDUP)

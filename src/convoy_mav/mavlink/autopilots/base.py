@@ -75,15 +75,15 @@ SETPOINT_POSITION_ONLY = (
 
 DEFAULT_STREAM_RATES: Mapping[int, float] = {
     _M.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: 10.0,
-    _M.MAVLINK_MSG_ID_ATTITUDE: 5.0,
+    _M.MAVLINK_MSG_ID_ATTITUDE: 1.0,
     _M.MAVLINK_MSG_ID_SYS_STATUS: 1.0,
     _M.MAVLINK_MSG_ID_GPS_RAW_INT: 1.0,
     _M.MAVLINK_MSG_ID_EXTENDED_SYS_STATE: 1.0,
-    _M.MAVLINK_MSG_ID_SYSTEM_TIME: 1.0,
     _M.MAVLINK_MSG_ID_HOME_POSITION: 0.5,
 }
 """Telemetry rates requested (Hz of mission time): position for the coverage
-monitor and the phase correction, the rest for set-up and liveness."""
+monitor and the phase correction (its ``hdg`` is the heading; ATTITUDE is only
+the fallback), the rest for set-up and liveness."""
 
 _COPTERS = frozenset(
     getattr(_M, name)

@@ -1,0 +1,115 @@
+"""Fleet scale: convoy-mav and MAVSDK-Python flying the same mock fleet, side by side.
+
+For each fleet size N, a fresh ``sitl-mock`` process (N PX4 planes, real time,
+physics at 20 Hz so the mock itself keeps up at N = 1000) is flown once by
+convoy-mav's flight loop (``fleet_convoy.py``) and once by MAVSDK-Python 4.x
+(``fleet_mavsdk.py``: one ``Mavsdk`` with a connection per vehicle,
+``set_position_velocity_ned`` at 20 Hz), each in this process while the mock
+runs in its own. Reported per client: CPU cores this process used, setpoint
+rate and inter-send interval (p50, and p99 as the median and the worst over
+vehicles), telemetry rate and telemetry-to-monitor latency.
+
+Run: ``python benchmarks/bench_fleet.py [N ...] [--seconds S] [--clients ...]
+[--json FILE]`` (``make bench-fleet`` runs the README's figures).
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import contextlib
+import dataclasses
+import json
+import logging
+import math
+import os
+import sys
+from collections.abc import AsyncIterator, Awaitable, Callable, Sequence
+
+from fleet_convoy import run_convoy_mav
+from fleet_light import start_light_fleet
+from fleet_mavsdk import ClientResult, MockPorts, find_free_ports, run_mavsdk, start_mock_process
+
+Runner = Callable[..., Awaitable[ClientResult]]
+CLIENTS: dict[str, Runner] = {"convoy-mav": run_convoy_mav, "mavsdk": run_mavsdk}
+
+
+def _fmt(x: float | None, spec: str) -> str:
+    return "–" if x is None or (isinstance(x, float) and math.isnan(x)) else format(x, spec)
+
+
+def table(results: Sequence[ClientResult]) -> str:
+    """A Markdown table of the results (the README's format)."""
+    head = (
+        "| N | client | flying | set-up s | cores | cores/vehicle | rate Hz | "
+        "interval p50 ms | p99 ms (median / worst) | telemetry Hz | "
+        "telemetry→monitor p50 / p99 ms |"
+    )
+    rows = [head, "|" + "---|" * 11]
+    for r in results:
+        rows.append(
+            f"| {r.vehicles} | {r.client} | {r.flying} | {r.setup_s:.1f} | {_fmt(r.cores, '.3f')} "
+            f"| {_fmt(r.cores / r.vehicles, '.5f')} | {_fmt(r.rate_hz_median, '.2f')} "
+            f"| {_fmt(r.interval_p50_ms, '.1f')} "
+            f"| {_fmt(r.interval_p99_ms_median, '.1f')} / {_fmt(r.interval_p99_ms, '.1f')} "
+            f"| {_fmt(r.telemetry_hz_median, '.1f')} "
+            f"| {_fmt(r.telemetry_latency_p50_ms, '.1f')} / "
+            f"{_fmt(r.telemetry_latency_p99_ms, '.1f')} |"
+        )
+    return "\n".join(rows)
+
+
+@contextlib.asynccontextmanager
+async def fleet(n: int, kind: str) -> AsyncIterator[MockPorts]:
+    """A fresh fleet of ``n`` PX4 planes: the mock, or the light fake fleet."""
+    if kind == "mock":
+        async with start_mock_process(n) as ports:
+            yield ports
+        return
+    base = find_free_ports(n)
+    async with start_light_fleet(n, base):
+        yield MockPorts(list(range(base, base + n)), 250)
+
+
+async def run(
+    sizes: Sequence[int], clients: Sequence[str], seconds: float, light_from: int
+) -> list[ClientResult]:
+    """Every client against a fresh fleet of every size."""
+    results: list[ClientResult] = []
+    for n in sizes:
+        kind = "light" if n >= light_from else "mock"
+        for name in clients:
+            async with fleet(n, kind) as ports:
+                result = await CLIENTS[name](ports, seconds=seconds)
+            result = dataclasses.replace(result, notes=f"{kind} fleet; {result.notes}")
+            results.append(result)
+            print(table([result]).splitlines()[-1], flush=True)
+    return results
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("sizes", nargs="*", type=int, default=[10, 100, 500, 1000])
+    parser.add_argument("--seconds", type=float, default=20.0, help="measured window, wall s")
+    parser.add_argument("--clients", nargs="+", choices=sorted(CLIENTS), default=list(CLIENTS))
+    parser.add_argument("--json", metavar="FILE", help="also write the results as JSON")
+    parser.add_argument(
+        "--light-from",
+        type=int,
+        default=500,
+        metavar="N",
+        help="fleets of N or more planes are the light fake fleet, not the mock",
+    )
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.ERROR)  # per-vehicle set-up chatter, N times over
+    print(f"{os.cpu_count()} cores, Python {sys.version.split()[0]}", flush=True)
+    results = asyncio.run(run(args.sizes, args.clients, args.seconds, args.light_from))
+    print(table(results))
+    if args.json:
+        with open(args.json, "w", encoding="utf-8") as fh:
+            json.dump([dataclasses.asdict(r) for r in results], fh, indent=2)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
