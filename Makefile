@@ -7,7 +7,7 @@ VENV ?= .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-stamp
 
-.PHONY: demo test lint typecheck unit bench broker clean
+.PHONY: demo test lint typecheck unit bench bench-fleet broker clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -46,6 +46,11 @@ unit: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python -m pytest benchmarks --benchmark-only --benchmark-columns=median,iqr,ops,rounds
 	$(BIN)/python benchmarks/bench_mock_realtime.py
+
+# convoy-mav and MAVSDK-Python flying 10..1000 mock PX4 planes at 20 Hz (about 15 min).
+bench-fleet: $(STAMP)
+	mkdir -p out
+	$(BIN)/python benchmarks/bench_fleet.py 10 100 500 1000 --seconds 15 --json out/bench_fleet.json
 
 clean:
 	rm -rf $(VENV) .pytest_cache .mypy_cache .ruff_cache .benchmarks

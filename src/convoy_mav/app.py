@@ -210,6 +210,8 @@ class ConvoyService:
         self.alarms: list[dict[str, Any]] = []
         self.events: list[str] = []
         self.paused = False
+        self._stopping = False
+        self._vehicle_alarms: set[str] = set()  # "uav_lost:3": active per-vehicle alarms
         self._last_est: ConvoyEstimate | None = None
 
     # ------------------------------------------------------------------ inputs
@@ -379,8 +381,10 @@ class ConvoyService:
         else:
             await stop.wait()
         self._end_t = self.clock.now()
+        self._stopping = True
         self._note("shutting down: every UAV told to loiter where it is")
         await asyncio.gather(*(v.hold() for v in self.vehicles.values()), return_exceptions=True)
+        self._publish_state(self.clock.now())  # the retained status says "stopping", holding
         raise _Stop
 
     async def _ground_streams(self, links: list[MavLink]) -> None:
@@ -525,6 +529,12 @@ class ConvoyService:
             self._alarm(Alarm(ev.t, "mission", True, ev.message))
 
     def _alarm(self, alarm: Alarm, sysid: int | None = None) -> None:
+        if sysid is not None:
+            key = f"{alarm.kind}:{sysid}"
+            if alarm.active:
+                self._vehicle_alarms.add(key)
+            else:  # heard again: whatever was wrong with it is over
+                self._vehicle_alarms -= {a for a in self._vehicle_alarms if a.endswith(f":{sysid}")}
         entry = {"t": alarm.t, "kind": alarm.kind, "active": alarm.active, "message": alarm.message}
         self.alarms.append(entry)
         log.warning("alarm %s", entry)
@@ -554,7 +564,7 @@ class ConvoyService:
             return
         wall = time.time()
         snap = self.monitor.snapshot(t)
-        active = sorted(self.monitor.active)
+        active = sorted(self.monitor.active | self._vehicle_alarms)
         self._publish(
             topics.STATUS,
             topics.status_payload(
@@ -601,6 +611,8 @@ class ConvoyService:
 
     def _phase(self, snap: MonitorSnapshot) -> str:
         flying = any(v.status == VehicleStatus.FLYING for v in self.vehicles.values())
+        if self._stopping:
+            return "stopping"
         if self.paused:
             return "paused"
         if snap.protect_start is not None:

@@ -41,7 +41,7 @@ topic: while the broker is away, older values are dropped, not queued.
 | `paused` | bool | an operator pause is in force (all UAVs loiter) |
 | `uptime_s` | number | wall seconds since the service started |
 | `uavs` | object | `total`, plus a count per vehicle `state` (see vehicle below) |
-| `alarms` | array of string | kinds of the alarms currently active |
+| `alarms` | array of string | alarms in force (`gap`, `convoy_stale`, `uav_lost:<sysid>`...) |
 
 `<prefix>/vehicle/<sysid>`
 
@@ -52,7 +52,7 @@ topic: while the broker is away, older values are dropped, not queued.
 | `state` | string | `connecting` `waiting_fix` `setting_up` `flying` `holding` `lost` `failed` |
 | `mode` | string/null | autopilot flight mode as it reports it |
 | `firmware` | string/null | `px4` or `ardupilot` once recognised |
-| `phase` | string/null | mission phase: `join` or `protect` |
+| `phase` | string/null | mission phase: `pending` `join` `protect` `lost` (null: no plan) |
 | `position` | object/null | `lat` `lon` (deg), `alt` (m AMSL), `north` `east` `down` (m, NED) |
 | `velocity` | object/null | `vn`, `ve`, `vd` (m/s, NED) |
 | `yaw` | number/null | heading, rad clockwise from north |
@@ -83,11 +83,11 @@ topic: while the broker is away, older values are dropped, not queued.
 |---|---|---|
 | `t`, `ts` | number/null, string | mission time, wall time of the event |
 | `seq` | int | 1, 2, 3... per service run: a jump means alarms were overwritten unsent |
-| `kind` | string | e.g. `gap_opened` `gap_closed` `uav_lost` `convoy_stale` `prediction_missed` |
-| `severity` | string | `info`, `warning` or `critical` |
+| `kind` | string | `gap` `prediction_missed` `convoy_stale` `uav_lost` `uav_failed` `mission` |
+| `severity` | string | `warning` when the condition starts, `info` when it ends |
 | `message` | string | human-readable text |
 | `sysid` | int/null | the vehicle concerned, if any |
-| `data` | object | extra numbers for the kind (e.g. `duration_s`) |
+| `data` | object | `active`: true when the condition starts, false when it clears |
 
 `<prefix>/convoy/position` (input): either `{"lat": deg, "lon": deg}` or
 `{"north": m, "east": m}` (mission frame), each optionally with `"t"` (mission
