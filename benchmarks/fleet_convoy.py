@@ -38,7 +38,7 @@ from convoy_mav.mavlink import MavLink
 from convoy_mav.monitor import Monitor
 from convoy_mav.planning import PlanRequest, make_plan
 from convoy_mav.schedule import setpoint_at
-from convoy_mav.streaming import IntervalStats, SetpointStreamer
+from convoy_mav.streaming import SetpointStreamer, percentile
 from convoy_mav.types import ConvoyEstimate, Setpoint, Telemetry, VehicleStatus
 from convoy_mav.vehicle import Vehicle
 
@@ -114,9 +114,6 @@ async def run_convoy_mav(
     rates = [sent.get(s, 0) / wall_s for s in vehicles]
     p50 = [st.wall.percentile(50) for st in streamer.stats.values() if st.wall.count]
     p99 = [st.wall.percentile(99) for st in streamer.stats.values() if st.wall.count]
-    lat = IntervalStats(keep=max(1, len(latencies)))
-    for x in latencies:
-        lat.add(x)
     return ClientResult(
         client=f"convoy-mav {convoy_mav.__version__}",
         vehicles=n,
@@ -129,8 +126,8 @@ async def run_convoy_mav(
         interval_p99_ms=1e3 * max(p99) if p99 else math.nan,
         interval_p99_ms_median=1e3 * statistics.median(p99) if p99 else math.nan,
         telemetry_hz_median=statistics.median(telemetry_counts) / wall_s,
-        telemetry_latency_p50_ms=1e3 * lat.percentile(50) if latencies else None,
-        telemetry_latency_p99_ms=1e3 * lat.percentile(99) if latencies else None,
+        telemetry_latency_p50_ms=1e3 * percentile(latencies, 50) if latencies else None,
+        telemetry_latency_p99_ms=1e3 * percentile(latencies, 99) if latencies else None,
         notes=(
             f"monitor tick {CONTROL_HZ:g} Hz; joins not run (see fleet_convoy.py); "
             f"clock steps {clock.steps}, missed ticks {streamer.missed}"

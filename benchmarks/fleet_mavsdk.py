@@ -70,6 +70,8 @@ from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
+from convoy_mav.streaming import percentile
+
 __all__ = [
     "MOCK_MAX_AIRCRAFT",
     "ClientResult",
@@ -134,17 +136,6 @@ class ClientResult:
 
 
 # -- statistics ----------------------------------------------------------------------
-
-
-def _percentile(xs: Sequence[float], q: float) -> float:
-    """Linear-interpolated percentile (numpy's default), ``nan`` for no data."""
-    if not xs:
-        return math.nan
-    s = sorted(xs)
-    pos = (len(s) - 1) * q / 100.0
-    lo = math.floor(pos)
-    hi = min(lo + 1, len(s) - 1)
-    return s[lo] + (s[hi] - s[lo]) * (pos - lo)
 
 
 def _median(xs: Sequence[float]) -> float:
@@ -848,14 +839,14 @@ def _wire_notes(flying: list[_Vehicle], window: _Window, rec: _TapRecords) -> st
         ]
         delays += [(t_wire - t_call) * 1e3 for t_wire, t_call in ours]
         gaps = [(b - a) * 1e3 for (a, _), (b, _) in itertools.pairwise(ours)]
-        gaps_p50.append(_percentile(gaps, 50))
-        gaps_p99.append(_percentile(gaps, 99))
+        gaps_p50.append(percentile(gaps, 50))
+        gaps_p99.append(percentile(gaps, 99))
     if not rates:
         return "wire: not observed"
     return (
         f"wire ({len(rates)} tapped vehicles): setpoint datagrams {_median(rates):.1f}/s/vehicle"
         f" ({100 * _median(dups):.0f}% MAVSDK's own re-sends), call->wire"
-        f" p50={_percentile(delays, 50):.2f}ms p99={_percentile(delays, 99):.1f}ms"
+        f" p50={percentile(delays, 50):.2f}ms p99={percentile(delays, 99):.1f}ms"
         f" max={max(delays, default=math.nan):.1f}ms, wire interval of our setpoints"
         f" p50={_median(gaps_p50):.1f}ms p99 max={max(gaps_p99, default=math.nan):.1f}ms"
     )
@@ -877,8 +868,8 @@ def _summarize(
         sends = [t for t in v.sends if w0 <= t <= w1]
         gaps = [(b - a) * 1e3 for a, b in itertools.pairwise(sends)]
         per_rate.append(len(sends) / wall)
-        p50s.append(_percentile(gaps, 50))
-        p99s.append(_percentile(gaps, 99))
+        p50s.append(percentile(gaps, 50))
+        p99s.append(percentile(gaps, 99))
         tel_hz.append(sum(w0 <= t <= w1 for t in v.updates) / wall)
         for t, pos in zip(v.updates, v.positions, strict=False):
             handed = records.down.get((v.port, *pos))
@@ -895,7 +886,7 @@ def _summarize(
         notes.append(f"mock_cores={window.mock_cores:.2f}")
     lat50 = lat99 = None
     if latencies:
-        lat50, lat99 = _percentile(latencies, 50), _percentile(latencies, 99)
+        lat50, lat99 = percentile(latencies, 50), percentile(latencies, 99)
         notes.append(
             f"latency: {len(latencies)} frames of the tapped vehicles, from the frame"
             " entering MAVSDK's socket to the value in the coroutine"

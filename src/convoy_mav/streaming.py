@@ -26,7 +26,7 @@ from typing import Protocol
 from convoy_mav.clock import MissionClock
 from convoy_mav.types import Setpoint, VehicleStatus
 
-__all__ = ["IntervalStats", "SendStats", "SetpointStreamer", "StreamTarget"]
+__all__ = ["IntervalStats", "SendStats", "SetpointStreamer", "StreamTarget", "percentile"]
 
 log = logging.getLogger(__name__)
 
@@ -49,6 +49,17 @@ class StreamTarget(Protocol):
     def send_setpoint(self, sp: Setpoint) -> None:
         """Send one setpoint now (never blocks)."""
         ...
+
+
+def percentile(values: Iterable[float], q: float) -> float:
+    """The ``q``-th percentile (0..100), interpolated linearly (NaN if no values)."""
+    data = sorted(values)
+    if not data:
+        return math.nan
+    pos = min(max(q, 0.0), 100.0) / 100.0 * (len(data) - 1)
+    lo = math.floor(pos)
+    hi = min(lo + 1, len(data) - 1)
+    return data[lo] + (data[hi] - data[lo]) * (pos - lo)
 
 
 class IntervalStats:
@@ -90,13 +101,7 @@ class IntervalStats:
 
     def percentile(self, q: float) -> float:
         """The ``q``-th percentile (0..100) of the kept samples (NaN if none)."""
-        data = sorted(self._ring)
-        if not data:
-            return math.nan
-        pos = min(max(q, 0.0), 100.0) / 100.0 * (len(data) - 1)
-        lo = math.floor(pos)
-        hi = min(lo + 1, len(data) - 1)
-        return data[lo] + (data[hi] - data[lo]) * (pos - lo)
+        return percentile(self._ring, q)
 
 
 class SendStats:
