@@ -81,6 +81,25 @@ async def streaming(streamer: SetpointStreamer) -> AsyncIterator[None]:
             await task
 
 
+@contextlib.asynccontextmanager
+async def all_flying(
+    links: list[MavLink], vehicles: dict[int, Vehicle], streamer: SetpointStreamer
+) -> AsyncIterator[None]:
+    """Links open, vehicles and streamer running, every vehicle FLYING (10 s at most)."""
+    async with contextlib.AsyncExitStack() as stack:
+        for link in links:
+            await stack.enter_async_context(link)
+        async with asyncio.TaskGroup() as tg:
+            tasks = [tg.create_task(v.run()) for v in vehicles.values()]
+            tasks.append(tg.create_task(streamer.run()))
+            async with asyncio.timeout(10):
+                while any(v.status is not VehicleStatus.FLYING for v in vehicles.values()):
+                    await asyncio.sleep(0.01)
+            yield
+            for task in tasks:
+                task.cancel()
+
+
 async def mission_sleep(clock: MissionClock, seconds: float) -> None:
     await clock.sleep_until(clock.now() + seconds)
 
@@ -247,24 +266,14 @@ async def test_three_px4_planes_get_every_setpoint(start_mock: StartMock) -> Non
         return Setpoint(t, 18.0 * t, east, -40.0 - 10.0 * sysid, 18.0, 0.0, 0.0, 0.0, 0.0)
 
     streamer = SetpointStreamer(vehicles.values(), source, clock, rate_hz=rate)
-    async with contextlib.AsyncExitStack() as stack:
-        for link in links:
-            await stack.enter_async_context(link)
-        async with asyncio.TaskGroup() as tg:
-            tasks = [tg.create_task(v.run()) for v in vehicles.values()]
-            tasks.append(tg.create_task(streamer.run()))
-            async with asyncio.timeout(10):
-                while any(v.status is not VehicleStatus.FLYING for v in vehicles.values()):
-                    await asyncio.sleep(0.01)
-            before = {i: fleet.counters(i)["setpoint"] for i in vehicles}
-            sent_before = {i: streamer.stats[i].count for i in vehicles}
-            t0 = clock.now()
-            await fleet.wait_until(fleet.now + 20.0)
-            duration = clock.now() - t0
-            received = {i: fleet.counters(i)["setpoint"] - before[i] for i in vehicles}
-            sent = {i: streamer.stats[i].count - sent_before[i] for i in vehicles}
-            for task in tasks:
-                task.cancel()
+    async with all_flying(links, vehicles, streamer):
+        before = {i: fleet.counters(i)["setpoint"] for i in vehicles}
+        sent_before = {i: streamer.stats[i].count for i in vehicles}
+        t0 = clock.now()
+        await fleet.wait_until(fleet.now + 20.0)
+        duration = clock.now() - t0
+        received = {i: fleet.counters(i)["setpoint"] - before[i] for i in vehicles}
+        sent = {i: streamer.stats[i].count - sent_before[i] for i in vehicles}
     # with the fix awaited first, PX4 accepts OFFBOARD and arming at the first try
     assert not [e for e in events if e.kind is EventKind.REFUSED]
     for i in vehicles:
@@ -308,18 +317,8 @@ async def test_two_autopilots_with_the_same_sysid_are_two_uavs(start_mock: Start
         return Setpoint(t, 18.0 * t, 100.0 * uid, -40.0, 18.0, 0.0, 0.0, 0.0, 0.0)
 
     streamer = SetpointStreamer(vehicles.values(), source, clock, rate_hz=20.0)
-    async with contextlib.AsyncExitStack() as stack:
-        for link in links:
-            await stack.enter_async_context(link)
-        async with asyncio.TaskGroup() as tg:
-            tasks = [tg.create_task(v.run()) for v in vehicles.values()]
-            tasks.append(tg.create_task(streamer.run()))
-            async with asyncio.timeout(10):
-                while any(v.status is not VehicleStatus.FLYING for v in vehicles.values()):
-                    await asyncio.sleep(0.01)
-            await fleets[0].wait_until(fleets[0].now + 5.0)
-            for task in tasks:
-                task.cancel()
+    async with all_flying(links, vehicles, streamer):
+        await fleets[0].wait_until(fleets[0].now + 5.0)
     assert set(streamer.stats) == {1, 2}
     for uid, fleet in enumerate(fleets, start=1):
         assert fleet.counters(1)["setpoint"] >= streamer.stats[uid].count - 2 > 50
