@@ -289,16 +289,18 @@ class MissionClock:
         if not self._rate_trusted:
             return False
         residual = unwrapped + track.offset - self._line(wall)
+        threshold = self._step_threshold()
         run = self._step_run
-        if abs(residual) <= self._step_threshold() or (run and (residual > 0) != (run[-1][2] > 0)):
+        if abs(residual) <= threshold:
             run.clear()
-            if abs(residual) <= self._step_threshold():
-                return False
+            return False
+        if run and (residual > 0) != (run[-1][2] > 0):
+            run.clear()  # off the other way: a new run starts here
         run.append((wall, unwrapped, residual))
         if len(run) < _STEP_CONFIRM or wall - run[0][0] < _STEP_SPAN:
             return False
         residuals = [r for _, _, r in run[-_STEP_CONFIRM:]]
-        if max(residuals) - min(residuals) > 0.5 * self._step_threshold():
+        if max(residuals) - min(residuals) > 0.5 * threshold:
             return False  # a queue filling or draining (congestion), not a clock that moved
         # Rebuild from the packets on the new timeline; the other vehicles' samples
         # straddle the step too (a simulator pauses them all), so they restart.
