@@ -32,11 +32,12 @@ async def test_setpoint_loss_triggers_the_loiter_failsafe(
     client = mav_client(fleet.endpoint(1).port)
     client.hello()
     await client.until(lambda: fleet.now > 1.5)
-    next_t = 0.0
+    next_t = last_sent = 0.0
 
     def stream() -> bool:
-        nonlocal next_t
+        nonlocal next_t, last_sent
         if fleet.now >= next_t:
+            last_sent = fleet.now
             client.mav.set_position_target_local_ned_send(
                 0, 1, 1, mavlink.MAV_FRAME_LOCAL_NED, POS_VEL_MASK,
                 500.0, 0.0, -40.0, 18.0, 0.0, 0.0, 0, 0, 0, 0, 0,
@@ -55,7 +56,8 @@ async def test_setpoint_loss_triggers_the_loiter_failsafe(
     t_stop = fleet.now  # the script dies: no more setpoints
     hb = await client.wait_for("HEARTBEAT", lambda m: m.custom_mode == PX4_LOITER, timeout=5)
     t_failsafe = fleet.now
-    assert t_failsafe >= t_stop + timeout
+    # the timeout runs from the last setpoint, sent up to one period before t_stop
+    assert t_failsafe >= last_sent + timeout
     assert t_failsafe < t_stop + timeout + 1.5  # next heartbeat after the switch (1 Hz)
     assert hb.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED
     assert any("Failsafe" in m.text for m in client.of("STATUSTEXT"))
