@@ -276,6 +276,10 @@ class SimVehicle:
         """The physics of an aircraft (None for a ground vehicle)."""
         return self.flight.aircraft
 
+    def message_interval_us(self, msg_id: int) -> int:
+        """What GET_MESSAGE_INTERVAL answers: microseconds, -1 off, 0 not available."""
+        return self._streams.interval_us(msg_id)
+
     def _update_warm(self, now: float) -> None:
         fl = self.flight
         if fl.warm or now - self._boot_t < self._warmup:
@@ -563,7 +567,7 @@ class SimVehicle:
     def _cmd_get_message_interval(self, c: Command, now: float) -> Outcome:
         """MAV_CMD_GET_MESSAGE_INTERVAL: answered with MESSAGE_INTERVAL."""
         msg_id = _msg_id(c.p1)
-        reply = _R.MAVLink_message_interval_message(msg_id, self._streams.interval_us(msg_id))
+        reply = _R.MAVLink_message_interval_message(msg_id, self.message_interval_us(msg_id))
         return _R.MAV_RESULT_ACCEPTED, [reply]
 
     def _cmd_request_message(self, c: Command, now: float) -> Outcome:

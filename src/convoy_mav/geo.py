@@ -13,7 +13,7 @@ PX4's and ArduPilot's own local-frame code assume as well.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 __all__ = ["GeoPoint", "LocalFrame"]
 
@@ -35,16 +35,17 @@ class LocalFrame:
     """A north-east-down frame tangent to the ellipsoid at ``origin``."""
 
     origin: GeoPoint
+    # Metres per radian of latitude (meridian) and of longitude (parallel) at the
+    # origin: worked out once, every setpoint and position crosses this frame.
+    _radii: tuple[float, float] = field(init=False, repr=False, compare=False)
 
-    @property
-    def _radii(self) -> tuple[float, float]:
-        """Metres per radian of latitude (meridian) and of longitude (parallel)."""
+    def __post_init__(self) -> None:
         lat = math.radians(self.origin.lat)
         s2 = math.sin(lat) ** 2
         w = math.sqrt(1.0 - _WGS84_E2 * s2)
         meridian = _WGS84_A * (1.0 - _WGS84_E2) / w**3
         prime_vertical = _WGS84_A / w
-        return meridian, prime_vertical * math.cos(lat)
+        object.__setattr__(self, "_radii", (meridian, prime_vertical * math.cos(lat)))
 
     def to_ned(self, point: GeoPoint) -> tuple[float, float, float]:
         """Geodetic point to (north, east, down) metres from the origin."""

@@ -64,31 +64,18 @@ def sample_to_setpoint(s: Sample, t: float, *, plan_origin: Origin, down: float)
         plan_origin: Mission (north, east) of the planner origin.
         down: Altitude setpoint, metres down (negative above the origin).
     """
-    north, east = planner_to_mission(s.x, s.y, plan_origin)
+    n0, e0 = plan_origin  # (planner_to_mission, inlined: this runs for every setpoint sent)
+    rate = s.turn_rate
     center: tuple[float, float] | None = None
     radius = 0.0
-    clockwise = True
-    if s.turn_rate != 0.0:
-        k = s.speed / s.turn_rate  # signed radius: > 0 turning left (counter-clockwise)
-        cx = s.x - k * math.sin(s.heading)
-        cy = s.y + k * math.cos(s.heading)
-        center = planner_to_mission(cx, cy, plan_origin)
+    if rate != 0.0:
+        k = s.speed / rate  # signed radius: > 0 turning left (counter-clockwise)
+        center = (n0 + s.y + k * math.cos(s.heading), e0 + s.x - k * math.sin(s.heading))
         radius = abs(k)
-        clockwise = s.turn_rate < 0.0
     return Setpoint(
-        t=t,
-        north=north,
-        east=east,
-        down=down,
-        vn=s.vy,
-        ve=s.vx,
-        vd=0.0,
-        yaw=yaw_to_heading(s.heading),
-        yaw_rate=-s.turn_rate,
-        center=center,
-        radius=radius,
-        clockwise=clockwise,
-    )
+        t, n0 + s.y, e0 + s.x, down, s.vy, s.vx, 0.0, yaw_to_heading(s.heading), -rate,
+        center, radius, rate <= 0.0,
+    )  # fmt: skip
 
 
 def setpoint_on(

@@ -6,8 +6,16 @@ vehicle's setpoint *now* and sends it. Nothing is queued: a late loop skips the
 deadlines it missed (counted in ``missed``) and carries on from the next one, so
 an overloaded machine sends fresher setpoints less often, never a burst of
 stale ones. One task for all vehicles keeps the cost per setpoint at one
-function call (no per-vehicle task wake-ups) and makes all vehicles' setpoints
-of a tick refer to the same instant.
+function call (no per-vehicle task wake-ups).
+
+A big fleet is not sent in one burst: its round is cut into slices of
+``slice_size`` vehicles spread evenly over the period (at most ``max_slices``),
+each sampled at its own instant. A thousand sends in a row would hold the event
+loop for tens of milliseconds while the telemetry piles up behind them, and the
+next round would start late by however long that pile takes to drain: slices
+keep both bursts short, so every vehicle's own deadline is met. (It also spares
+a shared radio or MAVLink router a thousand-packet burst.) A fleet of up to
+``slice_size`` vehicles is one slice: the whole round at its deadline.
 
 ``stats`` keeps, per vehicle, the intervals between consecutive sends in wall
 and in mission seconds (count, mean, max and the last few thousand samples for
@@ -137,11 +145,13 @@ class SetpointStreamer:
             other vehicles still get theirs.
         clock: The mission clock.
         rate_hz: Setpoints per mission second per vehicle.
+        slice_size: Vehicles per slice of a round (bigger fleets are staggered).
+        max_slices: At most this many slices per period.
         wall: Wall clock for the statistics (injected for tests).
 
     Attributes:
-        ticks: Deadlines served.
-        missed: Deadlines skipped because the loop was late.
+        ticks: Rounds (deadlines) served.
+        missed: Rounds skipped because the loop was late.
         errors: Source calls that raised.
         stats: Per-uid :class:`SendStats`.
     """
@@ -153,15 +163,24 @@ class SetpointStreamer:
         clock: MissionClock,
         rate_hz: float = 20.0,
         *,
+        slice_size: int = 50,
+        max_slices: int = 20,
         wall: Callable[[], float] = time.monotonic,
     ) -> None:
         if not (math.isfinite(rate_hz) and rate_hz > 0.0):
             raise ValueError(f"rate_hz must be finite and > 0, got {rate_hz!r}")
+        if slice_size < 1 or max_slices < 1:
+            raise ValueError(
+                f"slice_size and max_slices must be >= 1, got {slice_size}, {max_slices}"
+            )
         self.vehicles = vehicles
         self.source = source
         self.clock = clock
         self.period = 1.0 / rate_hz
+        self.slice_size = slice_size
+        self.max_slices = max_slices
         self._wall = wall
+        self._rank: dict[int, int] = {}  # uid -> order first seen: its slice is rank % slices
         self.ticks = 0
         self.missed = 0
         self.errors = 0
@@ -183,16 +202,51 @@ class SetpointStreamer:
             if late > 0:  # missed deadlines are skipped, not sent in a burst
                 self.missed += late
                 k += late
-            self.tick()
-            k += 1
+            self.ticks += 1
+            k = await self._round(k) + 1
+
+    async def _round(self, k: int) -> int:
+        """Send round ``k`` slice by slice; returns the round to continue from."""
+        clock = self.clock
+        slices = self.slices()
+        step = self.period / len(slices)
+        for i, group in enumerate(slices):
+            if i:
+                deadline = k * self.period + i * step
+                await clock.sleep_until(deadline)
+                if clock.now() < deadline - step:  # the clock stepped back: re-anchor
+                    return math.floor(clock.now() / self.period)
+            self.send(group)  # a late slice is sent at once: still one setpoint per round
+        return k
+
+    def slices(self) -> list[list[StreamTarget]]:
+        """This round's vehicles cut into slices (rank order, one slice per offset).
+
+        Vehicle ``i`` (in the order first seen) is in slice ``i % len(slices)``,
+        so each keeps its offset in the period while the fleet size is steady.
+        """
+        vehicles = list(self.vehicles)
+        rank = self._rank
+        count = min(self.max_slices, max(1, -(-len(vehicles) // self.slice_size)))
+        slices: list[list[StreamTarget]] = [[] for _ in range(count)]
+        for vehicle in vehicles:
+            r = rank.get(vehicle.uid)
+            if r is None:
+                r = rank[vehicle.uid] = len(rank)
+            slices[r % count].append(vehicle)
+        return slices
 
     def tick(self) -> int:
-        """Send one round now (what ``run`` does at each deadline); returns sends."""
+        """Send one whole round now (every slice at once); returns sends."""
         self.ticks += 1
+        return self.send(self.vehicles)
+
+    def send(self, vehicles: Iterable[StreamTarget]) -> int:
+        """Send each streaming vehicle of ``vehicles`` its setpoint for now; returns sends."""
         t = self.clock.now()
         wall = self._wall()
         sent = 0
-        for vehicle in self.vehicles:
+        for vehicle in vehicles:
             if vehicle.status not in _STREAMING:
                 continue
             uid = vehicle.uid

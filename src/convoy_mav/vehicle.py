@@ -56,6 +56,7 @@ from convoy_mav.errors import AutopilotError
 from convoy_mav.geo import GeoPoint, LocalFrame
 from convoy_mav.mavlink.autopilots import (
     DEFAULT_STREAM_RATES,
+    FLIGHT_STREAM_RATES,
     Autopilot,
     CommandSpec,
     SetupStep,
@@ -160,7 +161,8 @@ class Vehicle:
             (None: wait for one until ``setup_timeout``).
         keepalive: Mission s without a setpoint before the vehicle sends its own
             (only for autopilots that need a live stream).
-        stream_rates: Message id -> Hz of mission time to request.
+        stream_rates: Message id -> Hz of mission time to request while setting up.
+        flight_stream_rates: The same once FLYING (set-up-only streams slowed down).
         gcs_sysid: Our system id: COMMAND_ACKs for other ground stations are ignored.
         heartbeat: Send our own HEARTBEAT at 1 Hz (False when the link owner does).
         uid: This UAV's id in the service (clock, telemetry, events, setpoints);
@@ -194,6 +196,7 @@ class Vehicle:
         fix_timeout: float | None = None,
         keepalive: float = 0.3,
         stream_rates: Mapping[int, float] = DEFAULT_STREAM_RATES,
+        flight_stream_rates: Mapping[int, float] = FLIGHT_STREAM_RATES,
         gcs_sysid: int = 255,
         heartbeat: bool = True,
         uid: int | None = None,
@@ -214,6 +217,7 @@ class Vehicle:
         self.fix_timeout = fix_timeout
         self.keepalive = keepalive
         self.stream_rates = dict(stream_rates)
+        self.flight_stream_rates = dict(flight_stream_rates)
         self.gcs_sysid = gcs_sysid
         self._heartbeat = heartbeat
 
@@ -396,8 +400,8 @@ class Vehicle:
         vn, ve, vd = msg.vx * 0.01, msg.vy * 0.01, msg.vz * 0.01
         if msg.hdg != 0xFFFF:
             yaw = math.remainder(math.radians(msg.hdg * 0.01), math.tau)
-        elif (att := self.last.get("ATTITUDE")) is not None:
-            yaw = att.yaw
+        elif now - self.last_t.get("ATTITUDE", -math.inf) < 1.0:  # (a watch in flight: stale)
+            yaw = self.last["ATTITUDE"].yaw
         else:
             yaw = math.atan2(ve, vn)
         t = self.clock.to_mission(msg.time_boot_ms, self.uid)
@@ -446,7 +450,8 @@ class Vehicle:
     def _request_streams(self) -> None:
         if self.firmware is None:
             return
-        for msg in self.firmware.stream_requests(self.stream_rates):
+        rates = self.flight_stream_rates if self.status is _S.FLYING else self.stream_rates
+        for msg in self.firmware.stream_requests(rates):
             self._send(msg)
         self._streams_t = self.clock.now()
         self.counters["stream_requests"] += 1
@@ -594,6 +599,7 @@ class Vehicle:
                 raise _SetupFailed(self._gave_up("final check", 0, None))
             await self.clock.sleep_until(self.clock.now() + self.command_retry)
         self._set_status(_S.FLYING)
+        self._request_streams()  # the flight rates
 
     def _no_fix_message(self) -> str:
         gps = self.last.get("GPS_RAW_INT")

@@ -138,6 +138,37 @@ async def test_streams_on_mission_deadlines_to_flying_and_setting_up_only() -> N
     assert streamer.ticks >= len(vehicles[0].sent)
 
 
+async def test_a_big_fleet_is_sent_in_slices_spread_over_the_period() -> None:
+    """120 vehicles, 50 a slice: three slices a third of a period apart, each
+    vehicle still once per period, at its own steady offset."""
+    vehicles = [FakeVehicle(i) for i in range(1, 121)]
+    async with autopilot_clock(1.0) as clock:
+        streamer = SetpointStreamer(vehicles, setpoint, clock, rate_hz=10.0, slice_size=50)
+        assert [len(group) for group in streamer.slices()] == [40, 40, 40]
+        async with streaming(streamer):
+            await mission_sleep(clock, 1.5)
+    period = 0.1
+    for v in vehicles:
+        times = [sp.t for _, sp in v.sent]
+        assert len(times) >= 12
+        intervals = [b - a for a, b in itertools.pairwise(times)]
+        assert all(0.5 * period < dt < 1.5 * period for dt in intervals), v.uid
+        slot = (v.uid - 1) % 3  # first seen in list order
+        offsets = [math.remainder(t - slot * period / 3, period) for t in times]
+        assert max(abs(x) for x in offsets) < 0.012, (v.uid, offsets)
+
+
+def test_slices_keep_each_vehicle_in_place_as_the_fleet_grows() -> None:
+    fleet = [FakeVehicle(i) for i in range(1, 61)]
+    streamer = SetpointStreamer(fleet, setpoint, MissionClock(), slice_size=20, max_slices=4)
+    before = {v.uid: i for i, group in enumerate(streamer.slices()) for v in group}
+    assert sorted(before.values()).count(0) == 20  # 60 vehicles: 3 slices of 20
+    fleet.extend(FakeVehicle(i) for i in range(61, 201))  # 200 vehicles: capped at 4 slices
+    slices = streamer.slices()
+    assert [len(group) for group in slices] == [50, 50, 50, 50]
+    assert [v.uid for v in slices[1][:3]] == [2, 6, 10]  # rank % 4, in first-seen order
+
+
 async def test_a_stalled_loop_skips_ticks_instead_of_bursting() -> None:
     vehicle = FakeVehicle(1)
     async with autopilot_clock(10.0) as clock:

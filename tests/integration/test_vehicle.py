@@ -25,6 +25,7 @@ import pytest
 from convoy_mav.clock import MissionClock
 from convoy_mav.geo import LocalFrame
 from convoy_mav.mavlink import MavLink
+from convoy_mav.mavlink.autopilots import FLIGHT_STREAM_RATES
 from convoy_mav.streaming import SetpointStreamer
 from convoy_mav.types import Setpoint, VehicleStatus
 from convoy_mav.vehicle import EventKind, Vehicle, VehicleEvent
@@ -175,6 +176,12 @@ async def test_set_up_fly_a_circle_hold_and_lose(
         # -- the mission clock follows the autopilot's
         assert clock.rate == pytest.approx(SPEEDUP, rel=0.03)
         assert abs(clock.now() - fleet.now) < 0.25
+
+        # -- flying: position as before, the set-up-only streams slowed to a watch
+        await sim_sleep(fleet, 1.0)
+        sim = fleet.vehicles[1]
+        for msg_id, hz in FLIGHT_STREAM_RATES.items():
+            assert sim.message_interval_us(msg_id) == round(1e6 / hz), msg_id
 
         # -- fly: climb-out (planes), then four laps from 40 degrees behind
         await until(lambda: source.circle is not None, timeout=5)

@@ -14,7 +14,7 @@ Design rules:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from enum import IntEnum
 
 __all__ = [
@@ -97,19 +97,32 @@ class Segment:
     radius: float
     speed: float
     duration: float
+    # Constants of eq. (28) for this segment, worked out once: every setpoint of
+    # every UAV samples a segment (tens of thousands a second for a big fleet).
+    _rate: float = field(init=False, repr=False, compare=False)
+    _k: float = field(init=False, repr=False, compare=False)
+    _sin0: float = field(init=False, repr=False, compare=False)
+    _cos0: float = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         if not (self.duration >= 0.0 and math.isfinite(self.duration)):
             raise ValueError(f"segment duration must be finite and >= 0, got {self.duration!r}")
         if not (self.speed > 0.0 and math.isfinite(self.speed)):
             raise ValueError(f"segment speed must be finite and > 0, got {self.speed!r}")
-        if self.turn != Turn.STRAIGHT and not (self.radius > 0.0 and math.isfinite(self.radius)):
+        straight = self.turn == Turn.STRAIGHT
+        if not straight and not (self.radius > 0.0 and math.isfinite(self.radius)):
             raise ValueError(f"arc radius must be finite and > 0, got {self.radius!r}")
+        k = 0.0 if straight else float(self.turn) * self.radius
+        set_ = object.__setattr__
+        set_(self, "_k", k)
+        set_(self, "_rate", 0.0 if straight else self.speed / k)
+        set_(self, "_sin0", math.sin(self.start.heading))
+        set_(self, "_cos0", math.cos(self.start.heading))
 
     @property
     def turn_rate(self) -> float:
         """Signed turn rate ``omega`` in rad/s (|omega| = V/R on arcs)."""
-        return 0.0 if self.turn == Turn.STRAIGHT else self.turn * self.speed / self.radius
+        return self._rate
 
     @property
     def length(self) -> float:
@@ -127,17 +140,18 @@ class Segment:
 
     def at(self, tau: float) -> Pose:
         """Closed-form pose ``tau`` seconds after the segment start (eq. 28)."""
+        return Pose(*self.state(tau))
+
+    def state(self, tau: float) -> tuple[float, float, float]:
+        """``(x, y, heading)`` ``tau`` seconds after the start: :meth:`at` as a tuple."""
         p = self.start
-        if self.turn == Turn.STRAIGHT:
+        rate = self._rate
+        if rate == 0.0:
             d = self.speed * tau
-            return Pose(p.x + d * math.cos(p.heading), p.y + d * math.sin(p.heading), p.heading)
-        k = self.turn * self.radius
-        h = p.heading + self.turn_rate * tau
-        return Pose(
-            p.x + k * (math.sin(h) - math.sin(p.heading)),
-            p.y - k * (math.cos(h) - math.cos(p.heading)),
-            h,
-        )
+            return p.x + d * self._cos0, p.y + d * self._sin0, p.heading
+        k = self._k
+        h = p.heading + rate * tau
+        return p.x + k * (math.sin(h) - self._sin0), p.y - k * (math.cos(h) - self._cos0), h
 
     @property
     def end(self) -> Pose:

@@ -210,10 +210,10 @@ def _segment_arrays(cycle: tuple[Segment, ...], times: list[float]) -> dict[str,
 
 
 def _sample_segment(seg: Segment, t: float, tau: float, dx: float, dy: float) -> Sample:
-    pose = seg.at(tau)
-    c, s = math.cos(pose.heading), math.sin(pose.heading)
+    x, y, heading = seg.state(tau)
+    v = seg.speed
     return Sample(
-        t, pose.x + dx, pose.y + dy, pose.heading, seg.speed * c, seg.speed * s, seg.turn_rate
+        t, x + dx, y + dy, heading, v * math.cos(heading), v * math.sin(heading), seg.turn_rate
     )
 
 

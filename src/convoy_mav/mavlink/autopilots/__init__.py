@@ -14,6 +14,7 @@ from convoy_mav.geo import LocalFrame
 from convoy_mav.mavlink.autopilots.ardupilot import ArduCopter, ArduPilot, ArduPlane
 from convoy_mav.mavlink.autopilots.base import (
     DEFAULT_STREAM_RATES,
+    FLIGHT_STREAM_RATES,
     Autopilot,
     CommandSpec,
     SetupStep,
@@ -26,6 +27,7 @@ from convoy_mav.mavlink.autopilots.px4 import PX4
 
 __all__ = [
     "DEFAULT_STREAM_RATES",
+    "FLIGHT_STREAM_RATES",
     "PX4",
     "ArduCopter",
     "ArduPilot",
