@@ -72,6 +72,7 @@ log = logging.getLogger(__name__)
 Message = Any
 _M = mavlink
 _S = VehicleStatus
+_STREAM_NEEDED = (_S.SETTING_UP, _S.FLYING)
 
 _ARMED = _M.MAV_MODE_FLAG_SAFETY_ARMED
 _GPS_BIT = _M.MAV_SYS_STATUS_SENSOR_GPS
@@ -476,11 +477,10 @@ class Vehicle:
 
     # ================================================================== tasks
     async def run(self) -> None:
-        """Life cycle, liveness and heartbeat tasks; runs until cancelled."""
+        """Life cycle, watchdog and heartbeat tasks; runs until cancelled."""
         async with asyncio.TaskGroup() as tg:
             tg.create_task(self._lifecycle(), name=f"{self.name}.lifecycle")
-            tg.create_task(self._liveness(), name=f"{self.name}.liveness")
-            tg.create_task(self._keepalive(), name=f"{self.name}.keepalive")
+            tg.create_task(self._watchdog(), name=f"{self.name}.watchdog")
             if self._heartbeat:
                 tg.create_task(self._heartbeats(), name=f"{self.name}.heartbeat")
 
@@ -495,42 +495,41 @@ class Vehicle:
             else:  # nobody heard yet: no mission time to pace by
                 await asyncio.sleep(0.5)
 
-    async def _liveness(self) -> None:
-        await self.clock.wait_synced()
-        while True:
-            await self.clock.sleep_until(self.clock.now() + self.lost_after / 4.0)
-            now = self.clock.now()
-            if self.status in (_S.CONNECTING, _S.LOST) or self.firmware is None:
-                continue
-            silent = now - self._heard_t
-            if silent > self.lost_after:
-                self._interrupt()
-                self._set_status(_S.LOST)
-                self._emit(EventKind.LOST, f"silent for {silent:.1f} s", _M.MAV_SEVERITY_CRITICAL)
-                continue
-            no_position = now - self.last_t.get("GLOBAL_POSITION_INT", -math.inf)
-            if no_position > 2 * self.lost_after and now - self._streams_t > _STREAM_RETRY:
-                self._request_streams()  # heartbeats only: streams were forgotten (reboot)
+    async def _watchdog(self) -> None:
+        """Liveness, and the keepalive of autopilots that need a live setpoint stream.
 
-    async def _keepalive(self) -> None:
+        One task for both, since a fleet pays per wake-up: every ``lost_after / 4``
+        mission s, and while the stream is needed once per ``keepalive`` (not before
+        the stream could have gone quiet: fed setpoints push the next look back).
+        """
         await self.clock.wait_synced()
-        period = self.keepalive / 3.0
         while True:
-            # Not before the stream could have gone quiet: while setpoints flow
-            # this wakes once per ``keepalive``, not three times.
-            due = max(self._last_sp_t + self.keepalive, self.clock.now() + period)
-            await self.clock.sleep_until(due)
+            now = self.clock.now()
+            self._check_liveness(now)
+            due = now + self.lost_after / 4.0
             ap = self.firmware
-            if ap is None or not ap.streams_during_setup:
-                continue
-            if self.status not in (_S.SETTING_UP, _S.FLYING):
-                continue
-            if self.clock.now() - self._last_sp_t < self.keepalive:
-                continue
-            sp = self._own_setpoint()
-            if sp is not None:
-                self.counters["keepalive"] += 1
-                self.send_setpoint(sp)
+            if ap is not None and ap.streams_during_setup and self.status in _STREAM_NEEDED:
+                if now - self._last_sp_t >= self.keepalive:
+                    sp = self._own_setpoint()
+                    if sp is not None:
+                        self.counters["keepalive"] += 1
+                        self.send_setpoint(sp)
+                look = max(self._last_sp_t + self.keepalive, now + self.keepalive / 3.0)
+                due = min(due, look)
+            await self.clock.sleep_until(due)
+
+    def _check_liveness(self, now: float) -> None:
+        if self.status in (_S.CONNECTING, _S.LOST) or self.firmware is None:
+            return
+        silent = now - self._heard_t
+        if silent > self.lost_after:
+            self._interrupt()
+            self._set_status(_S.LOST)
+            self._emit(EventKind.LOST, f"silent for {silent:.1f} s", _M.MAV_SEVERITY_CRITICAL)
+            return
+        no_position = now - self.last_t.get("GLOBAL_POSITION_INT", -math.inf)
+        if no_position > 2 * self.lost_after and now - self._streams_t > _STREAM_RETRY:
+            self._request_streams()  # heartbeats only: streams were forgotten (reboot)
 
     async def _lifecycle(self) -> None:
         while True:

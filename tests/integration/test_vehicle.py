@@ -242,6 +242,34 @@ async def test_set_up_fly_a_circle_hold_and_lose(
         assert LOST_AFTER <= lost[0].t - t_kill < LOST_AFTER + 1.5
 
 
+async def test_keepalive_holds_offboard_when_the_setpoints_stop(start_mock: StartMock) -> None:
+    """PX4 leaves OFFBOARD after 1 s without setpoints: the vehicle keeps the stream
+    alive on its own (a hold where the last setpoint was) until the source is back."""
+    config = MockConfig.simple(1, speedup=SPEEDUP, base_port=0, warmup=1.0, setpoint_timeout=1.0)
+    fleet = await start_mock(config)
+    clock = MissionClock()
+    link = MavLink(fleet.endpoint(1).connect, lambda m: vehicle.handle(m))  # noqa: PLW0108
+    vehicle = Vehicle(1, link, clock, LocalFrame(config.origin), altitude=ALTITUDE, fix_timeout=0.0)
+
+    def source(uid: int, t: float) -> Setpoint:  # straight and level, northbound
+        return Setpoint(t, 18.0 * t, 0.0, -ALTITUDE, 18.0, 0.0, 0.0, 0.0, 0.0)
+
+    streamer = SetpointStreamer([vehicle], source, clock, rate_hz=20.0)
+    async with link, running(vehicle.run()):
+        stream = asyncio.create_task(streamer.run())
+        await until(lambda: vehicle.status is VehicleStatus.FLYING, timeout=15)
+        fed = vehicle.counters["keepalive"]  # (set-up may start before the stream)
+        await sim_sleep(fleet, 1.0)
+        assert vehicle.counters["keepalive"] == fed  # nothing of its own while fed
+        stream.cancel()
+        before = fleet.counters(1)["setpoint"]
+        await sim_sleep(fleet, 6.0)
+        own = vehicle.counters["keepalive"] - fed
+        assert 6.0 * 2.0 < own <= 6.0 / 0.3 + 2  # one per keepalive (0.3 s): above PX4's 2 Hz
+        assert fleet.counters(1)["setpoint"] - before >= own - 1
+        assert fleet.truth(1).mode == "OFFBOARD" and vehicle.status is VehicleStatus.FLYING
+
+
 async def test_gives_up_with_the_autopilots_reason(start_mock: StartMock) -> None:
     """Set-up that cannot succeed ends FAILED, naming the vehicle and the last refusal."""
     config = MockConfig.simple(1, ground=1, speedup=SPEEDUP, base_port=0, warmup=1000.0)
