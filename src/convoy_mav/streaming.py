@@ -138,10 +138,10 @@ class SetpointStreamer:
     """Sends every streaming vehicle its latest setpoint at ``rate_hz`` of mission time.
 
     Args:
-        vehicles: The vehicles, re-iterated at every tick (pass a live view such
+        vehicles: The vehicles, re-iterated at every round (pass a live view such
             as ``dict.values()`` to add vehicles while running).
         source: ``source(uid, t)`` -> the setpoint for mission time ``t``, or
-            None for nothing this tick. An exception is logged and counted; the
+            None for nothing this round. An exception is logged and counted; the
             other vehicles still get theirs.
         clock: The mission clock.
         rate_hz: Setpoints per mission second per vehicle.
@@ -235,11 +235,6 @@ class SetpointStreamer:
                 r = rank[vehicle.uid] = len(rank)
             slices[r % count].append(vehicle)
         return slices
-
-    def tick(self) -> int:
-        """Send one whole round now (every slice at once); returns sends."""
-        self.ticks += 1
-        return self.send(self.vehicles)
 
     def send(self, vehicles: Iterable[StreamTarget]) -> int:
         """Send each streaming vehicle of ``vehicles`` its setpoint for now; returns sends."""
