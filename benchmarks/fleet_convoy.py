@@ -6,7 +6,9 @@ What runs is the service's bridge exactly as ``ConvoyService`` wires it: one
 requests, PX4 set-up: setpoints first, OFFBOARD, arm; liveness), one
 :class:`~convoy_mav.streaming.SetpointStreamer` for the whole fleet sampling the
 paper's stationary plan for N UAVs at 20 Hz of mission time, and the coverage
-:class:`~convoy_mav.monitor.Monitor` on the service's 10 Hz control tick. What is
+:class:`~convoy_mav.monitor.Monitor` as the service feeds it: each position
+update scored against the plan as it arrives, coverage on the 10 Hz control
+tick. What is
 left out is the mission layer's joins (an N x N slot assignment, minutes at
 N = 1000; ``benchmarks/bench_planning.py`` measures planning): every UAV flies
 its plan slot from wherever it is.
@@ -66,15 +68,16 @@ async def run_convoy_mav(
     vehicles: dict[int, Vehicle] = {}
     decoded: dict[int, float] = {}  # sysid -> wall time its latest position was decoded
     received = dict.fromkeys(range(1, n + 1), 0)  # positions decoded per vehicle
-
-    def on_telemetry(tel: Telemetry) -> None:
-        decoded[tel.sysid] = time.perf_counter()
-        received[tel.sysid] = received.get(tel.sysid, 0) + 1
-
     plan = make_plan(PlanRequest(150.0, 100.0, 18.0, uavs=n))
+    monitor = Monitor(100.0)
 
     def source(sysid: int, t: float) -> Setpoint:
         return setpoint_at(plan, sysid - 1, t, plan_origin=(0.0, 0.0), plan_t0=0.0, down=-100.0)
+
+    def on_telemetry(tel: Telemetry) -> None:  # as ConvoyService._track
+        monitor.track(tel, source(tel.sysid, tel.t))
+        decoded[tel.sysid] = time.perf_counter()
+        received[tel.sysid] = received.get(tel.sysid, 0) + 1
 
     start = time.perf_counter()
     async with contextlib.AsyncExitStack() as stack:
@@ -105,7 +108,7 @@ async def run_convoy_mav(
             setup_s = time.perf_counter() - start
             gc.freeze()  # as ConvoyService does once its links are up
             flying = sum(v.status is VehicleStatus.FLYING for v in vehicles.values())
-            window = await _measure(clock, vehicles, streamer, source, decoded, received, seconds)
+            window = await _measure(clock, vehicles, streamer, monitor, decoded, received, seconds)
         finally:
             for task in tasks:
                 task.cancel()
@@ -150,13 +153,12 @@ async def _measure(
     clock: MissionClock,
     vehicles: dict[int, Vehicle],
     streamer: SetpointStreamer,
-    source: Any,
+    monitor: Monitor,
     decoded: dict[int, float],
     received: dict[int, int],
     seconds: float,
 ) -> tuple[dict[int, int], float, float, list[float], list[int]]:
     """Run the monitor tick for ``seconds`` of wall time; return what was measured."""
-    monitor = Monitor(100.0)
     convoy = ConvoyEstimate(clock.now(), 0.0, 0.0, 0.0, 0.0)
     monitor.start_protect(clock.now())
     streamer.stats.clear()
@@ -169,8 +171,7 @@ async def _measure(
         await clock.sleep_until(t + 1.0 / CONTROL_HZ)
         t = clock.now()
         telemetry = {s: v.telemetry for s, v in vehicles.items() if v.telemetry is not None}
-        planned = {s: source(s, tel.t) for s, tel in telemetry.items()}
-        monitor.update(t, convoy, telemetry, planned)
+        monitor.update(t, convoy, telemetry)
         now = time.perf_counter()
         for sysid in telemetry:
             seen = decoded.get(sysid)

@@ -329,6 +329,7 @@ class ConvoyService:
                     self.clock,
                     self.frame,
                     on_event=self._on_vehicle_event,
+                    on_telemetry=self._track,
                     setup_timeout=cfg.setup_timeout_s,
                     lost_after=cfg.lost_after_s,
                     altitude=self._altitudes[uav.sysid],
@@ -460,13 +461,7 @@ class ConvoyService:
             self.monitor.predicted_coverage = view.predicted_coverage or 1.0
             self._note(f"protect phase begins at t={view.protect_start:.1f}")
         telemetry = self._live_telemetry()
-        planned = {}
-        for sysid, tel in telemetry.items():
-            if view.phase(sysid, tel.t) == "protect":
-                sp = view.setpoint(sysid, tel.t)
-                if sp is not None:
-                    planned[sysid] = sp
-        for alarm in self.monitor.update(t, est, telemetry, planned):
+        for alarm in self.monitor.update(t, est, telemetry):
             self._alarm(alarm)
         self.history.record(
             t,
@@ -497,6 +492,14 @@ class ConvoyService:
                 events += mission.join_many(ready, t)
         events += mission.tick(t)
         return events, MissionView.of(mission, self._down)
+
+    def _track(self, tel: Telemetry) -> None:
+        """Score each position update of a protecting UAV against its plan, as it comes."""
+        view = self.view
+        if view.phase(tel.sysid, tel.t) == "protect":
+            sp = view.setpoint(tel.sysid, tel.t)
+            if sp is not None:
+                self.monitor.track(tel, sp)
 
     def _live_telemetry(self) -> dict[int, Telemetry]:
         return {

@@ -2,7 +2,12 @@
 
 Design rules:
 - Pure and synchronous: the app calls ``update`` on a fixed mission-time tick
-  with the latest telemetry and convoy estimate; nothing here waits or sleeps.
+  with the latest telemetry and convoy estimate, and ``track`` with each
+  position update as it arrives; nothing here waits or sleeps.
+- The tracking error is scored per telemetry update, against the plan at the
+  telemetry's own time: every position counts once (a tick would count a stale
+  one again and miss ones that came between), and a big fleet's plans are
+  sampled as their telemetry trickles in, not all at once on the tick.
 - Coverage is counted from the protect phase on (joining UAVs are not yet
   expected to cover); before that only the live "covered now?" is reported.
 - Alarms are edge-triggered values: raised once when a condition starts, and
@@ -120,7 +125,9 @@ class Monitor:
             t: Mission time of the tick.
             convoy: The convoy estimate (None before the first fix: nothing is covered).
             telemetry: Latest telemetry of each live UAV (lost UAVs left out).
-            planned: Where each UAV should be now, for the tracking error.
+            planned: Where each UAV should be at its telemetry's time: each pair
+                is scored as by :meth:`track` (for callers that do not track
+                per update).
         """
         alarms: list[Alarm] = []
         if convoy is None:
@@ -149,14 +156,8 @@ class Monitor:
         if planned:
             for sysid, sp in planned.items():
                 tel = telemetry.get(sysid)
-                if tel is None:
-                    continue
-                err = math.hypot(tel.north - sp.north, tel.east - sp.east)
-                if math.isfinite(err):
-                    rec = self._tracking.setdefault(sysid, _Tracking())
-                    rec.total += err
-                    rec.count += 1
-                    rec.latest = err
+                if tel is not None:
+                    self.track(tel, sp)
         stats = self._tracker.stats()
         assert self._protect_start is not None
         if t - self._protect_start >= self.prediction_grace:
@@ -170,6 +171,26 @@ class Monitor:
                 alarms,
             )
         return alarms
+
+    def track(self, tel: Telemetry, planned: Setpoint) -> float | None:
+        """Score one position update against where the plan wanted the UAV then.
+
+        Counted from the protect phase on (before it, a joining UAV is expected
+        off its slot). Returns the horizontal error in metres, or None if it was
+        not counted (joining, or a non-finite position).
+        """
+        if self._tracker is None:
+            return None
+        err = math.hypot(tel.north - planned.north, tel.east - planned.east)
+        if not math.isfinite(err):
+            return None
+        rec = self._tracking.get(tel.sysid)
+        if rec is None:
+            rec = self._tracking[tel.sysid] = _Tracking()
+        rec.total += err
+        rec.count += 1
+        rec.latest = err
+        return err
 
     def _edge(self, t: float, kind: str, active: bool, message: str, out: list[Alarm]) -> None:
         if active and kind not in self._active:

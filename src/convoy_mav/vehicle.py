@@ -27,8 +27,9 @@ Life cycle (``VehicleStatus``)::
   After ``setup_timeout`` mission seconds the vehicle is FAILED, with a message
   naming it and the autopilot's last reason.
 * While the autopilot needs a live stream (PX4 OFFBOARD) and the streamer is
-  silent for ``keepalive`` mission seconds, the vehicle sends its own hold
-  setpoint (the last setpoint's position, or where it is at flight altitude).
+  silent for ``keepalive`` mission seconds (looked at twice a second while
+  fed), the vehicle sends its own hold setpoint (the last setpoint's position,
+  or where it is at flight altitude).
 * If the autopilot leaves the external mode on its own while FLYING (a
   failsafe, a pilot), the vehicle goes to HOLDING and says so: the service never
   fights a pilot; ``resume()`` re-engages.
@@ -90,6 +91,8 @@ _FLYING_STATES = (
 )
 _AIRBORNE_AGL = 3.0  # m above home: flying, whatever EXTENDED_SYS_STATE says
 _STREAM_RETRY = 5.0  # mission s between stream requests while no position arrives
+_FED_LOOK = 0.5  # mission s between looks at a fed stream (PX4's COM_OF_LOSS_T: 1 s)
+_LOST_MARGIN = 1e-3  # mission s past lost_after the watchdog looks (silence must exceed it)
 
 
 class LinkLike(Protocol):
@@ -240,6 +243,7 @@ class Vehicle:
         self._streams_t = -math.inf
         self._last_sp: Setpoint | None = None
         self._last_sp_t = -math.inf
+        self._own_sp_t = -math.inf  # when the keepalive last sent one of its own
         self._setup_sent = 0  # setpoints sent since set-up began
         self._airborne_already = False  # set-up found it flying: no take-off
         self._hold_requested = False
@@ -477,36 +481,48 @@ class Vehicle:
 
     # ================================================================== tasks
     async def run(self) -> None:
-        """Life cycle, watchdog and heartbeat tasks; runs until cancelled."""
+        """Life cycle and watchdog tasks; runs until cancelled."""
         async with asyncio.TaskGroup() as tg:
             tg.create_task(self._lifecycle(), name=f"{self.name}.lifecycle")
             tg.create_task(self._watchdog(), name=f"{self.name}.watchdog")
-            if self._heartbeat:
-                tg.create_task(self._heartbeats(), name=f"{self.name}.heartbeat")
 
-    async def _heartbeats(self) -> None:
+    async def _watchdog(self) -> None:
+        """Our heartbeat, liveness, and the keepalive of autopilots needing a stream.
+
+        One task, one timer, since a fleet pays per wake-up: it wakes for the
+        next heartbeat (1 Hz of mission time), and for the instant the vehicle
+        would have been silent for ``lost_after`` -- which every message heard
+        pushes back, so a live vehicle costs one wake-up a second, and a silent
+        one is declared lost on time, not at the next poll. While the stream is
+        needed it looks for a quiet stream every ``_FED_LOOK`` while the streamer
+        feeds it (not every ``keepalive``: a fed fleet would pay several wake-ups a
+        second per vehicle for nothing), and keeps it alive every ``keepalive`` once
+        it has gone quiet: the longest silence PX4 sees is about half a second,
+        half its default COM_OF_LOSS_T.
+        """
         hb = _M.MAVLink_heartbeat_message(
             _M.MAV_TYPE_GCS, _M.MAV_AUTOPILOT_INVALID, 0, 0, _M.MAV_STATE_ACTIVE, 3
         )
-        while True:
+        clock = self.clock
+        next_hb = -math.inf
+        while not clock.synced:  # nobody heard yet: no mission time to pace by
+            if not self._heartbeat:
+                await clock.wait_synced()
+                break
             self._send(hb)
-            if self.clock.synced:
-                await self.clock.sleep_until(self.clock.now() + 1.0)
-            else:  # nobody heard yet: no mission time to pace by
-                await asyncio.sleep(0.5)
-
-    async def _watchdog(self) -> None:
-        """Liveness, and the keepalive of autopilots that need a live setpoint stream.
-
-        One task for both, since a fleet pays per wake-up: every ``lost_after / 4``
-        mission s, and while the stream is needed once per ``keepalive`` (not before
-        the stream could have gone quiet: fed setpoints push the next look back).
-        """
-        await self.clock.wait_synced()
+            with contextlib.suppress(TimeoutError):
+                await asyncio.wait_for(clock.wait_synced(), 0.5)  # (wall s)
         while True:
-            now = self.clock.now()
+            now = clock.now()
+            due = now + 1.0
+            if self._heartbeat:
+                if now >= next_hb:
+                    self._send(hb)
+                    next_hb = now + 1.0
+                due = next_hb
             self._check_liveness(now)
-            due = now + self.lost_after / 4.0
+            if self.firmware is not None and self.status not in (_S.CONNECTING, _S.LOST):
+                due = min(due, max(self._heard_t + self.lost_after, now) + _LOST_MARGIN)
             ap = self.firmware
             if ap is not None and ap.streams_during_setup and self.status in _STREAM_NEEDED:
                 if now - self._last_sp_t >= self.keepalive:
@@ -514,9 +530,14 @@ class Vehicle:
                     if sp is not None:
                         self.counters["keepalive"] += 1
                         self.send_setpoint(sp)
-                look = max(self._last_sp_t + self.keepalive, now + self.keepalive / 3.0)
+                        self._own_sp_t = self._last_sp_t
+                fed = self._last_sp_t > self._own_sp_t
+                look = max(
+                    self._last_sp_t + self.keepalive,
+                    now + (_FED_LOOK if fed else self.keepalive / 3.0),
+                )
                 due = min(due, look)
-            await self.clock.sleep_until(due)
+            await clock.sleep_until(due)
 
     def _check_liveness(self, now: float) -> None:
         if self.status in (_S.CONNECTING, _S.LOST) or self.firmware is None:

@@ -69,3 +69,19 @@ def test_no_convoy_fix_yet() -> None:
     m.start_protect(0.0)
     assert m.update(0.0, None, {1: tel(1, 0.0, 0.0, 0.0)}) == []
     assert not m.snapshot(0.0).covered
+
+
+def test_tracking_error_is_scored_per_update_from_protect_on() -> None:
+    m = Monitor(sensor_radius=10.0)
+    planned = sp(0.0, 3.0, 4.0)
+    assert m.track(tel(1, 0.0, 0.0, 0.0), planned) is None  # joining: not scored
+    m.start_protect(1.0)
+    assert m.track(tel(1, 1.0, 0.0, 0.0), planned) == pytest.approx(5.0)
+    assert m.track(tel(1, 1.1, 3.0, 4.0), planned) == pytest.approx(0.0)
+    assert m.track(tel(1, 1.2, math.nan, 0.0), planned) is None  # bad input: skipped
+    # ticks in between do not count a position again
+    m.update(1.5, CONVOY, {1: tel(1, 1.1, 3.0, 4.0)})
+    m.update(1.6, CONVOY, {1: tel(1, 1.1, 3.0, 4.0)})
+    (score,) = m.snapshot(1.6).vehicles
+    assert score.mean_tracking_error_m == pytest.approx(2.5)
+    assert score.tracking_error_m == pytest.approx(0.0)
