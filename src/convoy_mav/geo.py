@@ -15,13 +15,15 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+from convoy_mav.values import value
+
 __all__ = ["GeoPoint", "LocalFrame"]
 
 _WGS84_A = 6_378_137.0
 _WGS84_E2 = 6.694_379_990_14e-3
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class GeoPoint:
     """A WGS-84 position: degrees and metres above mean sea level."""
 

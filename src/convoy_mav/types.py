@@ -6,7 +6,8 @@ Design rules:
   from north, times in mission seconds (the autopilots' clock, not wall time).
 - The planner's frame (x east, y north, heading counter-clockwise from east) is
   converted exactly once, in ``convoy_mav.schedule``.
-- Frozen and slotted: these are created at setpoint and telemetry rates.
+- Immutable and slotted; the ones created at setpoint and telemetry rates are
+  ``@value`` classes (frozen to the type checker, cheap to create).
 """
 
 from __future__ import annotations
@@ -14,10 +15,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 from enum import StrEnum
 
+from convoy_mav.values import value
+
 __all__ = ["ConvoyEstimate", "Setpoint", "Telemetry", "VehicleStatus"]
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class Setpoint:
     """What one UAV should be doing at one instant.
 
@@ -61,7 +64,7 @@ class VehicleStatus(StrEnum):
     FAILED = "failed"  # set-up gave up; the reason was reported
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class Telemetry:
     """The latest digest of one vehicle's state, in the mission frame.
 

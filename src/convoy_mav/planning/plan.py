@@ -31,6 +31,7 @@ from convoy_mav.planning.moving import (
     v_star,
 )
 from convoy_mav.planning.stationary import coverage_per_uav, min_uavs, orbit_cycle
+from convoy_mav.values import value
 
 __all__ = [
     "MovingDetails",
@@ -52,7 +53,7 @@ Case = Literal["trivial", "stationary", "moving"]
 _CONTINUITY_TOLERANCE = 1e-6
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class Sample:
     """A vehicle's planned state at one instant."""
 
