@@ -211,28 +211,34 @@ class MissionClock:
         return boot_ms * 1e-3 + track.epoch + self._offset(sysid, track)
 
     # ------------------------------------------------------------- observation
-    def observe(self, boot_ms: float, sysid: int) -> None:
+    def observe(self, boot_ms: float, sysid: int) -> bool:
         """One message from ``sysid`` stamped ``boot_ms`` arrived just now.
 
         Cheap: called for every message with a ``time_boot_ms`` field.
+
+        Returns:
+            True if this message confirmed a reboot of ``sysid`` (its clock
+            restarted; a packet reordered on the way is not one).
         """
         wall = self._wall()
         boot = boot_ms * 1e-3
+        rebooted = False
         track = self._tracks.get(sysid)
         if track is None:
             track = self._new_track(sysid, boot, wall)
         elif boot < track.last_boot - _REBOOT_JUMP:
             if not self._reboot_confirmed(track, boot):
-                return
+                return False
             self._reanchor(track, boot, wall)
+            rebooted = True
         else:
             track.pending = None
         track.last_boot = max(track.last_boot, boot)
         track.last_wall = wall
         if sysid == self._ref and self._check_step(track, wall, boot + track.epoch):
-            return
+            return rebooted
         if len(track.samples) >= _DENSE_SAMPLES and wall - track.last_stored < self._spacing:
-            return
+            return rebooted
         track.last_stored = wall
         track.samples.append((wall, boot + track.epoch))
         horizon = wall - self._window
@@ -240,11 +246,12 @@ class MissionClock:
             track.samples.popleft()
         if sysid == self._ref:
             self._dirty = True
-            return
+            return rebooted
         assert self._ref is not None
         ref = self._tracks[self._ref]
         if self._rate * (wall - ref.last_wall) > self._handover_after:
             self._handover(sysid, track)
+        return rebooted
 
     def _new_track(self, sysid: int, boot: float, wall: float) -> _Track:
         track = _Track()

@@ -327,10 +327,8 @@ class Vehicle:
         self._changed.set()
 
     def _observe_boot(self, boot_ms: int) -> None:
-        clock = self.clock
-        clock.observe(boot_ms, self.uid)
-        if clock.reboots_of(self.uid) != self.counters["reboots"]:  # the clock tells reboots
-            self.counters["reboots"] = clock.reboots_of(self.uid)  # from reordered packets
+        if self.clock.observe(boot_ms, self.uid):  # (the clock tells a reboot from reordering)
+            self.counters["reboots"] += 1
             self._emit(EventKind.REBOOTED, "autopilot rebooted", _M.MAV_SEVERITY_WARNING)
             if self.firmware is not None:
                 self.firmware.reset()

@@ -113,8 +113,8 @@ def test_reordered_packets_are_not_reboots() -> None:
     ap = Autopilot(wall, 40.0)
     feed(clock, wall, {1: ap}, 1.0)
     # two packets delivered 200 ms of wall (8 mission s) late, after newer ones
-    clock.observe(ap.boot_ms(wall.value - 0.2), 1)
-    clock.observe(ap.boot_ms(wall.value - 0.18), 1)
+    assert not clock.observe(ap.boot_ms(wall.value - 0.2), 1)
+    assert not clock.observe(ap.boot_ms(wall.value - 0.18), 1)
     feed(clock, wall, {1: ap}, 1.0)
     assert clock.reboots == 0
     assert abs(clock.now() - ap.mission()) < 2e-3
@@ -168,7 +168,13 @@ def test_reboot_reanchors_without_a_jump(speedup: float) -> None:
     true_before = ap.mission()
     # reboot: its clock restarts from 0 at this wall time
     rebooted = Autopilot(wall, speedup, boot_offset=0.0)
-    feed(clock, wall, {1: rebooted}, 2.0)
+    told = []
+    for _ in range(5):
+        wall.value += 0.05
+        told.append(clock.observe(rebooted.boot_ms(wall.value), 1))
+    assert told.count(True) == 1  # once, when confirmed (not on the first packet alone)
+    assert not told[0]
+    feed(clock, wall, {1: rebooted}, 1.75)
     assert clock.reboots == 1
     elapsed = speedup * 2.0
     assert clock.now() == pytest.approx(before + elapsed, abs=speedup * 0.03)
