@@ -97,7 +97,6 @@ class _Track:
     offset_wall: float = -math.inf  # wall time the offset was last computed
     pending: float | None = None  # boot time of a possible reboot, awaiting confirmation
     pending_count: int = 0
-    reboots: int = 0
 
     @property
     def last_unwrapped(self) -> float:
@@ -195,11 +194,6 @@ class MissionClock:
         self._last_now = t
         return t
 
-    def reboots_of(self, sysid: int) -> int:
-        """Reboots seen of vehicle ``sysid`` (its ``time_boot_ms`` restarting)."""
-        track = self._tracks.get(sysid)
-        return 0 if track is None else track.reboots
-
     def to_mission(self, boot_ms: float, sysid: int) -> float:
         """Mission time of a ``time_boot_ms`` stamp from vehicle ``sysid``.
 
@@ -284,7 +278,6 @@ class MissionClock:
         track.epoch = predicted - boot
         track.last_boot = boot
         track.pending = None
-        track.reboots += 1
         self.reboots += 1
 
     def _step_threshold(self) -> float:

@@ -117,7 +117,6 @@ class Monitor:
         t: float,
         convoy: ConvoyEstimate | None,
         telemetry: Mapping[int, Telemetry],
-        planned: Mapping[int, Setpoint] | None = None,
     ) -> list[Alarm]:
         """Fold in one tick; return the alarms that started or ended.
 
@@ -125,9 +124,6 @@ class Monitor:
             t: Mission time of the tick.
             convoy: The convoy estimate (None before the first fix: nothing is covered).
             telemetry: Latest telemetry of each live UAV (lost UAVs left out).
-            planned: Where each UAV should be at its telemetry's time: each pair
-                is scored as by :meth:`track` (for callers that do not track
-                per update).
         """
         alarms: list[Alarm] = []
         if convoy is None:
@@ -153,11 +149,6 @@ class Monitor:
                     Alarm(ev.t, "gap", False, f"convoy seen again after {ev.duration:.1f} s")
                 )
                 self._active.discard("gap")
-        if planned:
-            for sysid, sp in planned.items():
-                tel = telemetry.get(sysid)
-                if tel is not None:
-                    self.track(tel, sp)
         stats = self._tracker.stats()
         assert self._protect_start is not None
         if t - self._protect_start >= self.prediction_grace:

@@ -519,9 +519,9 @@ class Vehicle:
                     next_hb = now + 1.0
                 due = next_hb
             self._check_liveness(now)
-            if self.firmware is not None and self.status not in (_S.CONNECTING, _S.LOST):
-                due = min(due, max(self._heard_t + self.lost_after, now) + _LOST_MARGIN)
             ap = self.firmware
+            if ap is not None and self.status not in (_S.CONNECTING, _S.LOST):
+                due = min(due, max(self._heard_t + self.lost_after, now) + _LOST_MARGIN)
             if ap is not None and ap.streams_during_setup and self.status in _STREAM_NEEDED:
                 if now - self._last_sp_t >= self.keepalive:
                     sp = self._own_setpoint()

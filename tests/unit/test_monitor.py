@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from convoy_mav.monitor import Monitor
+from convoy_mav.monitor import Alarm, Monitor
 from convoy_mav.types import ConvoyEstimate, Setpoint, Telemetry
 
 
@@ -32,11 +32,17 @@ def test_nothing_counted_before_protect() -> None:
 def test_gap_alarms_and_scores() -> None:
     m = Monitor(sensor_radius=10.0, prediction_grace=1e9)
     m.start_protect(0.0)
-    planned = {1: sp(0.0, 3.0, 4.0)}
-    assert m.update(0.0, CONVOY, {1: tel(1, 0.0, 0.0, 0.0)}, planned) == []
-    alarms = m.update(1.0, CONVOY, {1: tel(1, 1.0, 20.0, 0.0)}, planned)
+    planned = sp(0.0, 3.0, 4.0)
+
+    def tick(t: float, north: float) -> list[Alarm]:
+        update = tel(1, t, north, 0.0)
+        m.track(update, planned)
+        return m.update(t, CONVOY, {1: update})
+
+    assert tick(0.0, 0.0) == []
+    alarms = tick(1.0, 20.0)
     assert [(a.kind, a.active) for a in alarms] == [("gap", True)]
-    alarms = m.update(2.0, CONVOY, {1: tel(1, 2.0, 1.0, 0.0)}, planned)
+    alarms = tick(2.0, 1.0)
     assert [(a.kind, a.active) for a in alarms] == [("gap", False)]
     snap = m.snapshot(2.0)
     assert snap.covered and snap.covering == (1,)
