@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import gc
 import math
 import statistics
 import time
@@ -35,6 +34,7 @@ from fleet_mavsdk import ClientResult, MockPorts
 
 import convoy_mav
 from convoy_mav.clock import MissionClock
+from convoy_mav.gcpolicy import collect_on_schedule, flight_gc
 from convoy_mav.geo import GeoPoint, LocalFrame
 from convoy_mav.mavlink import MavLink
 from convoy_mav.monitor import Monitor
@@ -97,8 +97,10 @@ async def run_convoy_mav(
                 altitude=100.0,
             )
         streamer = SetpointStreamer(list(vehicles.values()), source, clock, rate_hz)
+        stack.enter_context(flight_gc())  # as ConvoyService does once its links are up
         tasks = [asyncio.create_task(v.run(), name=f"{v.name}.run") for v in vehicles.values()]
         tasks.append(asyncio.create_task(streamer.run(), name="bench.stream"))
+        tasks.append(asyncio.create_task(collect_on_schedule(), name="bench.gc"))
         try:
             deadline = start + setup_timeout
             while time.perf_counter() < deadline and not all(
@@ -106,7 +108,6 @@ async def run_convoy_mav(
             ):
                 await asyncio.sleep(0.1)
             setup_s = time.perf_counter() - start
-            gc.freeze()  # as ConvoyService does once its links are up
             flying = sum(v.status is VehicleStatus.FLYING for v in vehicles.values())
             window = await _measure(clock, vehicles, streamer, monitor, decoded, received, seconds)
         finally:

@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import gc
 import logging
 import math
 import sys
@@ -35,6 +34,7 @@ from pymavlink.dialects.v20 import common as mavlink
 from convoy_mav.clock import MissionClock
 from convoy_mav.config import MissionConfig
 from convoy_mav.convoy import ConvoyTracker
+from convoy_mav.gcpolicy import collect_on_schedule, flight_gc
 from convoy_mav.geo import GeoPoint, LocalFrame
 from convoy_mav.history import History
 from convoy_mav.mavlink import MavLink
@@ -345,15 +345,14 @@ class ConvoyService:
             )
             self.streamer = streamer
             # What exists now lives for the whole mission: out of the collector's
-            # sight, a full collection no longer walks it (tens of ms, a stalled
-            # setpoint stream at high speedups).
-            gc.freeze()
-            stack.callback(gc.unfreeze)
+            # sight, and the collector runs on a schedule (see gcpolicy).
+            stack.enter_context(flight_gc())
             try:
                 async with asyncio.TaskGroup() as tg:
                     for v in self.vehicles.values():
                         tg.create_task(v.run(), name=f"{v.name}.run")
                     tg.create_task(streamer.run(), name="convoy.stream")
+                    tg.create_task(collect_on_schedule(), name="convoy.gc")
                     tg.create_task(self._control(), name="convoy.control")
                     if ground_links:
                         tg.create_task(self._ground_streams(ground_links), name="convoy.ground")

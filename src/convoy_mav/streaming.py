@@ -92,10 +92,11 @@ class IntervalStats:
         self.count += 1
         self.total += x
         self.max = max(self.max, x)
-        if len(self._ring) < self.keep:
-            self._ring.append(x)
+        ring = self._ring
+        if len(ring) < self.keep:
+            ring.append(x)
         else:
-            self._ring[self._i] = x
+            ring[self._i] = x
             self._i = (self._i + 1) % self.keep
 
     @property
