@@ -92,11 +92,10 @@ class IntervalStats:
         self.count += 1
         self.total += x
         self.max = max(self.max, x)
-        ring = self._ring
-        if len(ring) < self.keep:
-            ring.append(x)
+        if len(self._ring) < self.keep:
+            self._ring.append(x)
         else:
-            ring[self._i] = x
+            self._ring[self._i] = x
             self._i = (self._i + 1) % self.keep
 
     @property
