@@ -92,7 +92,11 @@ class _Track:
     last_boot: float = -math.inf
     last_wall: float = -math.inf
     last_stored: float = -math.inf
-    samples: deque[tuple[float, float]] = field(default_factory=deque)  # (wall, unwrapped)
+    # Stored observations as two parallel columns of plain floats, not a deque of
+    # pairs: a thousand vehicles keep a few hundred thousand of them, and pairs
+    # would each be an object for the garbage collector to walk.
+    walls: deque[float] = field(default_factory=deque)
+    times: deque[float] = field(default_factory=deque)  # unwrapped, at those walls
     offset: float = 0.0  # mission = unwrapped + offset
     offset_wall: float = -math.inf  # wall time the offset was last computed
     pending: float | None = None  # boot time of a possible reboot, awaiting confirmation
@@ -231,13 +235,16 @@ class MissionClock:
         track.last_wall = wall
         if sysid == self._ref and self._check_step(track, wall, boot + track.epoch):
             return rebooted
-        if len(track.samples) >= _DENSE_SAMPLES and wall - track.last_stored < self._spacing:
+        walls, times = track.walls, track.times
+        if len(walls) >= _DENSE_SAMPLES and wall - track.last_stored < self._spacing:
             return rebooted
         track.last_stored = wall
-        track.samples.append((wall, boot + track.epoch))
+        walls.append(wall)
+        times.append(boot + track.epoch)
         horizon = wall - self._window
-        while track.samples[0][0] < horizon:
-            track.samples.popleft()
+        while walls[0] < horizon:
+            walls.popleft()
+            times.popleft()
         if sysid == self._ref:
             self._dirty = True
             return rebooted
@@ -304,11 +311,13 @@ class MissionClock:
             return False  # a queue filling or draining (congestion), not a clock that moved
         # Rebuild from the packets on the new timeline; the other vehicles' samples
         # straddle the step too (a simulator pauses them all), so they restart.
-        track.samples = deque((w, u) for w, u, _ in run)
+        track.walls = deque(w for w, _, _ in run)
+        track.times = deque(u for _, u, _ in run)
         track.last_stored = wall
         for other in self._tracks.values():
             if other is not track:
-                other.samples.clear()
+                other.walls.clear()
+                other.times.clear()
         run.clear()
         self.steps += 1
         self._last_now = -math.inf
@@ -336,11 +345,12 @@ class MissionClock:
             return track.offset
         wall = self._wall()
         every = _OFFSET_REFRESH if self._rate_trusted else 0.1 * _OFFSET_REFRESH
-        if (force or wall - track.offset_wall >= every) and track.samples:
+        if (force or wall - track.offset_wall >= every) and track.walls:
             self._refit()
-            n = len(track.samples)
-            recent = [track.samples[i] for i in range(max(0, n - _OFFSET_SAMPLES), n)]
-            track.offset = statistics.median(self._line(w) - u for w, u in recent)
+            n = len(track.walls)
+            recent = range(max(0, n - _OFFSET_SAMPLES), n)
+            walls, times = track.walls, track.times
+            track.offset = statistics.median(self._line(walls[i]) - times[i] for i in recent)
             track.offset_wall = wall
         return track.offset
 
@@ -353,11 +363,11 @@ class MissionClock:
         self._fit_wall = wall
         self._dirty = False
         track = self._tracks[self._ref]
-        samples = track.samples
-        if not samples:
+        if not track.walls:
             return
-        ws = [w for w, _ in samples]
-        ms = [u + track.offset for _, u in samples]
+        ws = list(track.walls)
+        offset = track.offset
+        ms = [u + offset for u in track.times]
         span = ws[-1] - ws[0]
         free = len(ws) >= _MIN_FIT_SAMPLES and span >= self._min_span
         if free:

@@ -78,6 +78,39 @@ async def test_the_backstop_collects_before_the_period() -> None:
             await asyncio.gather(task, return_exceptions=True)
 
 
+async def test_a_run_freezes_its_survivors_and_the_full_sweep_finds_what_died_frozen() -> None:
+    with flight_gc():
+        keep = [_Node() for _ in range(100)]
+        frozen = gc.get_freeze_count()
+        task = asyncio.create_task(collect_on_schedule(period=0.02, full_every=1000, look=0.01))
+        try:
+            async with asyncio.timeout(5.0):
+                while gc.get_freeze_count() < frozen + len(keep):
+                    await asyncio.sleep(0.01)
+            # A cycle alive when a run froze it, dropped later: the routine runs
+            # no longer walk it...
+            cycles = [_Node() for _ in range(2)]
+            cycles[0].other, cycles[1].other = cycles[1], cycles[0]
+            await asyncio.sleep(0.1)  # a few runs: it is frozen now
+            ref = weakref.ref(cycles[0])
+            del cycles
+            await asyncio.sleep(0.1)
+            assert ref() is not None
+        finally:
+            task.cancel()
+            await asyncio.gather(task, return_exceptions=True)
+        # ...the full sweep does.
+        task = asyncio.create_task(collect_on_schedule(period=0.02, full_every=1, look=0.01))
+        try:
+            await _reclaimed([ref])
+        finally:
+            task.cancel()
+            await asyncio.gather(task, return_exceptions=True)
+        assert keep
+
+
 async def test_collect_on_schedule_rejects_bad_settings() -> None:
     with pytest.raises(ValueError, match="period"):
         await collect_on_schedule(period=0.0)
+    with pytest.raises(ValueError, match="full_every"):
+        await collect_on_schedule(full_every=0)
