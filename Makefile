@@ -7,7 +7,7 @@ VENV ?= .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-stamp
 
-.PHONY: demo test lint typecheck unit bench bench-fleet broker clean
+.PHONY: demo test lint typecheck unit bench bench-fleet bench-fleet-1000 broker clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -51,6 +51,12 @@ bench: $(STAMP)
 bench-fleet: $(STAMP)
 	mkdir -p out
 	$(BIN)/python benchmarks/bench_fleet.py 10 100 500 1000 --seconds 15 --json out/bench_fleet.json
+
+# The 1000-UAV target, five runs on each event loop, interleaved; medians (about 4 min).
+bench-fleet-1000: $(STAMP)
+	mkdir -p out
+	$(BIN)/python benchmarks/bench_fleet.py 1000 --clients convoy-mav convoy-mav-asyncio \
+		--seconds 15 --repeat 5 --json out/bench_fleet_1000.json
 
 clean:
 	rm -rf $(VENV) .pytest_cache .mypy_cache .ruff_cache .benchmarks

@@ -9,8 +9,16 @@ runs in its own. Reported per client: CPU cores this process used, setpoint
 rate and inter-send interval (p50, and p99 as the median and the worst over
 vehicles), telemetry rate and telemetry-to-monitor latency.
 
+Clients: ``convoy-mav`` flies on the loop the service picks (uvloop where
+installed, see ``convoy_mav.eventloop``), ``convoy-mav-asyncio`` on asyncio's
+own loop, ``mavsdk`` on asyncio's loop as its documentation does.
+
+These machines are noisy: ``--repeat K`` flies each client K times, each
+against a fresh fleet and interleaved with the other clients, prints every run,
+and the final table holds the median of each column over the K runs.
+
 Run: ``python benchmarks/bench_fleet.py [N ...] [--seconds S] [--clients ...]
-[--json FILE]`` (``make bench-fleet`` runs the README's figures).
+[--repeat K] [--json FILE]`` (``make bench-fleet`` runs the README's figures).
 """
 
 from __future__ import annotations
@@ -23,15 +31,24 @@ import json
 import logging
 import math
 import os
+import statistics
 import sys
 from collections.abc import AsyncIterator, Awaitable, Callable, Sequence
+from typing import Any
 
 from fleet_convoy import run_convoy_mav
 from fleet_light import start_light_fleet
 from fleet_mavsdk import ClientResult, MockPorts, find_free_ports, run_mavsdk, start_mock_process
 
+from convoy_mav import eventloop
+
 Runner = Callable[..., Awaitable[ClientResult]]
-CLIENTS: dict[str, Runner] = {"convoy-mav": run_convoy_mav, "mavsdk": run_mavsdk}
+CLIENTS: dict[str, Runner] = {
+    "convoy-mav": run_convoy_mav,
+    "convoy-mav-asyncio": run_convoy_mav,
+    "mavsdk": run_mavsdk,
+}
+LOOPS = {"convoy-mav": None, "convoy-mav-asyncio": "asyncio"}  # None: the service's pick
 
 
 def _fmt(x: float | None, spec: str) -> str:
@@ -72,21 +89,45 @@ async def fleet(n: int, kind: str) -> AsyncIterator[MockPorts]:
 
 
 async def run(
-    sizes: Sequence[int], clients: Sequence[str], seconds: float, light_from: int
+    sizes: Sequence[int],
+    clients: Sequence[str],
+    seconds: float,
+    light_from: int,
+    repeat: int = 1,
 ) -> list[ClientResult]:
-    """Every client against a fresh fleet of every size."""
+    """Every client against a fresh fleet of every size, ``repeat`` times; medians."""
     results: list[ClientResult] = []
     for n in sizes:
-        for name in clients:
-            # MAVSDK waits for health the light fleet does not model (it never arms
-            # there): it always flies the mock.
-            kind = "light" if n >= light_from and name == "convoy-mav" else "mock"
-            async with fleet(n, kind) as ports:
-                result = await _isolated(name, ports, seconds)
-            result = dataclasses.replace(result, notes=f"{kind} fleet; {result.notes}")
-            results.append(result)
-            print(table([result]).splitlines()[-1], flush=True)
+        runs: dict[str, list[ClientResult]] = {name: [] for name in clients}
+        for _ in range(repeat):
+            for name in clients:  # interleaved: a noisy spell hits every client alike
+                # MAVSDK waits for health the light fleet does not model (it never
+                # arms there): it always flies the mock.
+                kind = "light" if n >= light_from and name in LOOPS else "mock"
+                async with fleet(n, kind) as ports:
+                    result = await _isolated(name, ports, seconds)
+                result = dataclasses.replace(result, notes=f"{kind} fleet; {result.notes}")
+                runs[name].append(result)
+                print(table([result]).splitlines()[-1], flush=True)
+        results.extend(median_result(r) for r in runs.values())
     return results
+
+
+def median_result(runs: Sequence[ClientResult]) -> ClientResult:
+    """Each numeric column's median over ``runs`` (one run: itself)."""
+    if len(runs) == 1:
+        return runs[0]
+    fields: dict[str, Any] = {}
+    for f in dataclasses.fields(ClientResult):
+        values = [getattr(r, f.name) for r in runs]
+        if isinstance(values[0], int | float) and not isinstance(values[0], bool):
+            finite = [v for v in values if v is not None and not math.isnan(v)]
+            fields[f.name] = statistics.median(finite) if finite else math.nan
+        else:
+            fields[f.name] = values[0]
+    fields["client"] = f"{runs[0].client}, median of {len(runs)}"
+    fields["notes"] = " | ".join(r.notes for r in runs)
+    return ClientResult(**fields)
 
 
 async def _isolated(name: str, ports: MockPorts, seconds: float) -> ClientResult:
@@ -119,7 +160,8 @@ def _one(argv: Sequence[str]) -> int:
     name, base, n, per_process, seconds = argv
     ports = MockPorts(list(range(int(base), int(base) + int(n))), int(per_process))
     logging.basicConfig(level=logging.ERROR)
-    result = asyncio.run(_fly(CLIENTS[name], ports, float(seconds)))
+    fly = _fly(CLIENTS[name], ports, float(seconds))
+    result = eventloop.run(fly, choice=LOOPS[name]) if name in LOOPS else asyncio.run(fly)
     print(json.dumps(dataclasses.asdict(result)), flush=True)
     return 0
 
@@ -134,6 +176,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--clients", nargs="+", choices=sorted(CLIENTS), default=list(CLIENTS))
     parser.add_argument("--json", metavar="FILE", help="also write the results as JSON")
     parser.add_argument(
+        "--repeat", type=int, default=1, metavar="K", help="runs per client and size (medians)"
+    )
+    parser.add_argument(
         "--light-from",
         type=int,
         default=500,
@@ -143,7 +188,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.ERROR)  # per-vehicle set-up chatter, N times over
     print(f"{os.cpu_count()} cores, Python {sys.version.split()[0]}", flush=True)
-    results = asyncio.run(run(args.sizes, args.clients, args.seconds, args.light_from))
+    if args.repeat < 1:
+        parser.error("--repeat must be >= 1")
+    results = asyncio.run(run(args.sizes, args.clients, args.seconds, args.light_from, args.repeat))
     print(table(results))
     if args.json:
         with open(args.json, "w", encoding="utf-8") as fh:

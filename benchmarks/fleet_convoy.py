@@ -34,6 +34,7 @@ from fleet_mavsdk import ClientResult, MockPorts
 
 import convoy_mav
 from convoy_mav.clock import MissionClock
+from convoy_mav.eventloop import loop_name
 from convoy_mav.gcpolicy import collect_on_schedule, flight_gc
 from convoy_mav.geo import GeoPoint, LocalFrame
 from convoy_mav.mavlink import MavLink
@@ -119,7 +120,7 @@ async def run_convoy_mav(
     p50 = [st.wall.percentile(50) for st in streamer.stats.values() if st.wall.count]
     p99 = [st.wall.percentile(99) for st in streamer.stats.values() if st.wall.count]
     return ClientResult(
-        client=f"convoy-mav {convoy_mav.__version__}",
+        client=f"convoy-mav {convoy_mav.__version__} ({loop_name(asyncio.get_running_loop())})",
         vehicles=n,
         flying=flying,
         setup_s=setup_s,

@@ -20,7 +20,7 @@ from collections.abc import Sequence
 from dataclasses import replace
 from typing import Any, NoReturn, TypeVar
 
-from convoy_mav import __version__
+from convoy_mav import __version__, eventloop
 from convoy_mav.app import ConvoyService, Progress
 from convoy_mav.config import AircraftConfig, ConvoyConfig, MissionConfig, load_config
 from convoy_mav.demo import SCENARIOS, Scenario, replay_scenario, run_demo
@@ -447,11 +447,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.command == "plan":
             return _cmd_plan(args)
         if args.command == "run":
-            return int(asyncio.run(_cmd_run(args)))
+            return int(eventloop.run(_cmd_run(args)))
         if args.command == "demo":
-            return int(asyncio.run(_cmd_demo(args)))
+            return int(eventloop.run(_cmd_demo(args)))
         if args.command == "replay":
-            return int(asyncio.run(_cmd_replay(args)))
+            return int(eventloop.run(_cmd_replay(args)))
     except ConvoyError as exc:
         print(f"convoy-mav: error: {exc}", file=sys.stderr)
         return EXIT_USAGE

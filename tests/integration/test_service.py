@@ -13,6 +13,7 @@ from pathlib import Path
 
 import pytest
 
+from convoy_mav import eventloop
 from convoy_mav.demo import SCENARIOS, DemoResult, run_demo
 from convoy_mav.planning import make_plan
 
@@ -56,7 +57,7 @@ async def test_stationary_convoy_minimum_uavs(personality: str, tmp_path: Path) 
     assert (255, ours) in seen
 
 
-async def test_moving_convoy_minimum_uavs() -> None:
+async def _moving_convoy_minimum_uavs() -> None:
     scenario = SCENARIOS["moving"]
     result = await run_demo(scenario, duration=300.0, speedup=SPEEDUP)
     report = result.report.to_dict()
@@ -65,6 +66,15 @@ async def test_moving_convoy_minimum_uavs() -> None:
     assert result.truth is not None and result.truth.elapsed_s > 150.0
     assert result.truth.fraction >= 0.995
     _check_agreement(result)
+
+
+async def test_moving_convoy_minimum_uavs() -> None:
+    await _moving_convoy_minimum_uavs()
+
+
+def test_moving_convoy_minimum_uavs_on_uvloop() -> None:
+    """The loop the command line picks where uvloop is installed (convoy_mav.eventloop)."""
+    eventloop.run(_moving_convoy_minimum_uavs(), choice="uvloop")
 
 
 async def test_one_uav_fewer_matches_prediction() -> None:
