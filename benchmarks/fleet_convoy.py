@@ -40,7 +40,7 @@ from convoy_mav.geo import GeoPoint, LocalFrame
 from convoy_mav.mavlink import MavLink
 from convoy_mav.monitor import Monitor
 from convoy_mav.planning import PlanRequest, make_plan
-from convoy_mav.schedule import setpoint_at
+from convoy_mav.schedule import position_at, setpoint_at
 from convoy_mav.streaming import SetpointStreamer, percentile
 from convoy_mav.types import ConvoyEstimate, Setpoint, Telemetry, VehicleStatus
 from convoy_mav.vehicle import Vehicle
@@ -76,7 +76,10 @@ async def run_convoy_mav(
         return setpoint_at(plan, sysid - 1, t, plan_origin=(0.0, 0.0), plan_t0=0.0, down=-100.0)
 
     def on_telemetry(tel: Telemetry) -> None:  # as ConvoyService._track
-        monitor.track(tel, source(tel.sysid, tel.t))
+        planned = vehicles[tel.sysid].last_setpoint
+        if planned is None or planned.hold or abs(tel.t - planned.t) > 0.25:
+            planned = source(tel.sysid, tel.t)
+        monitor.track(tel, *position_at(planned, tel.t))
         decoded[tel.sysid] = time.perf_counter()
         received[tel.sysid] = received.get(tel.sysid, 0) + 1
 

@@ -52,6 +52,7 @@ from convoy_mav.planning.export import compass_to_planner
 from convoy_mav.publish import topics
 from convoy_mav.publish.mqtt import MqttPublisher
 from convoy_mav.recording import TlogRecorder
+from convoy_mav.schedule import position_at
 from convoy_mav.streaming import SetpointStreamer
 from convoy_mav.types import ConvoyEstimate, Setpoint, Telemetry, VehicleStatus
 from convoy_mav.vehicle import EventKind, Vehicle, VehicleEvent
@@ -63,6 +64,7 @@ log = logging.getLogger(__name__)
 _GIL_SWITCH_S = 0.001  # s: how long the mission worker may hold the GIL at a time
 _GROUND_STREAM_RETRY = 5.0  # mission s between stream requests to a silent ground vehicle
 _GROUND_POSITION_HZ = 10  # GLOBAL_POSITION_INT rate asked of ground vehicles
+_TRACK_FROM_SENT_S = 0.25  # mission s: a plan setpoint this recent scores a position update
 
 
 @dataclass(frozen=True, slots=True)
@@ -493,12 +495,22 @@ class ConvoyService:
         return events, MissionView.of(mission, self._down)
 
     def _track(self, tel: Telemetry) -> None:
-        """Score each position update of a protecting UAV against its plan, as it comes."""
+        """Score each position update of a protecting UAV against its plan, as it comes.
+
+        The plan at the update's time is the last setpoint sent, moved along its
+        own arc (``position_at``: exact on its segment), rather than the plan
+        sampled again: a quarter of the receive path's cost at 1000 UAVs. With
+        no recent plan setpoint (paused, or the stream stalled) the plan is sampled.
+        """
         view = self.view
-        if view.phase(tel.sysid, tel.t) == "protect":
-            sp = view.setpoint(tel.sysid, tel.t)
-            if sp is not None:
-                self.monitor.track(tel, sp)
+        if view.phase(tel.sysid, tel.t) != "protect":
+            return
+        planned = self.vehicles[tel.sysid].last_setpoint
+        if planned is None or planned.hold or abs(tel.t - planned.t) > _TRACK_FROM_SENT_S:
+            planned = view.setpoint(tel.sysid, tel.t)
+            if planned is None:
+                return
+        self.monitor.track(tel, *position_at(planned, tel.t))
 
     def _live_telemetry(self) -> dict[int, Telemetry]:
         return {

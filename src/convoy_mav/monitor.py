@@ -21,7 +21,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 from convoy_mav.coverage import CoverageSample, CoverageStats, CoverageTracker, GapClosed, GapOpened
-from convoy_mav.types import ConvoyEstimate, Setpoint, Telemetry
+from convoy_mav.types import ConvoyEstimate, Telemetry
 
 __all__ = ["Alarm", "Monitor", "MonitorSnapshot", "VehicleScore"]
 
@@ -163,16 +163,17 @@ class Monitor:
             )
         return alarms
 
-    def track(self, tel: Telemetry, planned: Setpoint) -> float | None:
+    def track(self, tel: Telemetry, north: float, east: float) -> float | None:
         """Score one position update against where the plan wanted the UAV then.
 
+        ``north``, ``east``: the planned position at ``tel.t`` (mission frame).
         Counted from the protect phase on (before it, a joining UAV is expected
         off its slot). Returns the horizontal error in metres, or None if it was
         not counted (joining, or a non-finite position).
         """
         if self._tracker is None:
             return None
-        err = math.hypot(tel.north - planned.north, tel.east - planned.east)
+        err = math.hypot(tel.north - north, tel.east - east)
         if not math.isfinite(err):
             return None
         rec = self._tracking.get(tel.sysid)

@@ -28,6 +28,7 @@ from convoy_mav.types import Setpoint
 __all__ = [
     "mission_to_planner",
     "planner_to_mission",
+    "position_at",
     "sample_to_setpoint",
     "setpoint_at",
     "setpoint_on",
@@ -76,6 +77,27 @@ def sample_to_setpoint(s: Sample, t: float, *, plan_origin: Origin, down: float)
         t, n0 + s.y, e0 + s.x, down, s.vy, s.vx, 0.0, yaw_to_heading(s.heading), -rate,
         center, radius, rate <= 0.0,
     )  # fmt: skip
+
+
+def position_at(sp: Setpoint, t: float) -> tuple[float, float]:
+    """Where ``sp``'s own arc (or straight) puts the UAV at mission time ``t``: (north, east).
+
+    The arc is the setpoint's centre and turn rate (``yaw_rate``, clockwise
+    positive, turns the offset from the centre by ``yaw_rate * dt`` in the
+    north-east plane); a straight is its velocity. Exact while ``t`` stays on
+    the segment ``sp`` was sampled on; across a segment boundary the error is
+    ``v^2 |dk| dt^2 / 2`` (dk the change of curvature), millimetres for the
+    tens of milliseconds between setpoints. This is how a position update is
+    scored against the plan without sampling the plan again.
+    """
+    dt = t - sp.t
+    center = sp.center
+    if center is None or sp.yaw_rate == 0.0:
+        return sp.north + sp.vn * dt, sp.east + sp.ve * dt
+    a = sp.yaw_rate * dt
+    c, s = math.cos(a), math.sin(a)
+    dn, de = sp.north - center[0], sp.east - center[1]
+    return center[0] + c * dn - s * de, center[1] + s * dn + c * de
 
 
 def setpoint_on(

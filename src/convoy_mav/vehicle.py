@@ -271,6 +271,11 @@ class Vehicle:
         return None if tel is None else (tel.north, tel.east)
 
     @property
+    def last_setpoint(self) -> Setpoint | None:
+        """The setpoint sent last (the plan's, or one of its own while holding)."""
+        return self._last_sp
+
+    @property
     def has_fix(self) -> bool:
         """A 3D GPS fix (or a healthy GPS in SYS_STATUS) and a position."""
         if self.telemetry is None:

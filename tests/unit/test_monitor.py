@@ -36,7 +36,7 @@ def test_gap_alarms_and_scores() -> None:
 
     def tick(t: float, north: float) -> list[Alarm]:
         update = tel(1, t, north, 0.0)
-        m.track(update, planned)
+        m.track(update, planned.north, planned.east)
         return m.update(t, CONVOY, {1: update})
 
     assert tick(0.0, 0.0) == []
@@ -79,12 +79,12 @@ def test_no_convoy_fix_yet() -> None:
 
 def test_tracking_error_is_scored_per_update_from_protect_on() -> None:
     m = Monitor(sensor_radius=10.0)
-    planned = sp(0.0, 3.0, 4.0)
-    assert m.track(tel(1, 0.0, 0.0, 0.0), planned) is None  # joining: not scored
+    planned = (3.0, 4.0)
+    assert m.track(tel(1, 0.0, 0.0, 0.0), *planned) is None  # joining: not scored
     m.start_protect(1.0)
-    assert m.track(tel(1, 1.0, 0.0, 0.0), planned) == pytest.approx(5.0)
-    assert m.track(tel(1, 1.1, 3.0, 4.0), planned) == pytest.approx(0.0)
-    assert m.track(tel(1, 1.2, math.nan, 0.0), planned) is None  # bad input: skipped
+    assert m.track(tel(1, 1.0, 0.0, 0.0), *planned) == pytest.approx(5.0)
+    assert m.track(tel(1, 1.1, 3.0, 4.0), *planned) == pytest.approx(0.0)
+    assert m.track(tel(1, 1.2, math.nan, 0.0), *planned) is None  # bad input: skipped
     # ticks in between do not count a position again
     m.update(1.5, CONVOY, {1: tel(1, 1.1, 3.0, 4.0)})
     m.update(1.6, CONVOY, {1: tel(1, 1.1, 3.0, 4.0)})

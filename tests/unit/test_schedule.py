@@ -11,10 +11,12 @@ from convoy_mav.planning import PlanRequest, Pose, Segment, Trajectory, Turn, ma
 from convoy_mav.schedule import (
     mission_to_planner,
     planner_to_mission,
+    position_at,
     setpoint_at,
     setpoint_on,
     yaw_to_heading,
 )
+from convoy_mav.types import Setpoint
 
 R, r, V = 150.0, 100.0, 18.0
 ORIGIN = (1000.0, 2000.0)  # mission (north, east) of the planner origin
@@ -122,3 +124,35 @@ def test_setpoint_at_is_setpoint_on_the_vehicle_trajectory() -> None:
         assert (a.north, a.east) == pytest.approx((ORIGIN[0] + s.y, ORIGIN[1] + s.x))
     with pytest.raises(IndexError):
         setpoint_at(plan, 3, 0.0, plan_origin=ORIGIN, plan_t0=0.0, down=0.0)
+
+
+@pytest.mark.parametrize(
+    "request_",
+    [
+        PlanRequest(R, r, V, uavs=3),
+        PlanRequest(R, r, V, convoy_speed=6.0, convoy_heading=0.8),
+        PlanRequest(R, r, V, convoy_speed=14.0, convoy_heading=-2.0),
+    ],
+    ids=["stationary", "moving", "moving-fast"],
+)
+def test_position_at_moves_a_setpoint_along_its_own_arc(request_: PlanRequest) -> None:
+    """Scoring a position update from the last setpoint sent equals sampling the plan."""
+    plan = make_plan(request_)
+    period = plan.vehicles[0].trajectory.period
+    errors = []
+    for t in np.linspace(50.0, 50.0 + 2.0 * period, 400):
+        for dt in (-0.05, -0.01, 0.02, 0.05, 0.25):
+            sent = setpoint_at(plan, 0, float(t), plan_origin=ORIGIN, plan_t0=3.0, down=0.0)
+            truth = setpoint_at(plan, 0, float(t) + dt, plan_origin=ORIGIN, plan_t0=3.0, down=0.0)
+            north, east = position_at(sent, float(t) + dt)
+            errors.append(math.hypot(north - truth.north, east - truth.east))
+    # exact on a segment; across a boundary v^2 |dk| dt^2 / 2 (<= 0.2 m at dt = 0.25 s)
+    assert float(np.median(errors)) < 1e-9
+    assert max(errors) < 0.5 * V**2 * (2.0 / R) * 0.25**2 + 1e-9
+
+
+def test_position_at_on_a_straight_and_when_holding() -> None:
+    straight = Setpoint(10.0, 5.0, 7.0, -50.0, 3.0, -4.0, 0.0, 0.0, 0.0)
+    assert position_at(straight, 12.0) == pytest.approx((11.0, -1.0))
+    hold = Setpoint(10.0, 5.0, 7.0, -50.0, 0.0, 0.0, 0.0, 1.0, 0.0, hold=True)
+    assert position_at(hold, 99.0) == (5.0, 7.0)
