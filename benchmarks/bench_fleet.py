@@ -49,6 +49,7 @@ CLIENTS: dict[str, Runner] = {
     "mavsdk": run_mavsdk,
 }
 LOOPS = {"convoy-mav": None, "convoy-mav-asyncio": "asyncio"}  # None: the service's pick
+_EXIT_GRACE_S = 30.0  # wall s a client process may take to exit once it printed its result
 
 
 def _fmt(x: float | None, spec: str) -> str:
@@ -132,7 +133,13 @@ def median_result(runs: Sequence[ClientResult]) -> ClientResult:
 
 async def _isolated(name: str, ports: MockPorts, seconds: float) -> ClientResult:
     """Run one client in a process of its own: its CPU time is its alone, and no
-    thread of an earlier client (MAVSDK's are native) lingers into the next."""
+    thread of an earlier client (MAVSDK's are native) lingers into the next.
+
+    The client prints its result as soon as it has one; a process still busy
+    ``_EXIT_GRACE_S`` after that (MAVSDK-Python's blocking calls queued in the
+    loop's executor can take many minutes to drain at 1000 vehicles) is killed,
+    and the row says so.
+    """
     proc = await asyncio.create_subprocess_exec(
         sys.executable,
         __file__,
@@ -144,15 +151,29 @@ async def _isolated(name: str, ports: MockPorts, seconds: float) -> ClientResult
         str(seconds),
         stdout=asyncio.subprocess.PIPE,
     )
-    out, _ = await proc.communicate()
-    lines = out.decode().strip().splitlines()
-    if proc.returncode != 0 or not lines:
+    assert proc.stdout is not None
+    result: ClientResult | None = None
+    while result is None and (line := await proc.stdout.readline()):
+        if line.startswith(b"{"):
+            result = ClientResult(**json.loads(line))
+    try:
+        async with asyncio.timeout(_EXIT_GRACE_S):
+            await proc.communicate()
+    except TimeoutError:
+        proc.kill()
+        await proc.wait()
+        if result is not None:
+            note = f"process killed {_EXIT_GRACE_S:g} s after its result (teardown hung)"
+            return dataclasses.replace(result, notes=f"{result.notes}; {note}")
+    if result is None or proc.returncode != 0:
         raise RuntimeError(f"{name} client exited with {proc.returncode}")
-    return ClientResult(**json.loads(lines[-1]))
+    return result
 
 
-async def _fly(client: Runner, ports: MockPorts, seconds: float) -> ClientResult:
-    return await client(ports, seconds=seconds)
+async def _fly(client: Runner, ports: MockPorts, seconds: float) -> None:
+    result = await client(ports, seconds=seconds)
+    # Printed from inside the loop: the parent has its row before the loop's teardown.
+    print(json.dumps(dataclasses.asdict(result)), flush=True)
 
 
 def _one(argv: Sequence[str]) -> int:
@@ -161,8 +182,10 @@ def _one(argv: Sequence[str]) -> int:
     ports = MockPorts(list(range(int(base), int(base) + int(n))), int(per_process))
     logging.basicConfig(level=logging.ERROR)
     fly = _fly(CLIENTS[name], ports, float(seconds))
-    result = eventloop.run(fly, choice=LOOPS[name]) if name in LOOPS else asyncio.run(fly)
-    print(json.dumps(dataclasses.asdict(result)), flush=True)
+    if name in LOOPS:
+        eventloop.run(fly, choice=LOOPS[name])
+    else:
+        asyncio.run(fly)
     return 0
 
 
