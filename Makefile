@@ -47,7 +47,7 @@ bench: $(STAMP)
 	$(BIN)/python -m pytest benchmarks --benchmark-only --benchmark-columns=median,iqr,ops,rounds
 	$(BIN)/python benchmarks/bench_mock_realtime.py
 
-# convoy-mav and MAVSDK-Python flying 10..1000 mock PX4 planes at 20 Hz (about 15 min).
+# convoy-mav (uvloop, asyncio) and MAVSDK-Python flying 10..1000 PX4 planes at 20 Hz (~30 min).
 bench-fleet: $(STAMP)
 	mkdir -p out
 	$(BIN)/python benchmarks/bench_fleet.py 10 100 500 1000 --seconds 15 --json out/bench_fleet.json
