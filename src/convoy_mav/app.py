@@ -606,6 +606,9 @@ class ConvoyService:
         )
         errors = {v.sysid: v.tracking_error_m for v in snap.vehicles}
         for sysid, v in self.vehicles.items():
+            # A UAV its driver has declared lost is lost at once, not only after the
+            # next control step has re-phased the others: state and phase agree.
+            lost = v.status is VehicleStatus.LOST
             self._publish(
                 topics.vehicle_topic(sysid),
                 topics.vehicle_payload(
@@ -616,7 +619,7 @@ class ConvoyService:
                     telemetry=v.telemetry,
                     mode=v.mode or None,
                     firmware=_firmware_family(v),
-                    phase=self.view.phase(sysid, t),
+                    phase="lost" if lost else self.view.phase(sysid, t),
                     tracking_error_m=errors.get(sysid),
                     statustext=v.last_statustext,
                 ),

@@ -614,7 +614,11 @@ async def test_operator_pause_resume_and_alarm(mqtt_broker: Broker) -> None:
         assert (alarm["severity"], alarm["data"]) == ("warning", {"active": True})
         assert alarm["t"] > 20.0 and "silent" in alarm["message"]
         await flight.until(
-            lambda: sub.last("status")["uavs"]["lost"] == 1 and vehicles("flying", True),
+            lambda: (
+                sub.last("status")["uavs"]["lost"] == 1
+                and vehicles("flying", True)
+                and sub.last(f"vehicle/{lost}")["state"] == "lost"
+            ),
             10.0,
             "the others flying, one lost",
         )
