@@ -40,7 +40,7 @@ from convoy_mav.geo import GeoPoint, LocalFrame
 from convoy_mav.mavlink import MavLink
 from convoy_mav.monitor import Monitor
 from convoy_mav.planning import PlanRequest, make_plan
-from convoy_mav.schedule import position_at, setpoint_at
+from convoy_mav.schedule import POSITION_AT_HORIZON_S, position_at, setpoint_at
 from convoy_mav.streaming import SetpointStreamer, percentile
 from convoy_mav.types import ConvoyEstimate, Setpoint, Telemetry, VehicleStatus
 from convoy_mav.vehicle import Vehicle
@@ -77,7 +77,7 @@ async def run_convoy_mav(
 
     def on_telemetry(tel: Telemetry) -> None:  # as ConvoyService._track
         planned = vehicles[tel.sysid].last_setpoint
-        if planned is None or planned.hold or abs(tel.t - planned.t) > 0.25:
+        if planned is None or planned.hold or abs(tel.t - planned.t) > POSITION_AT_HORIZON_S:
             planned = source(tel.sysid, tel.t)
         monitor.track(tel, *position_at(planned, tel.t))
         decoded[tel.sysid] = time.perf_counter()

@@ -52,7 +52,7 @@ from convoy_mav.planning.export import compass_to_planner
 from convoy_mav.publish import topics
 from convoy_mav.publish.mqtt import MqttPublisher
 from convoy_mav.recording import TlogRecorder
-from convoy_mav.schedule import position_at
+from convoy_mav.schedule import POSITION_AT_HORIZON_S, position_at
 from convoy_mav.streaming import SetpointStreamer
 from convoy_mav.types import ConvoyEstimate, Setpoint, Telemetry, VehicleStatus
 from convoy_mav.vehicle import EventKind, Vehicle, VehicleEvent
@@ -64,7 +64,6 @@ log = logging.getLogger(__name__)
 _GIL_SWITCH_S = 0.001  # s: how long the mission worker may hold the GIL at a time
 _GROUND_STREAM_RETRY = 5.0  # mission s between stream requests to a silent ground vehicle
 _GROUND_POSITION_HZ = 10  # GLOBAL_POSITION_INT rate asked of ground vehicles
-_TRACK_FROM_SENT_S = 0.25  # mission s: a plan setpoint this recent scores a position update
 
 
 @dataclass(frozen=True, slots=True)
@@ -506,7 +505,7 @@ class ConvoyService:
         if view.phase(tel.sysid, tel.t) != "protect":
             return
         planned = self.vehicles[tel.sysid].last_setpoint
-        if planned is None or planned.hold or abs(tel.t - planned.t) > _TRACK_FROM_SENT_S:
+        if planned is None or planned.hold or abs(tel.t - planned.t) > POSITION_AT_HORIZON_S:
             planned = view.setpoint(tel.sysid, tel.t)
             if planned is None:
                 return

@@ -26,6 +26,7 @@ from convoy_mav.planning.plan import Plan, Sample, Trajectory
 from convoy_mav.types import Setpoint
 
 __all__ = [
+    "POSITION_AT_HORIZON_S",
     "mission_to_planner",
     "planner_to_mission",
     "position_at",
@@ -36,6 +37,11 @@ __all__ = [
 ]
 
 Origin = tuple[float, float]
+
+POSITION_AT_HORIZON_S = 0.25
+"""Mission s: how far :func:`position_at` is trusted to carry a setpoint sent (a
+stalled stream beyond it: sample the plan again). Across a segment boundary the
+error at this horizon is at most a few decimetres; at setpoint rates, millimetres."""
 
 
 def yaw_to_heading(yaw: float) -> float:
