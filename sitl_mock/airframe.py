@@ -40,6 +40,10 @@ class AirframeParams:
         max_airspeed_ratio: Plane airspeed never goes above this times ``airspeed``.
         wind_north: Constant wind toward the north (m/s).
         wind_east: Constant wind toward the east (m/s).
+        loiter_lag: T (s) of the navigation controller flying a commanded loiter: a
+            plane circles at ``R + (V T)^2 / R`` for a commanded radius R at airspeed V,
+            as ArduPlane's L1 controller flies its loiters wide (a 100 m loiter at about
+            118 m at 22 m/s, T = 1.9 s). 0: loiters flown exactly (copters).
 
     Raises:
         ValueError: A field is out of range; the message names it.
@@ -55,6 +59,7 @@ class AirframeParams:
     max_airspeed_ratio: float = 1.5
     wind_north: float = 0.0
     wind_east: float = 0.0
+    loiter_lag: float = 0.0
 
     def __post_init__(self) -> None:
         if self.frame not in ("plane", "copter"):
@@ -71,6 +76,8 @@ class AirframeParams:
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0.0):
                 raise ValueError(f"{name} must be positive and finite, got {value!r}")
+        if not (math.isfinite(self.loiter_lag) and self.loiter_lag >= 0.0):
+            raise ValueError(f"loiter_lag must be >= 0 and finite, got {self.loiter_lag!r}")
         for name in ("wind_north", "wind_east"):
             value = getattr(self, name)
             if not math.isfinite(value):

@@ -78,6 +78,9 @@ SENSORS = (  # SYS_STATUS sensors a healthy mock reports present and healthy
 )
 """SYS_STATUS sensors: with GPS and PREARM_CHECK healthy MAVSDK reports the global
 position OK and the vehicle armable; both turn healthy at the end of warm-up."""
+_GPS_FIX_SHARE = 0.5
+"""Share of the warm-up after which GPS_RAW_INT reports a 3D fix (the estimator needs
+the rest: real ArduPilot SITL refuses arming for about 40 s after its first fix)."""
 _NEEDS_WARMUP = (
     _R.MAV_SYS_STATUS_SENSOR_GPS
     | _R.MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL
@@ -96,7 +99,8 @@ class VehicleSpec:
         airframe: Physics of an aircraft (its ``frame`` picks plane or copter).
         home: Where it boots: its EKF origin (LOCAL_POSITION_NED) and first home.
         route: Ground vehicles: world-NED motion over sim time (None: parked at home).
-        warmup_s: Sim seconds after boot before GPS fix, health and arming.
+        warmup_s: Sim seconds after boot before the position estimate is healthy and
+            arming allowed (GPS_RAW_INT reports its 3D fix from half of it).
         setpoint_timeout_s: Setpoint-loss timeout (COM_OF_LOSS_T / GUID_TIMEOUT).
         compid: MAVLink component id of the autopilot.
         streams_on_boot: Stream telemetry before a GCS asks; None: the personality's
@@ -136,7 +140,8 @@ class VehicleSpec:
 class TruthRow:
     """What a vehicle really did at sim time ``t`` (world NED, SI units, yaw in rad).
 
-    ``speed`` is the airspeed of an aircraft and the ground speed of a ground vehicle.
+    ``speed`` is the airspeed of an aircraft and the ground speed of a ground vehicle;
+    ``airborne`` is whether an aircraft is off the ground (a ground vehicle: False).
     """
 
     t: float
@@ -156,6 +161,7 @@ class TruthRow:
     yaw_rate: float
     armed: bool
     mode: str
+    airborne: bool = False
 
 
 class SimVehicle:
@@ -338,6 +344,9 @@ class SimVehicle:
         airborne = fl.airborne
         plane_bits = _R.MAV_SYS_STATUS_SENSOR_DIFFERENTIAL_PRESSURE if fl.plane else 0
         health = SENSORS if fl.warm else SENSORS & ~_NEEDS_WARMUP
+        # The receiver has its 3D fix well before the estimator uses it: in between,
+        # GPS_RAW_INT says 3D while arming is refused ("Arm: Need Position Estimate").
+        gps = fl.warm or now - self._boot_t >= _GPS_FIX_SHARE * self._warmup
         remaining = max(0.0, 1.0 - self._battery_s / _BATTERY_ENDURANCE_S)
         return Snapshot(
             time_boot_ms=max(0, round((now - self._boot_t) * 1000.0)) & 0xFFFFFFFF,
@@ -368,8 +377,8 @@ class SimVehicle:
             system_status=fw.system_status(fl.armed, airborne, fl.failsafe),
             sensors_present=SENSORS | plane_bits,
             sensors_health=health | plane_bits,
-            gps_fix=_R.GPS_FIX_TYPE_3D_FIX if fl.warm else _R.GPS_FIX_TYPE_NO_FIX,
-            satellites=14 if fl.warm else 0,
+            gps_fix=_R.GPS_FIX_TYPE_3D_FIX if gps else _R.GPS_FIX_TYPE_NO_FIX,
+            satellites=14 if gps else 0,
             battery_remaining=round(remaining * 100.0),
             battery_voltage=4.0 * (3.5 + 0.7 * remaining),
             battery_current=15.0 if airborne else (2.0 if fl.armed else 0.5),
@@ -384,6 +393,7 @@ class SimVehicle:
         return TruthRow(
             now, self.sysid, self.spec.kind, geo.lat, geo.lon, geo.alt, n, e, d,
             vn, ve, vd, yaw, speed, yaw_rate, self.flight.armed, self.flight.mode.name,
+            self.flight.airborne,
         )  # fmt: skip
 
     # =================================================================== inbound

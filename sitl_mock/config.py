@@ -23,6 +23,8 @@ Schema (every key optional)::
     airspeed = 18.0
     turn_radius = 80.0
     max_climb_rate = 4.0
+    loiter_lag = 1.9                  # s: planes fly a loiter of radius R at R + (V lag)^2 / R
+                                      # (ArduPlane's L1 overshoot; 0: exact; copters: exact)
     wind = [0.0, 0.0]                 # north, east m/s
     warmup = 3.0                      # s of sim time before arming is allowed
     setpoint_timeout = 1.0
@@ -108,12 +110,15 @@ _TOP_KEYS = {
     "ground",
     "faults",
 }
+_LOITER_LAG_S = 1.9
+"""s: a plane's default loiter overshoot, fitted to ArduPlane SITL (100 m flown at 118 m)."""
 _AIRCRAFT_KEYS = {
     "personality",
     "frame",
     "airspeed",
     "turn_radius",
     "max_climb_rate",
+    "loiter_lag",
     "wind",
     "warmup",
     "setpoint_timeout",
@@ -467,6 +472,7 @@ def _aircraft_spec(
         airspeed=num("airspeed", 18.0),
         min_turn_radius=num("turn_radius", 80.0),
         max_climb_rate=num("max_climb_rate", 4.0),
+        loiter_lag=num("loiter_lag", _LOITER_LAG_S, positive=False),
         wind_north=wind_n,
         wind_east=wind_e,
     )

@@ -13,12 +13,13 @@ Design rules:
     * A *goal* is what the current mode flies once airborne: a setpoint, a
       reposition loiter, a hold captured where the mode began, or Idle to land.
       Every mode change clears it; it is captured lazily when first needed.
-    * Where the real firmwares need a pilot or a runway the mock simplifies: a
-      plane armed in its external mode (OFFBOARD / GUIDED) or a takeoff mode, or
-      given a DO_REPOSITION on the ground, climbs out straight ahead to the
-      takeoff altitude (MIS_TAKEOFF_ALT / TKOFF_ALT) and only then flies what it
-      was told; a PX4 copter in OFFBOARD lifts off when its setpoint is above it;
-      an ArduCopter takes off only on NAV_TAKEOFF in GUIDED (as the real one).
+    * Take-off is as strict as the firmware: a plane leaves the ground only in its
+      take-off mode (ArduPlane TAKEOFF, PX4 AUTO.TAKEOFF after NAV_TAKEOFF), climbing
+      straight out to the takeoff altitude (TKOFF_ALT / MIS_TAKEOFF_ALT or the
+      command's); armed in GUIDED or OFFBOARD on the ground, or given a
+      DO_REPOSITION there, it stays on the runway with its throttle suppressed, as
+      ArduPlane does. A PX4 copter in OFFBOARD lifts off when its setpoint is above
+      it; an ArduCopter takes off only on NAV_TAKEOFF in GUIDED (as the real one).
       Pilot modes (MANUAL, STABILIZE...) hold position in the air: no RC exists.
     * Refusals carry the firmware's COMMAND_ACK result and a STATUSTEXT reason.
 """
@@ -196,10 +197,10 @@ class FlightController:
         climb_out = ac.ground_down - self.takeoff_alt
         if behaviour is Behaviour.TAKEOFF:
             self.takeoff_down = climb_out
-        elif isinstance(self.goal, Loiter):  # a reposition given on the ground
-            self.takeoff_down = climb_out if self.plane else min(self.goal.down, climb_out)
-        elif behaviour is Behaviour.EXTERNAL and self.plane:
-            self.takeoff_down = climb_out
+        elif self.plane:
+            return  # GUIDED/OFFBOARD or a reposition on the ground: throttle suppressed
+        elif isinstance(self.goal, Loiter):  # a copter told to go somewhere: it lifts off
+            self.takeoff_down = min(self.goal.down, climb_out)
         elif behaviour is Behaviour.EXTERNAL and self.firmware.loss_changes_mode:
             sp = self.setpoint
             if sp is None or not self._fresh(now):

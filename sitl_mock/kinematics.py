@@ -143,6 +143,7 @@ class Aircraft:
         "_guidance",
         "_inv_rmin",
         "_k_track",
+        "_lag2",
         "_mode",
         "_omega",
         "_pe",
@@ -174,6 +175,7 @@ class Aircraft:
         self._ground_down = ground_down
         self._copter = params.frame == "copter"
         self._inv_rmin = 1.0 / params.min_turn_radius
+        self._lag2 = 0.0 if self._copter else params.loiter_lag**2
         self._far = _FAR_RADII * params.min_turn_radius
         if self._copter:
             self._vmin, self._vmax = 0.0, params.airspeed
@@ -448,8 +450,11 @@ class Aircraft:
                 d2 = 1e-6
             d = math.sqrt(d2)
             sign = self._sign
-            kc = _LOITER_SHARPNESS / self._radius
-            x = kc * (d - self._radius)
+            radius = self._radius
+            if self._lag2:  # the navigation controller's overshoot: R + (V T)^2 / R
+                radius += self._lag2 * v0 * v0 / radius
+            kc = _LOITER_SHARPNESS / radius
+            x = kc * (d - radius)
             chi = math.atan2(re, rn) + sign * (_HALF_PI + math.atan(x))
             chi_rate = (rn * ge - re * gn) / d2 + sign * kc / (1.0 + x * x) * (
                 rn * gn + re * ge

@@ -221,13 +221,15 @@ class Firmware:
 
     def arm_denied_text(self, reason: str) -> str:
         """STATUSTEXT of a refused arming, in the firmware's words."""
-        if self.is_ardupilot:
-            return f"PreArm: {reason}"
+        if self.is_ardupilot:  # ArduPilot >= 4.5: "Arm:" when refusing, "PreArm:" periodically
+            return f"Arm: {reason}"
         return f"Arming denied! {reason}"
 
     def warmup_reason(self) -> str:
         """Why arming is refused before the sensors are warm."""
-        return "Need 3D Fix" if self.is_ardupilot else "No valid global position estimate"
+        if self.is_ardupilot:
+            return "Need Position Estimate"
+        return "No valid global position estimate"
 
     def mode_denied_text(self, mode: FlightMode, reason: str) -> str:
         """STATUSTEXT of a refused mode change."""

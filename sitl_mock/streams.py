@@ -61,7 +61,6 @@ ARDUPILOT_STREAM_GROUPS: Mapping[int, tuple[int, ...]] = {
     mavlink.MAV_DATA_STREAM_EXTENDED_STATUS: (
         mavlink.MAVLINK_MSG_ID_SYS_STATUS,
         mavlink.MAVLINK_MSG_ID_GPS_RAW_INT,
-        mavlink.MAVLINK_MSG_ID_EXTENDED_SYS_STATE,
     ),
     mavlink.MAV_DATA_STREAM_POSITION: (
         mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT,
@@ -78,8 +77,11 @@ ARDUPILOT_STREAM_GROUPS: Mapping[int, tuple[int, ...]] = {
     mavlink.MAV_DATA_STREAM_RC_CHANNELS: (),
     mavlink.MAV_DATA_STREAM_RAW_CONTROLLER: (),
 }
-"""ArduPilot's REQUEST_DATA_STREAM groups (as in its SRn_* parameters), restricted to
-the messages the mock produces. ``MAV_DATA_STREAM_ALL`` means every group."""
+"""ArduPilot's REQUEST_DATA_STREAM groups (``GCS_MAVLink_Parameters.cpp`` of 4.7, its
+SRn_* parameters), restricted to the messages the mock produces. As in the firmware,
+a group switches on *every* member (asking for positions brings LOCAL_POSITION_NED
+too), and EXTENDED_SYS_STATE is in no group: only SET_MESSAGE_INTERVAL starts it.
+``MAV_DATA_STREAM_ALL`` means every group."""
 
 
 class StreamScheduler:

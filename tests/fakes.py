@@ -34,11 +34,12 @@ def make_vehicle(
     warmup_s: float = 3.0,
     **kw: Any,
 ) -> SimVehicle:
+    physics = {k: kw.pop(k) for k in list(kw) if k in AirframeParams.__dataclass_fields__}
     spec = VehicleSpec(
         sysid=sysid,
         kind="aircraft",
         personality=personality,
-        airframe=AirframeParams(frame=frame),  # type: ignore[arg-type]
+        airframe=AirframeParams(frame=frame, **physics),  # type: ignore[arg-type]
         home=WORLD.to_geo(*home_ned),
         warmup_s=warmup_s,
         **kw,

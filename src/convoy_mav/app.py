@@ -25,6 +25,7 @@ import logging
 import math
 import sys
 import time
+from collections import Counter
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -47,7 +48,7 @@ from convoy_mav.mission import (
     Replanned,
     ReplanThresholds,
 )
-from convoy_mav.monitor import Alarm, Monitor, MonitorSnapshot
+from convoy_mav.monitor import Alarm, Monitor, MonitorSnapshot, why_not_counted
 from convoy_mav.planning.export import compass_to_planner
 from convoy_mav.publish import topics
 from convoy_mav.publish.mqtt import MqttPublisher
@@ -80,6 +81,9 @@ class Progress:
     longest_gap_s: float
     predicted_coverage: float | None
     message: str = ""
+    counted: int = 0  # UAVs that count for coverage now (airborne, in band, on slot)
+    states: Mapping[str, int] = field(default_factory=dict)  # the others by status
+    alarms: tuple[str, ...] = ()  # alarms in force
 
 
 @dataclass
@@ -95,6 +99,8 @@ class ServiceReport:
     replans: list[dict[str, Any]] = field(default_factory=list)
     alarms: list[dict[str, Any]] = field(default_factory=list)
     events: list[str] = field(default_factory=list)
+    vehicle_extra: dict[int, dict[str, Any]] = field(default_factory=dict)
+    route_start_s: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """The report JSON (keys documented in the README)."""
@@ -113,10 +119,12 @@ class ServiceReport:
             "airspeed_mps": craft.airspeed_mps,
             "convoy_speed_mps": self.convoy_speed_mps,
             "protect_start_s": snap.protect_start,
+            "route_start_s": self.route_start_s,
             "end_s": self.end_t,
             "protected_s": stats.elapsed_s,
             "replans": self.replans,
             "alarms": self.alarms,
+            "events": self.events,
             "vehicles": [
                 {
                     "sysid": uav.sysid,
@@ -127,6 +135,10 @@ class ServiceReport:
                     "mean_tracking_error_m": (
                         scores[uav.sysid].mean_tracking_error_m if uav.sysid in scores else None
                     ),
+                    "median_tracking_error_m": (
+                        scores[uav.sysid].median_tracking_error_m if uav.sysid in scores else None
+                    ),
+                    **self.vehicle_extra.get(uav.sysid, {}),
                 }
                 for uav in self.config.uav_list
             ],
@@ -214,6 +226,10 @@ class ConvoyService:
         self._stopping = False
         self._vehicle_alarms: set[str] = set()  # "uav_lost:3": active per-vehicle alarms
         self._last_est: ConvoyEstimate | None = None
+        self._route_t0: float | None = None  # mission time the scripted convoy set off
+        self.why_not_counted: dict[int, str | None] = {}  # latest, per UAV
+        self._not_counted_s: dict[int, dict[str, float]] = {}  # protect-phase seconds per reason
+        self._counted_t: float | None = None
 
     # ------------------------------------------------------------------ inputs
 
@@ -383,8 +399,12 @@ class ConvoyService:
             await stop.wait()
         self._end_t = self.clock.now()
         self._stopping = True
-        self._note("shutting down: every UAV told to loiter where it is")
-        await asyncio.gather(*(v.hold() for v in self.vehicles.values()), return_exceptions=True)
+        action = self.config.end
+        told = {"loiter": "loiter where it is", "rtl": "return home", "land": "land"}[action]
+        self._note(f"shutting down: every UAV told to {told}")
+        await asyncio.gather(
+            *(v.finish(action) for v in self.vehicles.values()), return_exceptions=True
+        )
         self._publish_state(self.clock.now())  # the retained status says "stopping", holding
         raise _Stop
 
@@ -411,10 +431,15 @@ class ConvoyService:
             await asyncio.sleep(1.0 / max(1.0, self.clock.rate))
 
     def _scripted_convoy(self, t: float) -> None:
+        """The scripted route sets off when the mission starts (its first control
+        step), not when an autopilot booted: autopilots may have been up for hours."""
         c = self.config.convoy
+        if self._route_t0 is None:
+            self._route_t0 = t
+        run = c.speed_mps * (t - self._route_t0)
         heading = compass_to_planner(c.heading_deg)
-        north = c.start_north_m + c.speed_mps * t * math.sin(heading)
-        east = c.start_east_m + c.speed_mps * t * math.cos(heading)
+        north = c.start_north_m + run * math.sin(heading)
+        east = c.start_east_m + run * math.cos(heading)
         self.tracker.update(t, north, east, "route")
 
     async def _control(self) -> None:
@@ -444,15 +469,18 @@ class ConvoyService:
             for sysid, v in self.vehicles.items()
             if v.status in (VehicleStatus.LOST, VehicleStatus.FAILED) and sysid not in view.lost
         ]
+        flying = [s for s, v in self.vehicles.items() if v.status == VehicleStatus.FLYING]
+        returned = [s for s in flying if s in view.lost]  # lost, set up again: rejoin
         ready = {
-            sysid: (v.telemetry.north, v.telemetry.east, v.telemetry.yaw)
-            for sysid, v in self.vehicles.items()
-            if v.status == VehicleStatus.FLYING
-            and v.telemetry is not None
-            and view.phase(sysid, t) == "pending"
+            sysid: (tel.north, tel.east, tel.yaw)
+            for sysid in flying
+            if (tel := self.vehicles[sysid].telemetry) is not None
+            and view.phase(sysid, t) in ("pending", "lost")
         }
         # Replans and joins cost tens of ms: off the loop, so setpoints keep flowing.
-        events, self.view = await asyncio.to_thread(self._mission_step, t, est, lost, ready)
+        events, self.view = await asyncio.to_thread(
+            self._mission_step, t, est, lost, returned, ready
+        )
         for ev in events:
             self._mission_event(ev)
         view = self.view
@@ -460,7 +488,7 @@ class ConvoyService:
             self.monitor.start_protect(view.protect_start)
             self.monitor.predicted_coverage = view.predicted_coverage or 1.0
             self._note(f"protect phase begins at t={view.protect_start:.1f}")
-        telemetry = self._live_telemetry()
+        telemetry = self._counted_telemetry(t)
         for alarm in self.monitor.update(t, est, telemetry):
             self._alarm(alarm)
         self.history.record(
@@ -476,6 +504,7 @@ class ConvoyService:
         t: float,
         est: ConvoyEstimate | None,
         lost: list[int],
+        returned: list[int],
         ready: dict[int, tuple[float, float, float]],
     ) -> tuple[list[Any], MissionView]:
         """The only code that touches the Mission (runs in a worker thread)."""
@@ -486,6 +515,8 @@ class ConvoyService:
         for sysid in lost:
             if sysid in mission.live_uavs:
                 events += mission.on_lost(sysid, t)
+        for sysid in returned:
+            events += mission.on_returned(sysid, t)
         if mission.plan is not None:
             ready = {u: p for u, p in ready.items() if mission.phase(u, t) == "pending"}
             if ready:
@@ -511,12 +542,33 @@ class ConvoyService:
                 return
         self.monitor.track(tel, *position_at(planned, tel.t))
 
-    def _live_telemetry(self) -> dict[int, Telemetry]:
-        return {
-            sysid: v.telemetry
-            for sysid, v in self.vehicles.items()
-            if v.telemetry is not None and v.status not in (VehicleStatus.LOST,)
-        }
+    def _counted_telemetry(self, t: float) -> dict[int, Telemetry]:
+        """The telemetry of the UAVs that can see now (``monitor.why_not_counted``);
+        the others' reasons are kept, and timed over the protect phase for the report."""
+        view = self.view
+        dt = 0.0 if self._counted_t is None else max(t - self._counted_t, 0.0)
+        self._counted_t = t
+        protecting = self.monitor.protect_start is not None
+        counted: dict[int, Telemetry] = {}
+        for sysid, v in self.vehicles.items():
+            tel = v.telemetry
+            why = why_not_counted(
+                status=str(v.status),
+                airborne=v.airborne,
+                altitude_error=None if tel is None else -tel.down - self._altitudes[sysid],
+                band=self.config.altitude_band_m,
+                phase=view.phase(sysid, t),
+            )
+            if why != self.why_not_counted.get(sysid, "") and v.status is VehicleStatus.FLYING:
+                self._note(f"uav{sysid}: " + ("counts for coverage" if why is None else why))
+            self.why_not_counted[sysid] = why
+            if why is None and tel is not None:
+                counted[sysid] = tel
+            elif protecting:
+                spent = self._not_counted_s.setdefault(sysid, {})
+                reason = why or "no position"
+                spent[reason] = spent.get(reason, 0.0) + dt
+        return counted
 
     def _mission_event(self, ev: Any) -> None:
         if isinstance(ev, Replanned):
@@ -550,7 +602,14 @@ class ConvoyService:
                 self._vehicle_alarms -= {a for a in self._vehicle_alarms if a.endswith(f":{sysid}")}
         entry = {"t": alarm.t, "kind": alarm.kind, "active": alarm.active, "message": alarm.message}
         self.alarms.append(entry)
-        log.warning("alarm %s", entry)
+        self.events.append(f"t={alarm.t:.1f} alarm {alarm.kind}: {alarm.message}")
+        log.log(
+            logging.WARNING if alarm.active else logging.INFO,
+            "alarm %s %s: %s",
+            alarm.kind,
+            "raised" if alarm.active else "cleared",
+            alarm.message,
+        )
         self._publish(
             topics.ALARM,
             topics.alarm_payload(
@@ -645,6 +704,11 @@ class ConvoyService:
             phase=self._phase(snap),
             flying=sum(v.status == VehicleStatus.FLYING for v in self.vehicles.values()),
             uavs=len(self.vehicles),
+            counted=sum(why is None for why in self.why_not_counted.values()),
+            states=Counter(
+                str(v.status) for v in self.vehicles.values() if v.status != VehicleStatus.FLYING
+            ),
+            alarms=tuple(sorted(self.monitor.active | self._vehicle_alarms)),
             covered=snap.covered,
             coverage_fraction=snap.stats.fraction if protecting else None,
             gaps=snap.stats.gaps,
@@ -671,4 +735,19 @@ class ConvoyService:
             replans=self.replans,
             alarms=self.alarms,
             events=self.events,
+            vehicle_extra={s: self._vehicle_report(s, v, end_t) for s, v in self.vehicles.items()},
+            route_start_s=self._route_t0,
         )
+
+    def _vehicle_report(self, sysid: int, v: Vehicle, end_t: float) -> dict[str, Any]:
+        """What the report adds per UAV: why it did not count, and its telemetry rate."""
+        heard = None if v.first_heard_t is None else end_t - v.first_heard_t
+        return {
+            "firmware": None if v.firmware is None else str(v.firmware),
+            "airborne": v.airborne,
+            "why_not_counted": self.why_not_counted.get(sysid),
+            "not_counted_s": {
+                why: round(s, 1) for why, s in sorted(self._not_counted_s.get(sysid, {}).items())
+            },
+            "messages_per_s": round(v.received / heard, 2) if heard else None,
+        }

@@ -25,6 +25,7 @@ from convoy_mav.app import ConvoyService, Progress
 from convoy_mav.config import AircraftConfig, ConvoyConfig, MissionConfig, load_config
 from convoy_mav.demo import SCENARIOS, Scenario, replay_scenario, run_demo
 from convoy_mav.errors import ConfigError, ConvoyError
+from convoy_mav.oplog import operator_log
 from convoy_mav.planning import Pose, make_plan, optimal_path_from_entry
 from convoy_mav.planning.export import entry_to_dict, plan_to_dict
 from convoy_mav.plot import plot_mission
@@ -90,6 +91,7 @@ def _build_parser() -> argparse.ArgumentParser:
     run.add_argument("--report", metavar="FILE.json", help="write the mission report here")
     run.add_argument("--plot", metavar="FILE.png", help="draw tracks and coverage here")
     run.add_argument("--tlog", metavar="FILE.tlog", help="record every MAVLink message")
+    _add_verbosity(run)
 
     demo = sub.add_parser(
         "demo",
@@ -140,7 +142,19 @@ def _add_mock_flight_options(
     parser.add_argument("--report", metavar="FILE.json", help="write the mission report here")
     parser.add_argument("--plot", metavar="FILE.png", help="draw tracks and coverage here")
     parser.add_argument("--tlog", metavar="FILE.tlog", help="record every MAVLink message")
-    parser.add_argument("--quiet", action="store_true", help="no progress lines")
+    _add_verbosity(parser)
+
+
+def _add_verbosity(parser: argparse.ArgumentParser) -> None:
+    """-v / -q of the flying commands (default: INFO, what an operator should see)."""
+    parser.add_argument(
+        "-v", "--verbose", action="count", default=0,
+        help="also log debug detail: every STATUSTEXT, every set-up message (default: INFO)",
+    )  # fmt: skip
+    parser.add_argument(
+        "-q", "--quiet", action="store_true",
+        help="no progress lines; log warnings and errors only",
+    )  # fmt: skip
 
 
 def _require(value: float | None, flag: str) -> float:
@@ -301,10 +315,12 @@ def _cmd_plan(args: argparse.Namespace) -> int:
 def _print_progress(p: Progress) -> None:
     coverage = "-" if p.coverage_fraction is None else f"{100 * p.coverage_fraction:6.2f} %"
     predicted = "-" if p.predicted_coverage is None else f"{100 * p.predicted_coverage:.2f} %"
+    others = "".join(f", {n} {state}" for state, n in sorted(p.states.items()) if n)
+    alarms = f"  ALARMS {', '.join(p.alarms)}" if p.alarms else ""
     print(
-        f"[t={p.t:7.1f} s] {p.phase:<10} {p.flying}/{p.uavs} flying  "
-        f"{'seen' if p.covered else 'NOT SEEN'}  coverage {coverage} (predicted {predicted})  "
-        f"gaps {p.gaps}  longest {p.longest_gap_s:.1f} s",
+        f"[t={p.t:7.1f} s] {p.phase:<10} {p.counted}/{p.uavs} counting ({p.flying} flying"
+        f"{others})  {'seen' if p.covered else 'NOT SEEN'}  coverage {coverage} "
+        f"(predicted {predicted})  gaps {p.gaps}  longest {p.longest_gap_s:.1f} s{alarms}",
         flush=True,
     )
 
@@ -347,8 +363,14 @@ def _pct(x: float | None) -> str:
 
 def _summary(report: dict[str, Any]) -> None:
     pct = _pct
+    if report["protect_start_s"] is None:
+        print(
+            f"never protected: the protect phase did not begin by t={report['end_s']:.1f} s "
+            "(see the events in the report, and each UAV's why_not_counted)"
+        )
+        return
     print(
-        f"protected from t={report['protect_start_s'] or 0:.1f} s to {report['end_s']:.1f} s: "
+        f"protected from t={report['protect_start_s']:.1f} s to {report['end_s']:.1f} s: "
         f"coverage {pct(report['coverage_fraction'])} "
         f"(predicted {pct(report['predicted_coverage'])}"
         + (
@@ -368,7 +390,7 @@ async def _cmd_run(args: argparse.Namespace) -> int:
         raise ConfigError("uav", [], "the config names no [[uav]] to fly")
     stop = asyncio.Event()
     _stop_on_signals(stop)
-    service = ConvoyService(cfg, on_progress=_print_progress)
+    service = ConvoyService(cfg, on_progress=None if args.quiet else _print_progress)
     report = (await service.run(duration=args.duration, stop=stop)).to_dict()
     _summary(report)
     _write_outputs(args, report, service)
@@ -439,10 +461,22 @@ async def _fly_mock(args: argparse.Namespace, scenario: Scenario, duration: floa
     return 0
 
 
+def _log_level(args: argparse.Namespace) -> int:
+    if args.command == "plan":
+        return logging.ERROR
+    if getattr(args, "quiet", False):
+        return logging.WARNING
+    return logging.DEBUG if getattr(args, "verbose", 0) else logging.INFO
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``convoy-mav`` console script."""
     args = _build_parser().parse_args(argv)
-    logging.basicConfig(level=logging.ERROR, format="%(levelname)s %(name)s: %(message)s")
+    with operator_log(_log_level(args)):
+        return _dispatch(args)
+
+
+def _dispatch(args: argparse.Namespace) -> int:
     try:
         if args.command == "plan":
             return _cmd_plan(args)

@@ -17,6 +17,9 @@ seconds)::
     altitude_step_m = 5.0         # UAV i flies altitude_m + i * step (vertical separation)
     setup_timeout_s = 120.0       # give up setting a UAV up after this long
     lost_after_s = 3.0            # a UAV silent this long is declared lost
+    altitude_band_m = 15.0        # a UAV counts for coverage only within this of its altitude
+    end = "loiter"                # at the end: "loiter" where it is, "rtl" home, "land" there
+                                  #   (an ArduPlane cannot land by command: it returns home)
 
     [aircraft]                    # defaults for every [[uav]]
     airspeed_mps = 18.0
@@ -54,7 +57,7 @@ import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, cast, get_args
 
 from convoy_mav.errors import ConfigError
 from convoy_mav.geo import GeoPoint
@@ -120,6 +123,7 @@ class ConvoyVehicleConfig:
 
 
 ConvoySource = Literal["route", "mavlink", "mqtt"]
+EndAction = Literal["loiter", "rtl", "land"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -158,6 +162,8 @@ class MissionConfig:
     altitude_step_m: float = 5.0
     setup_timeout_s: float = 120.0
     lost_after_s: float = 3.0
+    altitude_band_m: float = 15.0
+    end: EndAction = "loiter"
     mqtt: MqttConfig | None = None
     tlog: str | None = None
 
@@ -355,6 +361,14 @@ def _mqtt(data: Mapping[str, Any]) -> MqttConfig | None:
     return MqttConfig(host=host, port=port, prefix=prefix.strip("/"))
 
 
+def _end_action(mission: Mapping[str, Any]) -> EndAction:
+    end = mission.get("end", "loiter")
+    for action in get_args(EndAction):
+        if end == action:
+            return cast(EndAction, action)
+    raise ConfigError("mission.end", end, "must be 'loiter', 'rtl' or 'land'")
+
+
 def parse_config(data: Mapping[str, Any]) -> MissionConfig:
     """Validate a decoded TOML document into a ``MissionConfig``.
 
@@ -370,7 +384,7 @@ def parse_config(data: Mapping[str, Any]) -> MissionConfig:
         "mission",
         {
             "sensor_radius_m", "uavs", "origin", "setpoint_rate_hz", "altitude_step_m",
-            "setup_timeout_s", "lost_after_s",
+            "setup_timeout_s", "lost_after_s", "altitude_band_m", "end",
         },
     )  # fmt: skip
     aircraft = _aircraft(
@@ -396,6 +410,8 @@ def parse_config(data: Mapping[str, Any]) -> MissionConfig:
         altitude_step_m=_number(mission, "mission", "altitude_step_m", 5.0, non_negative=True),
         setup_timeout_s=_number(mission, "mission", "setup_timeout_s", 120.0, positive=True),
         lost_after_s=_number(mission, "mission", "lost_after_s", 3.0, positive=True),
+        altitude_band_m=_number(mission, "mission", "altitude_band_m", 15.0, positive=True),
+        end=_end_action(mission),
         mqtt=_mqtt(data),
         tlog=tlog,
     )

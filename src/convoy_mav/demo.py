@@ -279,7 +279,7 @@ async def run_demo(
         start = report.snapshot.protect_start
         if start is not None and fleet.history is not None:
             fixes = (
-                TruthFix(r.t, r.sysid, r.kind, r.lat, r.lon, r.mode != "KILLED")
+                TruthFix(r.t, r.sysid, r.kind, r.lat, r.lon, r.mode != "KILLED", r.airborne)
                 for r in fleet.history.rows
             )
             truth = score_truth(

@@ -10,6 +10,9 @@ Design rules:
   sampled as their telemetry trickles in, not all at once on the tick.
 - Coverage is counted from the protect phase on (joining UAVs are not yet
   expected to cover); before that only the live "covered now?" is reported.
+- Only a UAV that can see counts: flying the mission, airborne by its autopilot's
+  word, within its altitude band and on its protecting slot. ``why_not_counted``
+  is the one rule, and its answer is what the report and MQTT show.
 - Alarms are edge-triggered values: raised once when a condition starts, and
   a matching clear when it ends, so publishers and logs are not flooded.
 """
@@ -17,13 +20,58 @@ Design rules:
 from __future__ import annotations
 
 import math
+from collections import Counter
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 from convoy_mav.coverage import CoverageSample, CoverageStats, CoverageTracker, GapClosed, GapOpened
 from convoy_mav.types import ConvoyEstimate, Telemetry
 
-__all__ = ["Alarm", "Monitor", "MonitorSnapshot", "VehicleScore"]
+__all__ = ["Alarm", "Monitor", "MonitorSnapshot", "VehicleScore", "why_not_counted"]
+
+_ERROR_BIN_M = 0.25
+"""Tracking errors are kept as a histogram of this resolution (for the median)."""
+
+
+def why_not_counted(
+    *,
+    status: str,
+    airborne: bool,
+    altitude_error: float | None,
+    band: float,
+    phase: str,
+) -> str | None:
+    """Why a UAV does not count towards coverage now; None if it does.
+
+    Args:
+        status: Its driver's status (``flying``, ``lost``, ``holding``...).
+        airborne: The autopilot says it is flying (``Vehicle.airborne``).
+        altitude_error: Its altitude minus its planned altitude (m), None if unknown.
+        band: How far off its altitude a UAV still sees what the plan assumes (m).
+        phase: Its mission phase (``protect``, ``join``, ``pending``, ``lost``).
+
+    Returns:
+        ``"lost"``, its status (``"setting up"``, ``"holding"``...), ``"on ground"``,
+        ``"climbing"`` (below its band), ``"above its altitude band"``, ``"joining"``
+        or ``"not assigned"``; None when it counts.
+    """
+    if status == "lost" or phase == "lost":
+        return "lost"
+    if status != "flying":
+        return status.replace("_", " ")
+    if not airborne:
+        return "on ground"
+    if altitude_error is None or not math.isfinite(altitude_error):
+        return "no position"
+    if altitude_error < -band:
+        return "climbing"
+    if altitude_error > band:
+        return "above its altitude band"
+    if phase == "join":
+        return "joining"
+    if phase != "protect":
+        return "not assigned"
+    return None
 
 
 @dataclass(frozen=True, slots=True)
@@ -44,6 +92,7 @@ class VehicleScore:
     time_in_circle_fraction: float
     mean_tracking_error_m: float | None
     tracking_error_m: float | None  # latest
+    median_tracking_error_m: float | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -65,6 +114,18 @@ class _Tracking:
     total: float = 0.0
     count: int = 0
     latest: float | None = None
+    bins: Counter[int] = field(default_factory=Counter)  # error // _ERROR_BIN_M -> count
+
+    def median(self) -> float | None:
+        """The median error, to the histogram's resolution (the bin's centre)."""
+        if not self.count:
+            return None
+        seen = 0
+        for b in sorted(self.bins):
+            seen += self.bins[b]
+            if 2 * seen >= self.count:
+                return (b + 0.5) * _ERROR_BIN_M
+        return None
 
 
 @dataclass
@@ -182,6 +243,7 @@ class Monitor:
         rec.total += err
         rec.count += 1
         rec.latest = err
+        rec.bins[int(err / _ERROR_BIN_M)] += 1
         return err
 
     def _edge(self, t: float, kind: str, active: bool, message: str, out: list[Alarm]) -> None:
@@ -210,6 +272,9 @@ class Monitor:
                     else None
                 ),
                 tracking_error_m=self._tracking[s].latest if s in self._tracking else None,
+                median_tracking_error_m=(
+                    self._tracking[s].median() if s in self._tracking else None
+                ),
             )
             for s in sysids
         )

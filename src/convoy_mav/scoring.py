@@ -32,6 +32,7 @@ class TruthFix:
     lat: float
     lon: float
     alive: bool = True
+    airborne: bool = True
 
 
 def read_truth_csv(path: str | os.PathLike[str]) -> Iterator[TruthFix]:
@@ -45,6 +46,7 @@ def read_truth_csv(path: str | os.PathLike[str]) -> Iterator[TruthFix]:
                 lat=float(row["lat"]),
                 lon=float(row["lon"]),
                 alive=row.get("mode") != "KILLED",
+                airborne=row.get("airborne", "1") not in ("0", "False"),
             )
 
 
@@ -61,7 +63,7 @@ def score_truth(
 
     Rows are grouped by time stamp; at each stamp the convoy is the centroid of
     the ground vehicles' true positions and every live aircraft's true position
-    counts.  Killed vehicles see nothing.
+    counts.  Killed vehicles and aircraft on the ground see nothing.
     """
     frame = LocalFrame(origin)
     by_t: dict[float, list[TruthFix]] = defaultdict(list)
@@ -78,7 +80,7 @@ def score_truth(
             north, east, _ = frame.to_ned(GeoPoint(fix.lat, fix.lon))
             if fix.kind == "ground":
                 ground.append((north, east))
-            elif fix.alive:
+            elif fix.alive and fix.airborne:
                 aircraft[fix.sysid] = (north, east)
         if not ground:
             continue

@@ -17,8 +17,12 @@ Life cycle (``VehicleStatus``)::
 * Streams are requested right after the first HEARTBEAT (and again when
   position telemetry stops, e.g. after an ArduPilot reboot).
 * The fix is GPS_RAW_INT.fix_type >= 3, or SYS_STATUS reporting a healthy GPS,
-  plus a GLOBAL_POSITION_INT. ``fix_timeout`` lets set-up start without one (the
-  autopilot then says why it refuses, which is shown to the operator).
+  plus a GLOBAL_POSITION_INT; the estimator uses it some time later (ArduPilot
+  refuses to arm with "Need Position Estimate" for about 40 s after its first
+  fix), which HOME_POSITION announces: both firmwares send it once home is set
+  from the estimate. Set-up waits for it, or for ``_HOME_WAIT`` after the fix
+  (a firmware that never sends it). ``fix_timeout`` lets set-up start without
+  a fix (the autopilot then says why it refuses, shown to the operator).
 * Set-up steps come from the strategy and are skipped when already true (armed,
   in the right mode, airborne), so a re-set-up after a link outage is quick.
   Commands are retried until COMMAND_ACK: ACCEPTED is done, IN_PROGRESS waits,
@@ -61,6 +65,7 @@ from convoy_mav.mavlink.autopilots import (
     Autopilot,
     CommandSpec,
     SetupStep,
+    VehicleClass,
     autopilot_for,
     firmware_name,
 )
@@ -89,7 +94,11 @@ _FLYING_STATES = (
     _M.MAV_LANDED_STATE_TAKEOFF,
     _M.MAV_LANDED_STATE_LANDING,
 )
-_AIRBORNE_AGL = 3.0  # m above home: flying, whatever EXTENDED_SYS_STATE says
+_AIRBORNE_AGL = 3.0  # m above home: flying, when no landed state is sent
+_PLANE_FLYING_SPEED = 5.0  # m/s over the ground: a plane this slow is not flying
+_LANDED_FRESH = 12.0  # mission s a landed state stands for (sent at 0.2 Hz in flight)
+_PARAM_TOL = 0.05  # a PARAM_VALUE this close to what was set confirms it
+_HOME_WAIT = 60.0  # mission s after the fix that set-up waits for HOME_POSITION at most
 _STREAM_RETRY = 5.0  # mission s between stream requests while no position arrives
 _FED_LOOK = 0.5  # mission s between looks at a fed stream (PX4's COM_OF_LOSS_T: 1 s)
 _LOST_MARGIN = 1e-3  # mission s past lost_after the watchdog looks (silence must exceed it)
@@ -107,6 +116,7 @@ class EventKind(StrEnum):
     """What a :class:`VehicleEvent` reports."""
 
     STATUS = "status"  # a status transition
+    SETUP = "setup"  # a set-up step done (parameter set, mode, armed, airborne)
     STATUSTEXT = "statustext"  # a text from the autopilot, as sent
     REFUSED = "refused"  # a set-up command was refused (the autopilot's reason attached)
     FAILED = "failed"  # set-up gave up, or the vehicle cannot be flown
@@ -235,8 +245,12 @@ class Vehicle:
         self.last_t: dict[str, float] = {}
         self.last_statustext: str | None = None
         self.failure: str | None = None
+        self.params: dict[str, float] = {}
         self.counters: Counter[str] = Counter()
+        self.received = 0  # messages from the autopilot (the telemetry budget)
+        self.first_heard_t: float | None = None
         self._statustext_t = -math.inf
+        self._fix_t: float | None = None  # mission time a fix was first seen
         self._heard_t = -math.inf
         self._acks: dict[int, tuple[int, int]] = {}  # command -> (result, seq)
         self._ack_seq = 0
@@ -258,6 +272,7 @@ class Vehicle:
             "STATUSTEXT": self.handle_STATUSTEXT,
             "GLOBAL_POSITION_INT": self.handle_GLOBAL_POSITION_INT,
             "HOME_POSITION": self.handle_HOME_POSITION,
+            "PARAM_VALUE": self.handle_PARAM_VALUE,
         }
 
     def __repr__(self) -> str:
@@ -290,12 +305,39 @@ class Vehicle:
             and sys.onboard_control_sensors_health & _GPS_BIT
         )
 
-    def _airborne(self) -> bool:
+    def _estimate_ready(self) -> bool:
+        """A fix the estimator uses: home announced, or long enough after the fix."""
+        if not self.has_fix:
+            return False
+        now = self.clock.now()
+        if self._fix_t is None:
+            self._fix_t = now
+        return self.home is not None or now - self._fix_t >= _HOME_WAIT
+
+    @property
+    def airborne(self) -> bool:
+        """Whether the autopilot says it is flying; never assumed from being armed.
+
+        EXTENDED_SYS_STATE's landed state decides where it is sent and fresh (an
+        ArduPlane armed in GUIDED on the runway is ON_GROUND); otherwise height above
+        home, and for a plane, which cannot hover, a flying ground speed as well.
+        """
+        now = self.clock.now()
         ext = self.last.get("EXTENDED_SYS_STATE")
-        if ext is not None and ext.landed_state in _FLYING_STATES:
-            return True
+        if (
+            ext is not None
+            and ext.landed_state != _M.MAV_LANDED_STATE_UNDEFINED
+            and now - self.last_t["EXTENDED_SYS_STATE"] <= _LANDED_FRESH
+        ):
+            return bool(ext.landed_state in _FLYING_STATES)
         rel = self.relative_alt
-        return rel is not None and rel > _AIRBORNE_AGL
+        if rel is None or rel <= _AIRBORNE_AGL:
+            return False
+        ap = self.firmware
+        if ap is None or ap.kind is not VehicleClass.PLANE:
+            return True
+        gpi = self.last["GLOBAL_POSITION_INT"]
+        return math.hypot(gpi.vx, gpi.vy) * 0.01 >= _PLANE_FLYING_SPEED
 
     @property
     def relative_alt(self) -> float | None:
@@ -314,6 +356,9 @@ class Vehicle:
             self._observe_boot(boot_ms)  # (a camera or companion has a boot clock of its own)
         now = self.clock.now()
         self._heard_t = now
+        self.received += 1
+        if self.first_heard_t is None:
+            self.first_heard_t = now
         kind = msg.get_type()
         self.last[kind] = msg
         self.last_t[kind] = now
@@ -334,6 +379,7 @@ class Vehicle:
     def _observe_boot(self, boot_ms: int) -> None:
         if self.clock.observe(boot_ms, self.uid):  # (the clock tells a reboot from reordering)
             self.counters["reboots"] += 1
+            self.home = None  # (set anew by the estimator)
             self._emit(EventKind.REBOOTED, "autopilot rebooted", _M.MAV_SEVERITY_WARNING)
             if self.firmware is not None:
                 self.firmware.reset()
@@ -418,6 +464,11 @@ class Vehicle:
         if self._on_telemetry is not None:
             self._on_telemetry(tel)
 
+    def handle_PARAM_VALUE(self, msg: Message, now: float) -> None:
+        """Keep every parameter value the autopilot reports (confirms a PARAM_SET)."""
+        name = msg.param_id if isinstance(msg.param_id, str) else bytes(msg.param_id).decode()
+        self.params[name.rstrip("\x00")] = float(msg.param_value)
+
     def handle_HOME_POSITION(self, msg: Message, now: float) -> None:
         """Home moves when the vehicle arms: the take-off altitude is relative to it."""
         self.home = GeoPoint(msg.latitude * 1e-7, msg.longitude * 1e-7, msg.altitude * 1e-3)
@@ -468,9 +519,11 @@ class Vehicle:
         who = f"UAV {self.sysid}" + (f" ({self.firmware})" if self.firmware else "")
         message = text if text.startswith("UAV ") else f"{who}: {text}"
         event = VehicleEvent(self.uid, self.clock.now(), kind, message, self.status, severity)
-        log.log(
-            logging.WARNING if severity <= _M.MAV_SEVERITY_WARNING else logging.INFO, "%s", message
-        )
+        if severity <= _M.MAV_SEVERITY_WARNING:
+            level = logging.WARNING
+        else:  # the autopilot's chatter (INFO texts) is detail; our own events are news
+            level = logging.DEBUG if kind is EventKind.STATUSTEXT else logging.INFO
+        log.log(level, "%s", message)
         if self._on_event is not None:
             try:
                 self._on_event(event)
@@ -594,7 +647,8 @@ class Vehicle:
         self.failure = None
         self._set_status(_S.WAITING_FIX)
         self._request_streams()
-        while not self.has_fix:
+        self._fix_t = None
+        while not self._estimate_ready():
             now = self.clock.now()
             if (
                 self.fix_timeout is not None
@@ -607,7 +661,7 @@ class Vehicle:
                 raise _SetupFailed(self._no_fix_message())
             if self.telemetry is None and now - self._streams_t >= _STREAM_RETRY:
                 self._request_streams()
-            await self._wait_until(lambda: self.has_fix, min(1.0, deadline - now))
+            await self._wait_until(self._estimate_ready, min(1.0, deadline - now))
         self._set_status(_S.SETTING_UP)
         ap.reset()
         self._setup_sent = 0
@@ -616,6 +670,8 @@ class Vehicle:
             for step in ap.setup_steps:
                 if not self._step_done(step):
                     await self._achieve(step, deadline)
+                    if self._step_done(step):
+                        self._emit(EventKind.SETUP, self._step_report(step))
             if all(self._step_done(step) for step in ap.setup_steps):
                 break
             if self.clock.now() >= deadline:
@@ -624,9 +680,20 @@ class Vehicle:
         self._set_status(_S.FLYING)
         self._request_streams()  # the flight rates
 
+    def _step_report(self, step: SetupStep) -> str:
+        """What a set-up step achieved, for the operator."""
+        if step is SetupStep.TAKEOFF:
+            rel = self.relative_alt
+            return f"airborne at {rel:.0f} m above home" if rel is not None else "airborne"
+        if step in (SetupStep.MODE, SetupStep.TAKEOFF_MODE):
+            return f"in {self.mode}"
+        return "armed" if step is SetupStep.ARM else f"{step} done"
+
     def _no_fix_message(self) -> str:
         gps = self.last.get("GPS_RAW_INT")
         state = "no GPS_RAW_INT" if gps is None else f"GPS fix type {gps.fix_type}"
+        if self.has_fix:
+            state = "a GPS fix, but no position estimate (no HOME_POSITION)"
         if self.telemetry is None:
             state += ", no GLOBAL_POSITION_INT"
         return (
@@ -667,12 +734,25 @@ class Vehicle:
             return self._setup_sent >= 3 and self.clock.now() - self._last_sp_t < 1.0
         if step is SetupStep.MODE:
             return self.mode == ap.external_mode
+        if step is SetupStep.TAKEOFF_MODE:
+            return self.mode == ap.takeoff_mode or (self.armed and self.airborne)
         if step is SetupStep.ARM:
             return self.armed
         rel = self.relative_alt
-        target, _ = self._target_relative_alt()
-        up = rel is not None and rel >= target - max(1.0, 0.05 * target)
+        target = self._climb_target()
+        up = rel is not None and rel >= target - max(1.0, 0.05 * target) and self.airborne
         return self.armed and (up or self._airborne_already)
+
+    def _climb_target(self) -> float:
+        """Metres above home the take-off climbs to: the flight altitude, or what the
+        autopilot holds for its take-off mode's altitude if it kept a lower one."""
+        target, _ = self._target_relative_alt()
+        ap = self.firmware
+        if ap is not None and ap.takeoff_mode is not None:
+            for name in ap.takeoff_params(target):
+                if name in self.params:
+                    target = min(target, self.params[name])
+        return target
 
     async def _achieve(self, step: SetupStep, deadline: float) -> None:
         ap = self.firmware
@@ -687,6 +767,15 @@ class Vehicle:
             in_mode = functools.partial(self._in_mode, target)
             await self._command(ap.mode_command(target), f"mode {target}", deadline, in_mode)
             await self._wait_until(in_mode, _CONFIRM_WAIT)
+        elif step is SetupStep.TAKEOFF_MODE:
+            rel, _ = self._target_relative_alt()
+            for name, value in ap.takeoff_params(rel).items():
+                await self._set_param(name, value, deadline)
+            climb = ap.takeoff_mode
+            assert climb is not None
+            climbing = functools.partial(self._step_done, step)
+            await self._command(ap.mode_command(climb), f"mode {climb}", deadline, climbing)
+            await self._wait_until(climbing, _CONFIRM_WAIT)
         elif step is SetupStep.ARM:
             await self._command(ap.arm_command(), "arm", deadline, self._is_armed)
             await self._wait_until(self._is_armed, _CONFIRM_WAIT)
@@ -695,7 +784,7 @@ class Vehicle:
             takeoff = ap.takeoff_command(rel, amsl)
             what = f"take off to {rel:.0f} m"
             if takeoff is not None and not await self._command(
-                takeoff, what, deadline, self._airborne
+                takeoff, what, deadline, self._is_airborne
             ):  # already flying (a re-set-up after a link outage): setpoints will climb
                 self._airborne_already = True
                 return
@@ -707,6 +796,44 @@ class Vehicle:
 
     def _in_mode(self, mode: str) -> bool:
         return self.mode == mode
+
+    def _is_airborne(self) -> bool:
+        return self.airborne
+
+    async def _set_param(self, name: str, value: float, deadline: float) -> None:
+        """PARAM_SET until the autopilot's PARAM_VALUE echoes ``value``.
+
+        Raises:
+            _SetupFailed: ``deadline`` passed without a confirmation.
+        """
+        ap = self.firmware
+        assert ap is not None
+
+        def confirmed() -> bool:
+            held = self.params.get(name)
+            return held is not None and abs(held - value) <= _PARAM_TOL
+
+        msg = _M.MAVLink_param_set_message(
+            self.sysid, ap.compid, name.encode(), value, _M.MAV_PARAM_TYPE_REAL32
+        )
+        self.params.pop(name, None)
+        attempts = 0
+        while not confirmed():
+            if self.clock.now() >= deadline:
+                raise _SetupFailed(self._gave_up(f"set {name} = {value:g}", attempts, None))
+            self._send(msg)
+            attempts += 1
+            self.counters["param_set"] += 1
+            await self._wait_until(lambda: name in self.params, self.command_retry)
+            if name in self.params and not confirmed():
+                self._emit(
+                    EventKind.WARNING,
+                    f"{name} is {self.params[name]:g}, not {value:g}: the autopilot kept "
+                    "its own value",
+                    _M.MAV_SEVERITY_WARNING,
+                )
+                return
+        self._emit(EventKind.SETUP, f"{name} set to {value:g}")
 
     def _is_armed(self) -> bool:
         return self.armed
@@ -815,6 +942,30 @@ class Vehicle:
         if not self.armed:
             return True
         return await self._hold_command(timeout)
+
+    async def finish(self, action: str = "loiter", timeout: float = 5.0) -> bool:
+        """End of mission: ``"loiter"`` where it is, ``"rtl"`` home, ``"land"`` there.
+
+        Like :meth:`hold` it ends set-up and setpoints; a refused return or landing
+        falls back to the hold mode, so no UAV is left flying a stale setpoint.
+
+        Returns:
+            True if the autopilot accepted the action (or none was needed).
+        """
+        ap = self.firmware
+        spec = None if ap is None else ap.end_command(action)
+        if spec is None or self.status is _S.LOST or not self.armed:
+            return await self.hold(timeout)
+        self._hold_requested = True
+        self._interrupt()
+        self._set_status(_S.HOLDING)
+        try:
+            await self._command(spec, action, self.clock.now() + timeout)
+        except _SetupFailed as e:
+            self._emit(EventKind.WARNING, f"{action} not accepted ({e}); holding instead")
+            return await self._hold_command(timeout)
+        self._emit(EventKind.STATUS, f"mission over: {action}")
+        return True
 
     async def _hold_command(self, timeout: float) -> bool:
         ap = self.firmware

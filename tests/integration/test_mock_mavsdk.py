@@ -1,7 +1,8 @@
 """MAVSDK 4.x (native ``mavsdk.asyncio``) flies an OFFBOARD circle on the mock.
 
-The flow is MAVSDK's own offboard example: connect, wait for health (global
-position, home position, armable), arm, set an initial setpoint,
+The flow is MAVSDK's own fixed-wing example: connect, wait for health (global
+position, home position, armable), arm, ``action.takeoff()`` (a PX4 plane leaves the
+ground in AUTO.TAKEOFF only), then its offboard example: set an initial setpoint,
 ``offboard.start()``, then keep streaming ``set_position_velocity_ned``. The mock
 listens, so MAVSDK must send first: its client form ``udpout://HOST:PORT``.
 A pymavlink peer on the same port watches the same flight.
@@ -30,7 +31,7 @@ pytestmark = [pytest.mark.integration, pytest.mark.timeout(120)]
 
 SPEEDUP = 20.0
 V, R_MIN = 18.0, 80.0
-ALT = 30.0  # the mock's MIS_TAKEOFF_ALT: a PX4 plane in OFFBOARD climbs out to it first
+ALT = 30.0  # the mock's MIS_TAKEOFF_ALT: AUTO.TAKEOFF climbs to it, then OFFBOARD
 PX4_OFFBOARD = 6 << 16
 
 
@@ -92,6 +93,9 @@ async def test_mavsdk_offboard_circle_with_a_pymavlink_watcher(
 
         await action.arm()
         assert await next_value(telemetry.subscribe_armed())
+        await action.takeoff()
+        while (await telemetry.position_velocity_ned()).position.down_m > -(ALT - 1.0):
+            await asyncio.sleep(0.01)
 
         radius = 1.3 * R_MIN
         circle = Circle(300.0, 0.0, radius, V, t0=fleet.now)

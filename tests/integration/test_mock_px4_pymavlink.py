@@ -1,8 +1,9 @@
 """PX4 personality over real UDP with pymavlink: OFFBOARD circle, watched by two peers.
 
 Client A (a script) arms -- refused with a STATUSTEXT until warm-up is over --
-streams position+velocity setpoints along a circle of radius 1.3 R_min at the
-airspeed, and switches to OFFBOARD; the plane climbs out and joins the circle.
+takes off (NAV_TAKEOFF: a PX4 plane leaves the ground in AUTO.TAKEOFF only), streams
+position+velocity setpoints along a circle of radius 1.3 R_min at the airspeed, and
+switches to OFFBOARD; the plane joins the circle.
 Client B (a second ground station on the same port) only listens and must see
 the same flight. Checks: the turn rate never exceeds V / R_min, in telemetry and
 in the truth log; the flown radius converges to the commanded one.
@@ -152,6 +153,10 @@ async def test_offboard_circle_is_flown_and_seen_by_a_second_peer(
     assert acks[-1].result == mavlink.MAV_RESULT_ACCEPTED
     refusals = [m.text for m in a.of("STATUSTEXT") if "Arming denied" in m.text]
     assert refusals, "the refusal reason is sent as STATUSTEXT"
+    amsl = fleet.config.origin.alt - CLIMB_OUT_DOWN  # PX4: NAV_TAKEOFF param7 is AMSL
+    nan = math.nan
+    ack = await a.command(mavlink.MAV_CMD_NAV_TAKEOFF, -1, 0, 0, nan, nan, nan, amsl)
+    assert ack.result == mavlink.MAV_RESULT_ACCEPTED
 
     radius = 1.3 * R_MIN
     Circle = circle_class()

@@ -47,9 +47,16 @@ async def test_setpoint_loss_triggers_the_loiter_failsafe(
 
     t_until = fleet.now + 0.5
     await client.until(stream)
-    assert (await client.command(mavlink.MAV_CMD_DO_SET_MODE, 1, 6)).result == 0
+    # a PX4 plane takes off in AUTO.TAKEOFF (NAV_TAKEOFF, param7 AMSL), then OFFBOARD
     assert (await client.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)).result == 0
-    t_until = fleet.now + 15.0  # fly offboard for a while (climb-out included)
+    amsl, nan = fleet.config.origin.alt + 40.0, math.nan
+    takeoff = await client.command(mavlink.MAV_CMD_NAV_TAKEOFF, -1, 0, 0, nan, nan, nan, amsl)
+    assert takeoff.result == 0
+    t_until = fleet.now + 12.0
+    await client.until(stream, timeout=10)
+    assert fleet.truth(1).down < -30.0
+    assert (await client.command(mavlink.MAV_CMD_DO_SET_MODE, 1, 6)).result == 0
+    t_until = fleet.now + 5.0  # fly offboard for a while
     await client.until(stream, timeout=10)
     assert client.of("HEARTBEAT")[-1].custom_mode == PX4_OFFBOARD
 

@@ -134,9 +134,11 @@ async def sim_sleep(fleet: MockFleet, seconds: float) -> None:
 @pytest.mark.parametrize(
     ("personality", "frame", "hold_mode", "refusal"),
     [
-        ("px4", "plane", "AUTO.LOITER", "Switching to Offboard is currently not available"),
+        # a PX4 plane arms first (then NAV_TAKEOFF, then OFFBOARD): refused until warm
+        ("px4", "plane", "AUTO.LOITER", "Arming denied! No valid global position estimate"),
         ("ardupilot", "copter", "LOITER", "Mode change to GUIDED failed"),
-        ("ardupilot", "plane", "LOITER", "Mode change to GUIDED failed"),
+        # ArduPlane: TKOFF_ALT, then TAKEOFF mode (refused until warm), arm, climb, GUIDED
+        ("ardupilot", "plane", "LOITER", "Mode change to TAKEOFF failed"),
     ],
 )
 async def test_set_up_fly_a_circle_hold_and_lose(
@@ -172,7 +174,7 @@ async def test_set_up_fly_a_circle_hold_and_lose(
         assert vehicle.counters["refused"] == len(refused) <= 5  # back-off: 1, 2, 4 s...
         statuses = [e.message.split(": ")[-1] for e in events if e.kind is EventKind.STATUS]
         assert statuses[-3:] == ["waiting_fix", "setting_up", "flying"]
-        assert WARMUP <= t_flying < WARMUP + (10.0 if plane else 25.0)  # copters take off
+        assert WARMUP <= t_flying < WARMUP + 25.0  # every aircraft takes off first
         # -- the mission clock follows the autopilot's
         assert clock.rate == pytest.approx(SPEEDUP, rel=0.03)
         assert abs(clock.now() - fleet.now) < 0.25
@@ -297,8 +299,8 @@ async def test_gives_up_with_the_autopilots_reason(start_mock: StartMock) -> Non
         await until(lambda: all(v.status is VehicleStatus.FAILED for v in vehicles.values()), 5)
     plane, rover = vehicles[1].failure, vehicles[2].failure
     assert plane is not None and rover is not None
-    assert plane.startswith("UAV 1 (PX4 plane): set-up gave up after 8 s at step 'mode OFFBOARD'")
-    assert "'Switching to Offboard is currently not available'" in plane
+    assert plane.startswith("UAV 1 (PX4 plane): set-up gave up after 8 s at step 'arm'")
+    assert "'Arming denied! No valid global position estimate'" in plane
     assert "TEMPORARILY_REJECTED" in plane
     assert rover.startswith("UAV 2: MAV_AUTOPILOT_PX4 with vehicle type 10 is not supported")
     failed = [e for e in events if e.kind is EventKind.FAILED]

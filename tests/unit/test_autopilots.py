@@ -112,14 +112,47 @@ def test_unsupported_vehicles_get_no_strategy(autopilot: int, mav_type: int) -> 
 
 
 def test_setup_steps_per_firmware() -> None:
-    px4 = strategy(M.MAV_AUTOPILOT_PX4, FW)
+    px4 = strategy(M.MAV_AUTOPILOT_PX4, QUAD)
     assert px4.setup_steps == (SetupStep.SETPOINTS, SetupStep.MODE, SetupStep.ARM)
     assert px4.streams_during_setup
+    # a fixed-wing PX4 takes off in AUTO.TAKEOFF before OFFBOARD, never from the ground
+    px4_plane = strategy(M.MAV_AUTOPILOT_PX4, FW)
+    assert px4_plane.setup_steps == (
+        SetupStep.ARM,
+        SetupStep.TAKEOFF,
+        SetupStep.SETPOINTS,
+        SetupStep.MODE,
+    )
     copter = strategy(M.MAV_AUTOPILOT_ARDUPILOTMEGA, QUAD)
     assert copter.setup_steps == (SetupStep.MODE, SetupStep.ARM, SetupStep.TAKEOFF)
+    # ArduPlane: TKOFF_ALT and TAKEOFF mode, arm, the climb, and only then GUIDED
     plane = strategy(M.MAV_AUTOPILOT_ARDUPILOTMEGA, FW)
-    assert plane.setup_steps == (SetupStep.MODE, SetupStep.ARM)
+    assert plane.setup_steps == (
+        SetupStep.TAKEOFF_MODE,
+        SetupStep.ARM,
+        SetupStep.TAKEOFF,
+        SetupStep.MODE,
+    )
+    assert plane.takeoff_mode == "TAKEOFF"
+    assert plane.takeoff_params(87.26) == {"TKOFF_ALT": 87.3}
+    assert plane.takeoff_command(80.0, 600.0) is None
     assert not copter.streams_during_setup and not plane.streams_during_setup
+
+
+@pytest.mark.parametrize(
+    ("autopilot", "mav_type", "action", "command"),
+    [
+        (M.MAV_AUTOPILOT_PX4, FW, "rtl", M.MAV_CMD_NAV_RETURN_TO_LAUNCH),
+        (M.MAV_AUTOPILOT_PX4, QUAD, "land", M.MAV_CMD_NAV_LAND),
+        (M.MAV_AUTOPILOT_ARDUPILOTMEGA, QUAD, "land", M.MAV_CMD_NAV_LAND),
+        # ArduPlane lands only through a landing sequence: "land" returns home
+        (M.MAV_AUTOPILOT_ARDUPILOTMEGA, FW, "land", M.MAV_CMD_NAV_RETURN_TO_LAUNCH),
+        (M.MAV_AUTOPILOT_ARDUPILOTMEGA, FW, "loiter", None),
+    ],
+)
+def test_end_of_mission_commands(autopilot: int, mav_type: int, action: str, command: int) -> None:
+    spec = strategy(autopilot, mav_type).end_command(action)
+    assert (None if spec is None else spec.command) == command
 
 
 # ============================================================================ modes
@@ -193,7 +226,12 @@ def test_stream_requests() -> None:
     px4 = strategy(M.MAV_AUTOPILOT_PX4, FW).stream_requests(rates)
     assert [m.get_type() for m in px4] == ["COMMAND_LONG", "COMMAND_LONG"]
     assert {(m.param1, m.param2) for m in px4} == {(33.0, 100_000.0), (1.0, 2_000_000.0)}
-    ardu = strategy(M.MAV_AUTOPILOT_ARDUPILOTMEGA, QUAD).stream_requests(rates)
+    # ArduPilot: message intervals only; the groups would switch on unwanted streams
+    ap = strategy(M.MAV_AUTOPILOT_ARDUPILOTMEGA, QUAD)
+    assert [m.get_type() for m in ap.stream_requests(rates)] == ["COMMAND_LONG"] * 2
+    # ... unless the firmware refuses SET_MESSAGE_INTERVAL (before 4.0): then the groups
+    ap.on_ack(M.MAV_CMD_SET_MESSAGE_INTERVAL, M.MAV_RESULT_UNSUPPORTED, 1.0)
+    ardu = ap.stream_requests(rates)
     groups = {(m.req_stream_id, m.req_message_rate) for m in ardu if m.get_type() != "COMMAND_LONG"}
     assert groups == {(M.MAV_DATA_STREAM_POSITION, 10), (M.MAV_DATA_STREAM_EXTENDED_STATUS, 1)}
     assert sum(m.get_type() == "COMMAND_LONG" for m in ardu) == 2

@@ -178,6 +178,26 @@ def test_losing_a_uav_rephases_the_rest() -> None:
     assert mission.plan is None and not mission.live_uavs
 
 
+def test_a_returned_uav_is_planned_back_in_and_rejoins() -> None:
+    mission, _ = _joined_mission()
+    _feed(mission, 3.0, 200.0)
+    mission.on_lost(13, 200.0)
+    assert mission.on_returned(11, 250.0) == []  # not lost: nothing to do
+    events = mission.on_returned(13, 250.0)
+    replans = [e for e in events if isinstance(e, Replanned)]
+    assert [(r.reason, r.uav_count) for r in replans] == [("uav_returned", 5)]
+    assert mission.predicted_coverage == pytest.approx(1.0)
+    assert mission.live_uavs == (11, 12, 14, 15, 13) and mission.lost_uavs == ()
+    # the others re-phase at once; the returned UAV waits for its join, on the free slot
+    assert mission.phase(13, 250.0) == "pending" and mission.awaiting_join == (13,)
+    taken = sorted(mission.assignment(u) for u in (11, 12, 14, 15))  # type: ignore[type-var]
+    mission.join(13, 900.0, -100.0, 0.3, 250.0)
+    assert sorted([*taken, mission.assignment(13)]) == [0, 1, 2, 3, 4]  # type: ignore[type-var]
+    assert mission.phase(13, 250.0) == "join"
+    arrival = mission.arrival(13)
+    assert arrival is not None and mission.phase(13, arrival + 1.0) == "protect"
+
+
 def test_lost_before_the_plan_shrinks_the_first_plan() -> None:
     mission = Mission(REQUEST, IDS, down=_down)
     assert mission.on_lost(12, 0.5) == []

@@ -159,9 +159,19 @@ def test_px4_plane_flow_setpoints_offboard_arm_flies_the_setpoints() -> None:
     reference(gcs.now)
     assert gcs.set_mode(6).result == mavlink.MAV_RESULT_ACCEPTED
     assert gcs.arm().result == mavlink.MAV_RESULT_ACCEPTED
+    gcs.run(5.0, reference, telemetry=False)
+    assert not vehicle.flight.airborne  # a plane never launches in OFFBOARD
+    assert gcs.truth().speed == 0.0
+    # NAV_TAKEOFF (param7 AMSL): AUTO.TAKEOFF climbs out, then Hold; then OFFBOARD again
+    amsl = WORLD.origin.alt + 40.0
+    ack, _ = gcs.command(mavlink.MAV_CMD_NAV_TAKEOFF, -1, 0, 0, math.nan, 0, 0, amsl)
+    assert ack.result == mavlink.MAV_RESULT_ACCEPTED and vehicle.mode == "AUTO.TAKEOFF"
     gcs.run(2.0, reference, telemetry=False)
     assert vehicle.truth(gcs.now).down < -1.0  # climbing out
-    gcs.run(118.0, reference, telemetry=False)
+    gcs.run(20.0, reference, telemetry=False)
+    assert vehicle.mode == "AUTO.LOITER" and gcs.truth().down == pytest.approx(-40.0, abs=1.5)
+    assert gcs.set_mode(6).result == mavlink.MAV_RESULT_ACCEPTED
+    gcs.run(98.0, reference, telemetry=False)
     row = gcs.truth()
     # On the reference's track, at its velocity (a plane cannot catch up along the
     # track by itself: closing that gap is the setpoint generator's job).
@@ -247,8 +257,20 @@ def test_ardupilot_plane_flow_guided_arm_reposition_loiters_as_told() -> None:
     hn, he, hd = HOME_B
     assert gcs.set_mode(15).result == mavlink.MAV_RESULT_ACCEPTED
     assert gcs.arm().result == mavlink.MAV_RESULT_ACCEPTED
+    gcs.run(10.0, telemetry=False)
+    # Armed in GUIDED on the runway, ArduPlane keeps its throttle suppressed
+    assert not vehicle.flight.airborne and gcs.truth().speed == 0.0
+    gcs.command(mavlink.MAV_CMD_DO_CHANGE_SPEED, 0, 18.0, -1)
+    gcs.run(5.0, telemetry=False)
+    assert not vehicle.flight.airborne
+    # TAKEOFF mode climbs to TKOFF_ALT and loiters there; then GUIDED
+    assert gcs.set_mode(13).result == mavlink.MAV_RESULT_ACCEPTED
     gcs.run(1.0, telemetry=False)
-    assert vehicle.flight.airborne  # automatic climb-out
+    assert vehicle.flight.airborne
+    gcs.run(30.0, telemetry=False)
+    assert gcs.truth().down == pytest.approx(hd - 30.0, abs=1.0)  # TKOFF_ALT 30 m
+    assert vehicle.mode == "TAKEOFF"  # ArduPlane stays in TAKEOFF, loitering
+    assert gcs.set_mode(15).result == mavlink.MAV_RESULT_ACCEPTED
     # Horizontal setpoints are ignored by ArduPlane; only the altitude is taken.
     rel = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
     out = gcs.send(global_sp(vehicle, rel, POS, (hn + 3000.0, he), 45.0))
@@ -286,6 +308,14 @@ def test_px4_plane_reposition_switches_to_hold_and_loiters_clockwise() -> None:
     ack, _ = gcs.command(mavlink.MAV_CMD_DO_REPOSITION, -1, 1, 0, math.nan,
                          target.lat, target.lon, target.alt)  # fmt: skip
     assert ack.result == mavlink.MAV_RESULT_ACCEPTED
+    gcs.run(5.0, telemetry=False)
+    assert not vehicle.flight.airborne  # a reposition does not launch a plane
+    gcs.command(mavlink.MAV_CMD_NAV_TAKEOFF, -1, 0, 0, math.nan, 0, 0, WORLD.origin.alt + 30)
+    gcs.run(15.0, telemetry=False)
+    assert vehicle.flight.airborne and vehicle.mode == "AUTO.LOITER"
+    ack, _ = gcs.command(mavlink.MAV_CMD_DO_REPOSITION, -1, 1, 0, math.nan,
+                         target.lat, target.lon, target.alt)  # fmt: skip
+    assert ack.result == mavlink.MAV_RESULT_ACCEPTED
     gcs.run(150.0, telemetry=False)
     samples = []
     for _ in range(20):
@@ -300,7 +330,7 @@ def test_px4_plane_reposition_switches_to_hold_and_loiters_clockwise() -> None:
 def test_attitude_roll_is_a_coordinated_turn_and_yaw_is_heading() -> None:
     vehicle = make_vehicle(AP, "plane")
     gcs = warm_gcs(vehicle)
-    gcs.set_mode(15)
+    gcs.set_mode(13)
     gcs.arm()
     gcs.run(60.0, telemetry=False)
     gcs.command(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAVLINK_MSG_ID_ATTITUDE, 100_000)
@@ -309,6 +339,30 @@ def test_attitude_roll_is_a_coordinated_turn_and_yaw_is_heading() -> None:
     assert abs(row.yaw_rate) > 0.1  # circling
     assert att.roll == pytest.approx(math.atan(row.speed * row.yaw_rate / 9.80665), abs=1e-3)
     assert att.yaw == pytest.approx(row.yaw, abs=1e-3)
+
+
+@pytest.mark.parametrize(("radius", "speed"), [(100.0, 22.0), (150.0, 18.0), (300.0, 22.0)])
+def test_plane_loiters_wide_as_the_l1_controller_does(radius: float, speed: float) -> None:
+    lag = 1.9  # sitl_mock's default: ArduPlane SITL flies 100 m at about 118 m at 22 m/s
+    vehicle = make_vehicle(AP, "plane", airspeed=speed, min_turn_radius=60.0, loiter_lag=lag)
+    gcs = warm_gcs(vehicle)
+    gcs.set_mode(13)
+    gcs.arm()
+    gcs.run(30.0, telemetry=False)
+    gcs.set_mode(15)
+    rel = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
+    centre = WORLD.to_geo(600.0, 0.0)
+    gcs.command_int(mavlink.MAV_CMD_DO_REPOSITION, rel, (-1.0, 0.0, radius, 0.0),
+                    round(centre.lat * 1e7), round(centre.lon * 1e7), 60.0)  # fmt: skip
+    gcs.run(240.0, telemetry=False)
+    flown = []
+    for _ in range(60):
+        gcs.run(1.0, telemetry=False)
+        row = gcs.truth()
+        flown.append(math.hypot(row.north - 600.0, row.east))
+    expected = radius + (speed * lag) ** 2 / radius  # wider the faster and the tighter
+    assert sum(flown) / len(flown) == pytest.approx(expected, abs=1.5)
+    assert max(flown) - min(flown) < 3.0  # a steady circle, only a wider one
 
 
 def test_copter_rtl_returns_home_lands_and_disarms() -> None:

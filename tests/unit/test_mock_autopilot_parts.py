@@ -176,7 +176,7 @@ def test_refusals_speak_each_firmware() -> None:
     assert px4.reject_result == mavlink.MAV_RESULT_TEMPORARILY_REJECTED
     assert ap.reject_result == mavlink.MAV_RESULT_FAILED
     assert px4.arm_denied_text("x").startswith("Arming denied!")
-    assert ap.arm_denied_text("x") == "PreArm: x"
+    assert ap.arm_denied_text("x") == "Arm: x"  # ArduPilot 4.5+: "Arm:" on a refusal
     assert "Offboard" in px4.mode_denied_text(px4.mode("OFFBOARD"), "no offboard signal")
     assert ap.mode_denied_text(ap.mode("GUIDED"), "requires position") == (
         "Mode change to GUIDED failed: requires position"

@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from convoy_mav.monitor import Alarm, Monitor
+from convoy_mav.monitor import Alarm, Monitor, why_not_counted
 from convoy_mav.types import ConvoyEstimate, Setpoint, Telemetry
 
 
@@ -91,3 +91,40 @@ def test_tracking_error_is_scored_per_update_from_protect_on() -> None:
     (score,) = m.snapshot(1.6).vehicles
     assert score.mean_tracking_error_m == pytest.approx(2.5)
     assert score.tracking_error_m == pytest.approx(0.0)
+
+
+# =================================================================== who counts
+@pytest.mark.parametrize(
+    ("status", "airborne", "altitude_error", "phase", "why"),
+    [
+        ("flying", True, 2.0, "protect", None),
+        ("flying", True, -14.0, "protect", None),  # inside the band
+        ("flying", False, 0.0, "protect", "on ground"),  # an ArduPlane armed on the runway
+        ("flying", True, -60.0, "protect", "climbing"),
+        ("flying", True, 40.0, "protect", "above its altitude band"),
+        ("flying", True, 0.0, "join", "joining"),
+        ("flying", True, 0.0, "pending", "not assigned"),
+        ("flying", True, None, "protect", "no position"),
+        ("lost", True, 0.0, "protect", "lost"),
+        ("flying", True, 0.0, "lost", "lost"),
+        ("setting_up", True, 0.0, "protect", "setting up"),
+        ("holding", True, 0.0, "protect", "holding"),
+    ],
+)
+def test_only_a_uav_that_can_see_counts(
+    status: str, airborne: bool, altitude_error: float | None, phase: str, why: str | None
+) -> None:
+    got = why_not_counted(
+        status=status, airborne=airborne, altitude_error=altitude_error, band=15.0, phase=phase
+    )
+    assert got == why
+
+
+def test_median_tracking_error_is_kept_per_uav() -> None:
+    mon = Monitor(100.0)
+    mon.start_protect(0.0)
+    for i, err in enumerate([1.0, 2.0, 3.0, 50.0, 4.0]):
+        mon.track(tel(7, 0.1 * i, err, 0.0), 0.0, 0.0)
+    (score,) = mon.snapshot(1.0).vehicles
+    assert score.median_tracking_error_m == pytest.approx(3.0, abs=0.25)
+    assert score.mean_tracking_error_m == pytest.approx(12.0)

@@ -45,4 +45,23 @@ def test_read_truth_csv(tmp_path: Path) -> None:
     rows = list(read_truth_csv(path))
     assert [r.kind for r in rows] == ["aircraft", "ground", "aircraft"]
     assert rows[0].alive and not rows[2].alive
+    assert all(r.airborne for r in rows)  # a CSV without the column: as before
+
+
+def test_an_aircraft_on_the_ground_covers_nothing(tmp_path: Path) -> None:
+    """An ArduPlane armed on the runway beside the convoy sees nothing of it."""
+    p = FRAME.to_geo(10.0, 0.0)
+    path = tmp_path / "truth.csv"
+    head = "t,sysid,kind,lat,lon,alt,north,east,down,vn,ve,vd,yaw,speed,yaw_rate,armed,mode"
+    lines = [head + ",airborne"]
+    for i in range(11):
+        t = i * 0.1
+        up = int(i >= 5)  # on the runway for half a second, then flying
+        lines.append(f"{t},1,aircraft,{p.lat},{p.lon},488,10,0,0,0,0,0,0,0,0,1,GUIDED,{up}")
+        lines.append(f"{t},2,ground,{ORIGIN.lat},{ORIGIN.lon},488,0,0,0,0,0,0,0,0,0,1,GUIDED,0")
+    path.write_text("\n".join(lines) + "\n")
+    rows = list(read_truth_csv(path))
+    assert [r.airborne for r in rows if r.kind == "aircraft"] == [False] * 5 + [True] * 6
+    stats = score_truth(rows, ORIGIN, 100.0, start=0.0)
+    assert stats.fraction == pytest.approx(0.5, abs=0.01)
     assert rows[0].lat == pytest.approx(p.lat)

@@ -76,7 +76,8 @@ class Mission:
     - once ``plan`` is not None, UAVs in ``awaiting_join`` that are flying ->
       ``join``/``join_many`` with their telemetry pose;
     - the setpoint streamer's source is ``setpoint(uav, t)``;
-    - a vehicle declared lost -> ``on_lost(uav, t)``;
+    - a vehicle declared lost -> ``on_lost(uav, t)``; flying again after that ->
+      ``on_returned(uav, t)``, then ``join`` like any pending UAV;
     - ``tick(t)`` now and then (``PhaseChanged(.., "protect", ..)`` events are
       reported from there even when the convoy feed is stale).
 
@@ -311,6 +312,20 @@ class Mission:
         if self._motion is None:
             return []
         return self.tick(t) + self._replan(self._motion.advanced(t), "uav_lost", t)
+
+    def on_returned(self, uav: int, t: float) -> list[MissionEvent]:
+        """Take a lost ``uav`` back: re-plan for one more and leave it a free slot.
+
+        The others re-phase to the new even spacing at once; the returned UAV is
+        pending until it is joined (``join``/``join_many`` from its actual pose).
+        """
+        if uav not in self._lost:
+            return []
+        self._lost.remove(uav)
+        self._live.append(uav)
+        if self._motion is None:
+            return []
+        return self.tick(t) + self._replan(self._motion.advanced(t), "uav_returned", t)
 
     # ------------------------------------------------------------- internals
 

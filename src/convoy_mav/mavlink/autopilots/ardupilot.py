@@ -3,8 +3,12 @@
 What differs from PX4 (ArduPilot's ``mode.h`` and ``GCS_Mavlink.cpp``):
     * HEARTBEAT.custom_mode is the vehicle's own mode number (Copter GUIDED 4,
       LOITER 5; Plane GUIDED 15, LOITER 12); DO_SET_MODE takes it in param2.
-    * Nothing but HEARTBEAT is sent until a ground station asks: the legacy
-      REQUEST_DATA_STREAM groups are requested as well as SET_MESSAGE_INTERVAL.
+    * Nothing but HEARTBEAT is sent until a ground station asks. Each message is
+      asked for with SET_MESSAGE_INTERVAL (ArduPilot >= 4.0); the legacy
+      REQUEST_DATA_STREAM groups switch on a whole group each (POSITION brings
+      LOCAL_POSITION_NED, EXTRA1 AHRS2 and SIMSTATE, EXTRA3 AHRS, WIND, EKF_STATUS...:
+      25 messages a second where 11 are used), so they are sent only to a firmware
+      that refuses SET_MESSAGE_INTERVAL.
     * Refusals are FAILED with a ``PreArm: ...`` / ``Mode change ... failed``
       STATUSTEXT; COMMAND_LONG altitudes are relative to home.
     * ArduCopter: GUIDED, arm, NAV_TAKEOFF (param7 above home), then position
@@ -15,8 +19,13 @@ What differs from PX4 (ArduPilot's ``mode.h`` and ``GCS_Mavlink.cpp``):
       changes (or until accepted), and the along-track phase is corrected with
       rate-limited DO_CHANGE_SPEED. A straight segment is flown as a loiter
       around a point far ahead on the line (a "carrot"), moved as the plane
-      advances. The mock's planes climb out when armed in GUIDED; a real
-      ArduPlane needs a takeoff (TAKEOFF mode or an AUTO mission) first.
+      advances. ArduPlane flies its loiters wide (L1): the overshoot is learnt
+      from telemetry and the commanded radius shrunk to match the plan
+      (``loiter.LoiterModel``).
+    * ArduPlane armed in GUIDED on the ground keeps its throttle suppressed and
+      never leaves the runway: it takes off in TAKEOFF mode (13), which climbs to
+      TKOFF_ALT (set first, by PARAM_SET, to the flight altitude above home) and
+      loiters there; only then is it switched to GUIDED.
 """
 
 from __future__ import annotations
@@ -37,6 +46,7 @@ from convoy_mav.mavlink.autopilots.base import (
     global_setpoint,
     phase_corrected_speed,
 )
+from convoy_mav.mavlink.autopilots.loiter import LoiterModel
 from convoy_mav.types import Setpoint
 
 __all__ = ["ArduCopter", "ArduPilot", "ArduPlane"]
@@ -124,18 +134,34 @@ class ArduPilot(Autopilot):
             _M.MAV_CMD_DO_SET_MODE, float(_M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED), float(number)
         )
 
+    def __init__(self, sysid: int, compid: int, frame: LocalFrame, kind: VehicleClass) -> None:
+        super().__init__(sysid, compid, frame, kind)
+        self.legacy_streams = False
+        """SET_MESSAGE_INTERVAL was refused: fall back to the stream groups."""
+
     def stream_requests(self, rates: Mapping[int, float]) -> list[Message]:
-        """REQUEST_DATA_STREAM per group (integer Hz, the fastest member), then the
-        exact SET_MESSAGE_INTERVAL rates (ArduPilot >= 4.0 honours both)."""
+        """SET_MESSAGE_INTERVAL per message; REQUEST_DATA_STREAM per group (integer Hz,
+        the fastest member) only once the firmware has refused the former."""
         out: list[Message] = []
-        for group, members in _STREAM_GROUPS.items():
-            wanted = [rates[m] for m in members if m in rates]
-            if wanted:
-                hz = max(1, math.ceil(max(wanted)))
-                out.append(
-                    _M.MAVLink_request_data_stream_message(self.sysid, self.compid, group, hz, 1)
-                )
+        if self.legacy_streams:
+            for group, members in _STREAM_GROUPS.items():
+                wanted = [rates[m] for m in members if m in rates]
+                if wanted:
+                    hz = max(1, math.ceil(max(wanted)))
+                    out.append(
+                        _M.MAVLink_request_data_stream_message(
+                            self.sysid, self.compid, group, hz, 1
+                        )
+                    )
         return out + super().stream_requests(rates)
+
+    def on_ack(self, command: int, result: int, t: float) -> None:
+        """A firmware without SET_MESSAGE_INTERVAL gets the stream groups instead."""
+        if command == _M.MAV_CMD_SET_MESSAGE_INTERVAL and result in (
+            _M.MAV_RESULT_UNSUPPORTED,
+            _M.MAV_RESULT_DENIED,
+        ):
+            self.legacy_streams = True
 
 
 class ArduCopter(ArduPilot):
@@ -143,7 +169,7 @@ class ArduCopter(ArduPilot):
 
     name: ClassVar[str] = "ArduCopter"
     modes: ClassVar[Mapping[int, str]] = _COPTER_MODES
-    setup_steps: ClassVar[tuple[SetupStep, ...]] = (
+    setup_steps: tuple[SetupStep, ...] = (
         SetupStep.MODE,
         SetupStep.ARM,
         SetupStep.TAKEOFF,
@@ -174,7 +200,13 @@ class ArduPlane(ArduPilot):
 
     name: ClassVar[str] = "ArduPlane"
     modes: ClassVar[Mapping[int, str]] = _PLANE_MODES
-    setup_steps: ClassVar[tuple[SetupStep, ...]] = (SetupStep.MODE, SetupStep.ARM)
+    setup_steps: tuple[SetupStep, ...] = (
+        SetupStep.TAKEOFF_MODE,
+        SetupStep.ARM,
+        SetupStep.TAKEOFF,
+        SetupStep.MODE,
+    )
+    takeoff_mode: ClassVar[str | None] = "TAKEOFF"
 
     retry = 1.0
     speed_interval = 1.0
@@ -186,6 +218,15 @@ class ArduPlane(ArduPilot):
     def __str__(self) -> str:
         return self.name
 
+    def takeoff_params(self, relative_alt: float) -> dict[str, float]:
+        """TKOFF_ALT: TAKEOFF mode climbs to it (m above home) and loiters there."""
+        return {"TKOFF_ALT": round(relative_alt, 1)}
+
+    @staticmethod
+    def end_command(action: str) -> CommandSpec | None:
+        """ArduPlane cannot land without a landing sequence: ``"land"`` returns home."""
+        return Autopilot.end_command("rtl" if action == "land" else action)
+
     def __init__(self, sysid: int, compid: int, frame: LocalFrame, kind: VehicleClass) -> None:
         super().__init__(sysid, compid, frame, kind)
         self.loiter: tuple[float, float, float, float, bool] | None = None
@@ -196,6 +237,11 @@ class ArduPlane(ArduPilot):
         """The last speed commanded (m/s), None to re-send."""
         self.speed_t = -math.inf
         self.counters = {"reposition": 0, "change_speed": 0, "refused": 0}
+        self.model = LoiterModel()
+        """How wide this aircraft flies its loiters (learnt while flying them)."""
+        self.arc: tuple[float, float, float, bool] | None = None
+        """(north, east, planned radius, clockwise) of the arc being flown, and since when:"""
+        self.arc_since = -math.inf
 
     def reposition(
         self, north: float, east: float, down: float, radius: float, clockwise: bool
@@ -223,7 +269,8 @@ class ArduPlane(ArduPilot):
         if sp.hold:
             return sp.north, sp.east, sp.down, 0.0, True
         if sp.center is not None and sp.radius > 0.0:
-            return sp.center[0], sp.center[1], sp.down, sp.radius, sp.clockwise
+            radius = self.model.command_radius(sp.radius)
+            return sp.center[0], sp.center[1], sp.down, radius, sp.clockwise
         v = math.hypot(sp.vn, sp.ve)
         if v < 1e-6:
             return sp.north, sp.east, sp.down, 0.0, True
@@ -245,6 +292,8 @@ class ArduPlane(ArduPilot):
         """DO_REPOSITION when the arc changes (or is unconfirmed), DO_CHANGE_SPEED
         when the phase-corrected speed moved by ``speed_step`` (rate-limited)."""
         out: list[Message] = []
+        if position is not None:
+            self._learn(sp, t, position)
         loiter = self._loiter_for(sp)
         straight = not sp.hold and (sp.center is None or sp.radius <= 0.0)
         stale = not self.loiter_acked and t - self.loiter_sent_t >= self.retry
@@ -261,8 +310,30 @@ class ArduPlane(ArduPilot):
             self.counters["change_speed"] += 1
         return out
 
+    def _learn(self, sp: Setpoint, t: float, position: tuple[float, float]) -> None:
+        """Measure how wide the arc in force is flown; a new arc restarts the settling."""
+        if sp.hold or sp.center is None or sp.radius <= 0.0:
+            self.arc = None
+            return
+        arc = (sp.center[0], sp.center[1], sp.radius, sp.clockwise)
+        old = self.arc
+        if (
+            old is None
+            or old[3] != arc[3]
+            or math.hypot(old[0] - arc[0], old[1] - arc[1]) > self._MOVE_TOL
+            or abs(old[2] - arc[2]) > self._RADIUS_TOL
+        ):
+            self.arc, self.arc_since = arc, t
+            return
+        loiter = self.loiter
+        if loiter is None or not self.loiter_acked:
+            return
+        distance = math.hypot(position[0] - loiter[0], position[1] - loiter[1])
+        self.model.observe(distance, loiter[3], t - self.arc_since, math.hypot(sp.vn, sp.ve))
+
     def on_ack(self, command: int, result: int, t: float) -> None:
         """Confirm a loiter; a refused loiter or speed change is re-sent."""
+        super().on_ack(command, result, t)
         accepted = result == _M.MAV_RESULT_ACCEPTED
         if command == _M.MAV_CMD_DO_REPOSITION:
             self.loiter_acked = accepted
@@ -278,3 +349,4 @@ class ArduPlane(ArduPilot):
         self.loiter_acked = False
         self.speed = None
         self.speed_t = -math.inf
+        self.arc = None  # (the learnt overshoot stays: it is the airframe's)

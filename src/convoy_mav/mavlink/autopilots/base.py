@@ -151,9 +151,10 @@ class SetupStep(StrEnum):
     """One step of making a vehicle flyable; the Vehicle skips steps already true."""
 
     SETPOINTS = "stream setpoints"  # PX4: OFFBOARD needs a live stream before the switch
+    TAKEOFF_MODE = "take-off mode"  # ArduPlane: its take-off parameters, then TAKEOFF mode
     MODE = "set mode"  # to the strategy's external (offboard/guided) mode
     ARM = "arm"
-    TAKEOFF = "take off"  # climb to the flight altitude (ArduCopter NAV_TAKEOFF)
+    TAKEOFF = "take off"  # climb to the flight altitude (NAV_TAKEOFF, or the mode's climb)
 
 
 @dataclass(frozen=True, slots=True)
@@ -303,8 +304,10 @@ class Autopilot(ABC):
     """
 
     name: ClassVar[str] = "autopilot"
-    setup_steps: ClassVar[tuple[SetupStep, ...]] = ()
+    setup_steps: tuple[SetupStep, ...] = ()
     streams_during_setup: ClassVar[bool] = False
+    takeoff_mode: ClassVar[str | None] = None
+    """The mode that climbs out by itself (ArduPlane TAKEOFF); None: a command does."""
 
     def __init__(self, sysid: int, compid: int, frame: LocalFrame, kind: VehicleClass) -> None:
         self.sysid = sysid
@@ -349,6 +352,21 @@ class Autopilot(ABC):
 
     def takeoff_command(self, relative_alt: float, amsl: float) -> CommandSpec | None:
         """MAV_CMD_NAV_TAKEOFF to ``relative_alt`` above home / ``amsl``; None if unused."""
+        return None
+
+    def takeoff_params(self, relative_alt: float) -> dict[str, float]:
+        """Parameters to set before ``takeoff_mode`` (its climb altitude); none by default."""
+        return {}
+
+    @staticmethod
+    def end_command(action: str) -> CommandSpec | None:
+        """What ends a mission: ``"rtl"`` NAV_RETURN_TO_LAUNCH, ``"land"`` NAV_LAND
+        where it is; ``"loiter"`` is the hold mode (None here)."""
+        if action == "rtl":
+            return CommandSpec.long(_M.MAV_CMD_NAV_RETURN_TO_LAUNCH)
+        if action == "land":
+            nan = math.nan  # (land here: the autopilot keeps its position and yaw)
+            return CommandSpec.long(_M.MAV_CMD_NAV_LAND, 0, 0, 0, nan, nan, nan, 0)
         return None
 
     # --------------------------------------------------------------- telemetry

@@ -2,12 +2,13 @@
 
 PX4 refuses to switch to OFFBOARD (and to arm in it) unless position setpoints
 have arrived within ``COM_OF_LOSS_T``, and leaves it (failsafe to Hold) when they
-stop. The set-up is therefore: stream setpoints first, then MAV_CMD_DO_SET_MODE
-with main mode 6, then arm; a fixed-wing PX4 armed in OFFBOARD climbs out and
-then flies the stream. Modes are packed in HEARTBEAT.custom_mode as
-``main << 16 | sub << 24`` (``px4_custom_mode.h``). NAV_TAKEOFF's altitude is
-AMSL on PX4, but the offboard flow does not need it. Hold is AUTO.LOITER
-(main 4, sub 3).
+stop. A multicopter's set-up is therefore: stream setpoints first, then
+MAV_CMD_DO_SET_MODE with main mode 6, then arm (it lifts off towards the setpoint).
+A fixed-wing PX4 takes off only in AUTO.TAKEOFF (runway or launch detection): arm,
+NAV_TAKEOFF (param7 AMSL) and the climb to the flight altitude, after which PX4
+loiters; then setpoints, then OFFBOARD. Modes are packed in HEARTBEAT.custom_mode
+as ``main << 16 | sub << 24`` (``px4_custom_mode.h``). Hold is AUTO.LOITER (main 4,
+sub 3).
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from typing import ClassVar
 
 from pymavlink.dialects.v20 import common as mavlink
 
+from convoy_mav.geo import LocalFrame
 from convoy_mav.mavlink.autopilots.base import (
     Autopilot,
     CommandSpec,
@@ -60,12 +62,19 @@ class PX4(Autopilot):
     """PX4 multicopter or fixed-wing in OFFBOARD."""
 
     name: ClassVar[str] = "PX4"
-    setup_steps: ClassVar[tuple[SetupStep, ...]] = (
-        SetupStep.SETPOINTS,
-        SetupStep.MODE,
-        SetupStep.ARM,
-    )
     streams_during_setup: ClassVar[bool] = True
+
+    def __init__(self, sysid: int, compid: int, frame: LocalFrame, kind: VehicleClass) -> None:
+        super().__init__(sysid, compid, frame, kind)
+        if kind is VehicleClass.PLANE:
+            self.setup_steps = (
+                SetupStep.ARM,
+                SetupStep.TAKEOFF,
+                SetupStep.SETPOINTS,
+                SetupStep.MODE,
+            )
+        else:
+            self.setup_steps = (SetupStep.SETPOINTS, SetupStep.MODE, SetupStep.ARM)
 
     def mode_name(self, custom_mode: int) -> str:
         """``"OFFBOARD"``, ``"AUTO.LOITER"``... (``"MODE(main,sub)"`` if unknown)."""
