@@ -271,6 +271,9 @@ class VehicleLink(asyncio.DatagramProtocol):
         transport = self.transport
         if transport is None or transport.is_closing():
             return
+        if self.muted:
+            self.counters["muted"] += 1
+            return
         faults = self.fleet.faults
         for dest in self._destinations():
             if faults.drop_from_vehicle(self.sysid):
@@ -296,6 +299,9 @@ class VehicleLink(asyncio.DatagramProtocol):
         for frame in self.outbound.pop_due(now):
             if self.alive:
                 self.transmit(frame)
+
+    muted = False
+    """Frames are dropped on the way out (a radio still down after a pause)."""
 
     def kill(self) -> None:
         """Stop answering and sending entirely (power loss)."""
@@ -360,6 +366,7 @@ class MockFleet:
         self._stack: AsyncExitStack | None = None
         self._physics_task: asyncio.Task[None] | None = None
         self._last_lag_warning = -math.inf
+        self._frozen = False  # pause(): no physics, nothing sent, sim time stopped
         for spec in config.vehicles:
             self._links[spec.sysid] = VehicleLink(self, SimVehicle(spec, self.world, 0.0))
         self._endpoints = tuple(
@@ -451,6 +458,32 @@ class MockFleet:
         self._links[sysid].reboot(self.now)
         log.warning("sysid %d: rebooted at t=%.2f s", sysid, self.now)
 
+    async def pause(
+        self, wall_seconds: float, *, first: Sequence[int] = (), stagger: float = 0.1
+    ) -> None:
+        """Freeze the whole simulation for ``wall_seconds``, then go on from where it was.
+
+        What a paused host or simulator does to every autopilot at once (SIGSTOP of
+        SITL, a lockstep simulator waiting): no physics, nothing sent, sim time
+        stopped. On resuming, the vehicles in ``first`` speak first and the others
+        ``stagger`` wall seconds later (which vehicle a ground station hears first
+        after the silence is up to chance in the field).
+        """
+        self._frozen = True
+        try:
+            await asyncio.sleep(wall_seconds)
+        finally:
+            self.clock.slip(max(self.clock.now() - self.now, 0.0))
+            later = [link for sysid, link in self._links.items() if first and sysid not in first]
+            for link in later:
+                link.muted = True
+            self._frozen = False
+        log.warning("all vehicles: paused for %.2f wall s at t=%.2f s", wall_seconds, self.now)
+        if later:
+            await asyncio.sleep(stagger)
+            for link in later:
+                link.muted = False
+
     async def wait_until(self, t: float) -> None:
         """Sleep until the physics has reached sim time ``t``."""
         if not self._run_physics:
@@ -510,7 +543,9 @@ class MockFleet:
 
     async def _physics(self) -> None:
         while True:
-            if self.catch_up() >= _BURST_STEPS:
+            if self._frozen:
+                await asyncio.sleep(0.005)
+            elif self.catch_up() >= _BURST_STEPS:
                 await asyncio.sleep(0)  # still behind: let datagrams in, then go on
             else:
                 await asyncio.sleep(max(self.clock.wall_until(self.now + self.dt), 0.0))

@@ -65,6 +65,7 @@ log = logging.getLogger(__name__)
 _GIL_SWITCH_S = 0.001  # s: how long the mission worker may hold the GIL at a time
 _GROUND_STREAM_RETRY = 5.0  # mission s between stream requests to a silent ground vehicle
 _GROUND_POSITION_HZ = 10  # GLOBAL_POSITION_INT rate asked of ground vehicles
+_OWN_FAILSAFE_S = 10.0  # mission s after a link is back in which a hold is our stream's doing
 
 
 @dataclass(frozen=True, slots=True)
@@ -230,6 +231,7 @@ class ConvoyService:
         self.why_not_counted: dict[int, str | None] = {}  # latest, per UAV
         self._not_counted_s: dict[int, dict[str, float]] = {}  # protect-phase seconds per reason
         self._counted_t: float | None = None
+        self._silence: tuple[float, float | None] | None = None  # fleet-wide: (began, ended)
 
     # ------------------------------------------------------------------ inputs
 
@@ -275,17 +277,21 @@ class ConvoyService:
             self._note("operator: resume")
 
     def _on_vehicle_event(self, event: VehicleEvent) -> None:
-        self._note(event.message)
+        self._note(event.message, logged=True)  # (the vehicle has logged it at its level)
         vehicle = self.vehicles.get(event.sysid)
         if (
             event.kind == EventKind.MODE
             and vehicle is not None
             and not self.paused
-            and _is_stream_loss_failsafe(vehicle.last_statustext)
+            and (
+                _is_stream_loss_failsafe(vehicle.last_statustext)
+                or event.t - vehicle.recovered_t < _OWN_FAILSAFE_S
+            )
         ):
-            # Our own setpoint stream hiccupped (a stalled host, a lossy link) and
-            # the autopilot fell back to its hold: take control back.  A mode change
-            # without that reason is a pilot's, and is respected.
+            # Our own setpoint stream hiccupped (a stalled host, a lossy link, a link
+            # just back after an outage, whose failsafe text may have been lost with
+            # it) and the autopilot fell back to its hold: take control back.  Any
+            # other mode change is a pilot's, and is respected.
             self._note(f"uav{event.sysid}: re-engaging after a setpoint-loss failsafe")
             # The vehicle reports the mode change before it marks itself HOLDING:
             # resume on the next turn of the loop, once it has.
@@ -295,8 +301,10 @@ class ConvoyService:
             kind = "uav_lost" if event.kind == EventKind.RECOVERED else f"uav_{event.kind}"
             self._alarm(Alarm(event.t, kind, active, event.message), event.sysid)
 
-    def _note(self, text: str) -> None:
-        log.info("%s", text)
+    def _note(self, text: str, *, logged: bool = False) -> None:
+        """An event for the report (and the log, unless already logged)."""
+        if not logged:
+            log.info("%s", text)
         self.events.append(f"t={self.clock.now():.1f} {text}")
 
     def _down(self, sysid: int) -> float:
@@ -464,11 +472,7 @@ class ConvoyService:
         est = self.tracker.estimate(t)
         self._last_est = est
         view = self.view
-        lost = [
-            sysid
-            for sysid, v in self.vehicles.items()
-            if v.status in (VehicleStatus.LOST, VehicleStatus.FAILED) and sysid not in view.lost
-        ]
+        lost = self._newly_lost(t, view)
         flying = [s for s, v in self.vehicles.items() if v.status == VehicleStatus.FLYING]
         returned = [s for s in flying if s in view.lost]  # lost, set up again: rejoin
         ready = {
@@ -498,6 +502,38 @@ class ConvoyService:
             self.monitor.snapshot(t).covered,
             self.monitor.protect_start is not None,
         )
+
+    def _newly_lost(self, t: float, view: MissionView) -> list[int]:
+        """UAVs to take out of the plan now.
+
+        Every live UAV silent at once is the ground radio or a paused host, not a
+        fleet of aircraft lost: the plan is kept (its slots are timed, and the
+        autopilots fly on or stand still with their clocks), so each UAV flies its
+        own slot again when it is heard, without re-phasing the others. Once one
+        speaks, the others have ``lost_after_s`` more to do so before they are lost.
+        """
+        lost = [
+            sysid
+            for sysid, v in self.vehicles.items()
+            if v.status in (VehicleStatus.LOST, VehicleStatus.FAILED) and sysid not in view.lost
+        ]
+        live = [s for s in self.vehicles if s not in view.lost]
+        silent = [s for s in live if self.vehicles[s].status is VehicleStatus.LOST]
+        if live and len(silent) == len(live):
+            if self._silence is None:
+                self._silence = (t, None)
+                self._note("every UAV silent at once: keeping the plan until they speak")
+            return [s for s in lost if s not in silent]
+        if self._silence is not None:
+            began, ended = self._silence
+            if ended is None:
+                self._silence = (began, t)
+                self._note(f"heard again after a fleet-wide silence of {t - began:.1f} s")
+            elif t - ended >= self.config.lost_after_s:
+                self._silence = None
+            if self._silence is not None:
+                return [s for s in lost if self.vehicles[s].status is not VehicleStatus.LOST]
+        return lost
 
     def _mission_step(
         self,
@@ -559,7 +595,8 @@ class ConvoyService:
                 band=self.config.altitude_band_m,
                 phase=view.phase(sysid, t),
             )
-            if why != self.why_not_counted.get(sysid, "") and v.status is VehicleStatus.FLYING:
+            news = why != self.why_not_counted.get(sysid, "") and v.status is VehicleStatus.FLYING
+            if news and why not in ("joining", "not assigned"):  # (phases are noted apart)
                 self._note(f"uav{sysid}: " + ("counts for coverage" if why is None else why))
             self.why_not_counted[sysid] = why
             if why is None and tel is not None:

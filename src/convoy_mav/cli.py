@@ -99,7 +99,11 @@ def _build_parser() -> argparse.ArgumentParser:
         description="Start sitl_mock with the aircraft a scenario needs and the convoy's "
         "ground vehicles, fly the mission, score it from the mock's ground truth.",
     )
-    demo.add_argument("--scenario", choices=sorted(SCENARIOS), default="stationary")
+    demo.add_argument(
+        "--scenario", choices=sorted(SCENARIOS), default="stationary",
+        help="stationary: a parked convoy; moving: 8 m/s on a straight road; turning: "
+        "the same with one 60 degree turn (default stationary)",
+    )  # fmt: skip
     _add_mock_flight_options(demo, 1200.0, "mission (sim) seconds to fly (default 1200)")
 
     replay = sub.add_parser(
@@ -136,13 +140,27 @@ def _add_mock_flight_options(
                         help=duration_help)  # fmt: skip
     parser.add_argument("--speedup", type=float, default=40.0, metavar="X",
                         help="sim seconds per wall second (default 40)")  # fmt: skip
-    parser.add_argument("--uavs", type=int, metavar="N", help="aircraft (default: the minimum)")
-    parser.add_argument("--personality", choices=["px4", "ardupilot"], default="px4")
-    parser.add_argument("--frame", choices=["plane", "copter"], default="plane")
+    parser.add_argument(
+        "--uavs", type=int, metavar="N",
+        help=f"aircraft, 1..{MAX_MOCK_UAVS} (default: the paper's minimum)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--personality", choices=["px4", "ardupilot"], default="px4",
+        help="the mock's firmware: PX4 (OFFBOARD) or ArduPilot (GUIDED) (default px4)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--frame", choices=["plane", "copter"], default="plane",
+        help="the mock's airframes (default plane)",
+    )  # fmt: skip
     parser.add_argument("--report", metavar="FILE.json", help="write the mission report here")
     parser.add_argument("--plot", metavar="FILE.png", help="draw tracks and coverage here")
     parser.add_argument("--tlog", metavar="FILE.tlog", help="record every MAVLink message")
     _add_verbosity(parser)
+
+
+MAX_MOCK_UAVS = 200
+"""The most aircraft demo/replay fly: the in-process mock runs 200 in real time on a core,
+and the ground vehicles take the system ids after the aircraft (255 in all)."""
 
 
 def _add_verbosity(parser: argparse.ArgumentParser) -> None:
@@ -181,8 +199,8 @@ def _mission_from_args(args: argparse.Namespace) -> MissionConfig:
     _check_flag("--convoy-speed", args.convoy_speed, positive=False)
     if args.convoy_heading is not None and not math.isfinite(args.convoy_heading):
         raise ConfigError("--convoy-heading", args.convoy_heading, "must be a finite number")
-    if args.uavs is not None and args.uavs < 1:
-        raise ConfigError("--uavs", args.uavs, "must be >= 1")
+    if args.uavs is not None and not 1 <= args.uavs <= MAX_MOCK_UAVS:
+        raise ConfigError("--uavs", args.uavs, f"must be 1..{MAX_MOCK_UAVS}")
     base = load_config(args.config) if args.config else None
     aircraft = base.plan_aircraft if base else None
     convoy = base.convoy if base else ConvoyConfig()
@@ -402,8 +420,8 @@ def _check_mock_flight_options(args: argparse.Namespace) -> None:
         raise ConfigError("--duration", args.duration, "must be > 0")
     if not (math.isfinite(args.speedup) and args.speedup > 0):
         raise ConfigError("--speedup", args.speedup, "must be > 0")
-    if args.uavs is not None and args.uavs < 1:
-        raise ConfigError("--uavs", args.uavs, "must be >= 1")
+    if args.uavs is not None and not 1 <= args.uavs <= MAX_MOCK_UAVS:
+        raise ConfigError("--uavs", args.uavs, f"must be 1..{MAX_MOCK_UAVS}")
 
 
 async def _cmd_demo(args: argparse.Namespace) -> int:

@@ -18,8 +18,9 @@ at the hard turn limit leaves the autopilot no authority to correct errors.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Coroutine
 from dataclasses import dataclass, replace
 from typing import Any, Literal
 
@@ -235,6 +236,7 @@ async def run_demo(
     configure: Callable[[MissionConfig], MissionConfig] | None = None,
     stop: asyncio.Event | None = None,
     history: list[ConvoyService] | None = None,
+    during: Callable[[MockFleet, ConvoyService], Coroutine[Any, Any, None]] | None = None,
 ) -> DemoResult:
     """Start the mock, fly ``duration`` mission seconds, score from ground truth.
 
@@ -251,6 +253,8 @@ async def run_demo(
         configure: Adjust the mission config before the service starts.
         stop: Set it to end the run early (SIGINT): the UAVs are told to loiter.
         history: If given, the service is appended to it (for plots after the run).
+        during: A fault script run beside the service (pauses, kills, restarts);
+            cancelled when the flight ends.
     """
     count = uavs or make_plan(scenario.plan_request()).min_uavs
     faults = {"kill": [f"{kill[0]}@{kill[1]}"]} if kill else None
@@ -274,7 +278,14 @@ async def run_demo(
         service = ConvoyService(cfg, rate_hint=speedup, on_progress=on_progress)
         if history is not None:
             history.append(service)
-        report = await service.run(duration=duration, stop=stop)
+        script = None if during is None else asyncio.create_task(during(fleet, service))
+        try:
+            report = await service.run(duration=duration, stop=stop)
+        finally:
+            if script is not None:
+                script.cancel()
+                with contextlib.suppress(asyncio.CancelledError):
+                    await script
         truth = None
         start = report.snapshot.protect_start
         if start is not None and fleet.history is not None:

@@ -248,6 +248,7 @@ class Vehicle:
         self.params: dict[str, float] = {}
         self.counters: Counter[str] = Counter()
         self.received = 0  # messages from the autopilot (the telemetry budget)
+        self.recovered_t = -math.inf  # mission time it was last heard again after LOST
         self.first_heard_t: float | None = None
         self._statustext_t = -math.inf
         self._fix_t: float | None = None  # mission time a fix was first seen
@@ -371,6 +372,7 @@ class Vehicle:
                 if self.counters["handler_error"] == 1:
                     log.exception("%s: handler for %s failed", self.name, kind)
         if self.status is _S.LOST and self.firmware is not None:
+            self.recovered_t = now
             self._set_status(_S.WAITING_FIX)
             self._emit(EventKind.RECOVERED, "heard again; setting up anew", _M.MAV_SEVERITY_NOTICE)
             self._start.set()
@@ -715,14 +717,16 @@ class Vehicle:
         )
 
     def _target_relative_alt(self) -> tuple[float, float]:
-        """(metres above home, AMSL) of the flight altitude; home from GLOBAL_POSITION_INT
-        (alt - relative_alt), so it is the home the autopilot measures from."""
+        """(metres above home, AMSL) of the flight altitude. Home is HOME_POSITION once
+        the autopilot has sent it (before its estimator sets home, ArduPilot's
+        GLOBAL_POSITION_INT.relative_alt is the altitude AMSL); else alt - relative_alt
+        of GLOBAL_POSITION_INT, else the mission origin."""
         amsl = self.frame.origin.alt + self.altitude
         gpi = self.last.get("GLOBAL_POSITION_INT")
-        if gpi is not None:
-            home = (gpi.alt - gpi.relative_alt) * 1e-3
-        elif self.home is not None:
+        if self.home is not None:
             home = self.home.alt
+        elif gpi is not None:
+            home = (gpi.alt - gpi.relative_alt) * 1e-3
         else:
             home = self.frame.origin.alt
         return max(amsl - home, 2.0), amsl

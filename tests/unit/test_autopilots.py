@@ -226,9 +226,12 @@ def test_stream_requests() -> None:
     px4 = strategy(M.MAV_AUTOPILOT_PX4, FW).stream_requests(rates)
     assert [m.get_type() for m in px4] == ["COMMAND_LONG", "COMMAND_LONG"]
     assert {(m.param1, m.param2) for m in px4} == {(33.0, 100_000.0), (1.0, 2_000_000.0)}
-    # ArduPilot: message intervals only; the groups would switch on unwanted streams
+    # ArduPilot: every group stopped (SRn_* stream them unasked), then message intervals
     ap = strategy(M.MAV_AUTOPILOT_ARDUPILOTMEGA, QUAD)
-    assert [m.get_type() for m in ap.stream_requests(rates)] == ["COMMAND_LONG"] * 2
+    stop, *intervals = ap.stream_requests(rates)
+    assert stop.get_type() == "REQUEST_DATA_STREAM"
+    assert (stop.req_stream_id, stop.start_stop) == (M.MAV_DATA_STREAM_ALL, 0)
+    assert [m.get_type() for m in intervals] == ["COMMAND_LONG"] * 2
     # ... unless the firmware refuses SET_MESSAGE_INTERVAL (before 4.0): then the groups
     ap.on_ack(M.MAV_CMD_SET_MESSAGE_INTERVAL, M.MAV_RESULT_UNSUPPORTED, 1.0)
     ardu = ap.stream_requests(rates)
