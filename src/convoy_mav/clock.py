@@ -27,6 +27,17 @@ Design rules:
     * If the reference goes silent for ``handover_after`` mission seconds, the
       vehicle heard most recently becomes the reference, at its current offset,
       so mission time stays continuous when the reference UAV is lost.
+    * If *every* vehicle goes silent that long (a paused simulator or host, whose
+      clocks stood still; a ground radio down, whose clocks ran on), nothing said
+      how mission time went meanwhile. If the reference speaks first, its step is
+      followed as above; if another vehicle with a continuous clock (not one just
+      rebooted) does, it *resyncs* mission time. It becomes the
+      reference at the offset measured before the silence (offsets between
+      autopilot clocks do not change while nobody listens), every stored sample
+      is dropped (they straddle the silence), and the line restarts from its
+      newest observation at the last measured rate. ``now()`` follows, backwards
+      if the clocks stood still, and ``steps`` counts it (``sleep_until`` callers
+      re-plan); ``resyncs`` counts these.
     * The autopilot's clock may *step*: a simulator that cannot keep up pauses
       (PX4 lockstep SITL, ``sitl_mock`` slipping its clock when its host stalls),
       and then runs on from where it was. Late packets look the same one at a
@@ -101,6 +112,7 @@ class _Track:
     offset_wall: float = -math.inf  # wall time the offset was last computed
     pending: float | None = None  # boot time of a possible reboot, awaiting confirmation
     pending_count: int = 0
+    reanchored_wall: float = -math.inf  # wall time of its last reboot
 
     @property
     def last_unwrapped(self) -> float:
@@ -124,7 +136,9 @@ class MissionClock:
     Attributes:
         reboots: Reboots seen (``time_boot_ms`` jumping back), all vehicles.
         handovers: Times the reference vehicle changed.
-        steps: Steps of the reference's clock followed (a simulator pausing).
+        steps: Steps of the reference's clock followed (a simulator pausing),
+            resyncs after a fleet-wide silence included.
+        resyncs: Times mission time was taken anew after every vehicle was silent.
     """
 
     def __init__(
@@ -159,10 +173,14 @@ class MissionClock:
         self._dirty = False
         self._fit_wall = -math.inf
         self._last_now = -math.inf
+        self._heard_wall = -math.inf  # wall time any vehicle was last heard
+        self._resync_due = False  # every vehicle was silent: the next one heard resyncs
+        self._silence_wall = -math.inf  # when that silence began
         self._synced = asyncio.Event()
         self.reboots = 0
         self.handovers = 0
         self.steps = 0
+        self.resyncs = 0
 
     # ------------------------------------------------------------------ queries
     @property
@@ -220,6 +238,10 @@ class MissionClock:
         """
         wall = self._wall()
         boot = boot_ms * 1e-3
+        if self._rate * (wall - self._heard_wall) > self._handover_after and self._ref is not None:
+            self._resync_due = True
+            self._silence_wall = self._heard_wall
+        self._heard_wall = wall
         rebooted = False
         track = self._tracks.get(sysid)
         if track is None:
@@ -233,6 +255,11 @@ class MissionClock:
             track.pending = None
         track.last_boot = max(track.last_boot, boot)
         track.last_wall = wall
+        if self._resync_due and track.reanchored_wall < self._silence_wall:
+            if sysid != self._ref:  # (a clock rebooted since says nothing of the silence)
+                self._resync(sysid, track, wall, boot + track.epoch)
+                return rebooted
+            self._resync_due = False  # the reference first: its step is followed
         if sysid == self._ref and self._check_step(track, wall, boot + track.epoch):
             return rebooted
         walls, times = track.walls, track.times
@@ -250,8 +277,8 @@ class MissionClock:
             return rebooted
         assert self._ref is not None
         ref = self._tracks[self._ref]
-        if self._rate * (wall - ref.last_wall) > self._handover_after:
-            self._handover(sysid, track)
+        if self._rate * (wall - ref.last_wall) > self._handover_after and not self._resync_due:
+            self._handover(sysid, track)  # (not to a clock just rebooted in a silence)
         return rebooted
 
     def _new_track(self, sysid: int, boot: float, wall: float) -> _Track:
@@ -285,6 +312,7 @@ class MissionClock:
         track.epoch = predicted - boot
         track.last_boot = boot
         track.pending = None
+        track.reanchored_wall = wall
         self.reboots += 1
 
     def _step_threshold(self) -> float:
@@ -323,6 +351,27 @@ class MissionClock:
         self._last_now = -math.inf
         self._refit(force=True)
         return True
+
+    def _resync(self, sysid: int, track: _Track, wall: float, unwrapped: float) -> None:
+        """Take mission time anew from ``sysid`` after a fleet-wide silence (see the
+        module docstring): its offset from before, the line from this observation."""
+        assert self._ref is not None
+        self._resync_due = False
+        self._tracks[self._ref].offset_wall = -math.inf
+        self._ref = sysid  # (track.offset is the one measured before the silence)
+        self.handovers += 1
+        for other in self._tracks.values():
+            other.walls.clear()
+            other.times.clear()
+            other.offset_wall = -math.inf
+        track.walls.append(wall)
+        track.times.append(unwrapped)
+        track.last_stored = wall
+        self._step_run.clear()
+        self.resyncs += 1
+        self.steps += 1
+        self._last_now = -math.inf
+        self._refit(force=True)
 
     def _handover(self, sysid: int, track: _Track) -> None:
         assert self._ref is not None

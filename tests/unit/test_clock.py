@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import random
+from collections.abc import Mapping
 
 import pytest
 
@@ -40,7 +41,7 @@ class Autopilot:
 def feed(
     clock: MissionClock,
     wall: FakeWall,
-    sources: dict[int, Autopilot],
+    sources: Mapping[int, Autopilot],
     seconds: float,
     *,
     hz: float = 50.0,
@@ -308,3 +309,62 @@ async def test_sleep_until_waits_for_the_first_vehicle() -> None:
     clock.observe(5000, 1)  # mission time is 5 s: already past
     await asyncio.wait_for(task, 1.0)
     assert clock.synced
+
+
+# ====================================================== a whole fleet falls silent
+class PausedAutopilot(Autopilot):
+    """A vehicle whose clock stops while ``paused`` (a simulator or host paused)."""
+
+    def __init__(self, wall: FakeWall, speedup: float, boot_offset: float = 0.0) -> None:
+        super().__init__(wall, speedup, boot_offset)
+        self.lost_wall = 0.0  # wall seconds its clock stood still
+
+    def mission(self, wall: float | None = None) -> float:
+        return super().mission(wall) - self.speedup * self.lost_wall
+
+
+@pytest.mark.parametrize("speedup", [1.0, 10.0, 40.0])
+@pytest.mark.parametrize("pause", [14.0, 100.0])
+@pytest.mark.parametrize("clocks_run", [False, True])
+@pytest.mark.parametrize("order", [(1, 2, 3), (2, 1, 3), (3, 2, 1), (2, 3, 1)])
+def test_a_fleet_wide_silence_is_followed_whoever_speaks_first(
+    speedup: float, pause: float, clocks_run: bool, order: tuple[int, int, int]
+) -> None:
+    """Every vehicle silent for ``pause`` mission seconds: a paused simulator (clocks
+    stopped) or a ground radio down (clocks ran on); then they speak again, one after
+    another in ``order``. Mission time must end up on the autopilots' clocks."""
+    wall = FakeWall()
+    clock = MissionClock(wall, rate_hint=speedup)
+    aps = {i: PausedAutopilot(wall, speedup, boot_offset=100.0 * i) for i in (1, 2, 3)}
+    feed(clock, wall, aps, 3.0)
+    assert clock.reference == 1
+    offsets = {i: 100.0 * (i - 1) for i in aps}  # mission = boot time - offset
+    silence = pause / speedup
+    wall.value += silence
+    if not clocks_run:
+        for ap in aps.values():
+            ap.lost_wall += silence
+    for first in order:  # one after another, a tenth of a wall second each
+        feed(clock, wall, {first: aps[first]}, 0.1)
+    feed(clock, wall, aps, 1.0)
+    truth = aps[1].mission()
+    assert clock.now() == pytest.approx(truth, abs=0.2)
+    for i, ap in aps.items():  # each vehicle's stamps map onto the same mission time
+        assert clock.to_mission(ap.boot_ms(), i) == pytest.approx(
+            ap.mission() - offsets[i], abs=0.2
+        )
+
+
+def test_a_reboot_during_a_fleet_wide_silence_does_not_move_mission_time() -> None:
+    wall = FakeWall()
+    clock = MissionClock(wall, rate_hint=20.0)
+    aps = {i: PausedAutopilot(wall, 20.0, boot_offset=100.0 * i) for i in (1, 2)}
+    feed(clock, wall, aps, 3.0)
+    wall.value += 14.0 / 20.0
+    for ap in aps.values():
+        ap.lost_wall += 14.0 / 20.0
+    rebooted = Autopilot(wall, 20.0)  # vehicle 2 comes back from a reboot: clock at 0
+    feed(clock, wall, {2: rebooted}, 0.5)
+    feed(clock, wall, {1: aps[1], 2: rebooted}, 1.0)
+    assert clock.reboots == 1
+    assert clock.now() == pytest.approx(aps[1].mission(), abs=0.2)
