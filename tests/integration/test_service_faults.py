@@ -102,3 +102,52 @@ async def test_a_fleet_wide_pause_is_followed_and_everyone_rejoins(
         f"(orbit {orbit:.1f} s), truth coverage from one orbit on {100 * after.fraction:.2f} %"
     )
     assert after.fraction >= 0.99
+
+
+async def test_a_killed_and_restarted_uav_rejoins_and_the_rest_rephase_back() -> None:
+    scenario = SCENARIOS["stationary"]
+    marks: dict[str, float] = {}
+    fleets: list[MockFleet] = []
+
+    async def script(fleet: MockFleet, service: ConvoyService) -> None:
+        fleets.append(fleet)
+        await _protecting(fleet, service)
+        fleet.kill(2)
+        marks["killed"] = fleet.now
+        await fleet.wait_until(fleet.now + 30.0)
+        fleet.reboot(2)  # power back: it boots where it glided to, disarmed
+        marks["restarted"] = fleet.now
+        while True:
+            await asyncio.sleep(0.02)
+            if fleet.now < DURATION - 10.0 and all(
+                w is None for w in service.why_not_counted.values()
+            ):
+                marks.setdefault("back", fleet.now)
+
+    result = await run_demo(scenario, duration=DURATION, speedup=SPEEDUP, during=script)
+    report = result.report.to_dict()
+    reasons = [r["reason"] for r in report["replans"]]
+    assert "uav_lost" in reasons and "uav_returned" in reasons, reasons
+    returned = next(r for r in report["replans"] if r["reason"] == "uav_returned")
+    assert returned["uav_count"] == 5 and returned["predicted_coverage"] == 1.0
+    assert report["predicted_coverage"] == 1.0
+    assert "back" in marks, "UAV 2 never counted again"
+    request = make_plan(scenario.plan_request()).request
+    orbit = 2 * math.pi * request.turn_radius / request.uav_speed
+    fleet = fleets[0]
+    assert fleet.history is not None
+    fixes = [
+        TruthFix(r.t, r.sysid, r.kind, r.lat, r.lon, r.mode != "KILLED", r.airborne)
+        for r in fleet.history.rows
+    ]
+    cfg = result.report.config
+    after = score_truth(
+        fixes, cfg.origin, cfg.sensor_radius_m, start=marks["back"] + orbit,
+        end=result.report.end_t,
+    )  # fmt: skip
+    print(
+        f"\nkilled at {marks['killed']:.0f} s, restarted at {marks['restarted']:.0f} s, "
+        f"every UAV counting again at {marks['back']:.0f} s; truth coverage from one orbit "
+        f"on {100 * after.fraction:.2f} %"
+    )
+    assert after.fraction >= 0.99
