@@ -194,7 +194,10 @@ class ConvoyService:
     ) -> None:
         self.config = config
         self.frame = LocalFrame(config.origin)
-        self.clock = MissionClock(rate_hint=rate_hint)
+        # (mission time waits out a fleet-wide silence once every UAV is declared lost)
+        self.clock = MissionClock(
+            rate_hint=rate_hint, silence_cap=max(10.0, 3.0 * config.lost_after_s)
+        )
         self.tracker = ConvoyTracker(stale_after=config.convoy.stale_after_s, window=4.0)
         self.history = History(interval=history_interval)
         self.monitor = Monitor(config.sensor_radius_m)
@@ -717,6 +720,9 @@ class ConvoyService:
                     phase="lost" if lost else self.view.phase(sysid, t),
                     tracking_error_m=errors.get(sysid),
                     statustext=v.last_statustext,
+                    why_not_counted="lost"
+                    if lost
+                    else self.why_not_counted.get(sysid, str(v.status)),
                 ),
                 retain=True,
             )

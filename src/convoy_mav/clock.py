@@ -38,6 +38,12 @@ Design rules:
       newest observation at the last measured rate. ``now()`` follows, backwards
       if the clocks stood still, and ``steps`` counts it (``sleep_until`` callers
       re-plan); ``resyncs`` counts these.
+    * While nobody is heard, ``now()`` runs on for ``silence_cap`` mission seconds
+      (long enough for the liveness checks to declare the vehicles lost) and then
+      waits: past that, it would only be a guess, and every deadline taken from a
+      guess (a mission's end, a command's time-out) would be off by the whole
+      silence once the clocks are heard again. So a paused fleet costs a step back
+      of at most ``silence_cap``, and a radio dropout a step forward.
     * The autopilot's clock may *step*: a simulator that cannot keep up pauses
       (PX4 lockstep SITL, ``sitl_mock`` slipping its clock when its host stalls),
       and then runs on from where it was. Late packets look the same one at a
@@ -131,6 +137,8 @@ class MissionClock:
         sample_spacing: Wall seconds between stored observations of one vehicle.
         handover_after: Mission seconds of silence of the reference vehicle after
             which another vehicle becomes the reference.
+        silence_cap: Mission seconds ``now()`` runs on after the last vehicle was heard
+            (keep it above the liveness limit, so silent vehicles are declared lost).
         sleep: Awaitable wall sleep (``asyncio.sleep``), injected for tests.
 
     Attributes:
@@ -150,6 +158,7 @@ class MissionClock:
         min_span: float = 0.05,
         sample_spacing: float = 0.05,
         handover_after: float = 2.0,
+        silence_cap: float = 10.0,
         sleep: Callable[[float], Awaitable[None]] = asyncio.sleep,
     ) -> None:
         if rate_hint is not None and not (math.isfinite(rate_hint) and rate_hint > 0.0):
@@ -161,6 +170,7 @@ class MissionClock:
         self._min_span = min_span
         self._spacing = sample_spacing
         self._handover_after = handover_after
+        self._silence_cap = silence_cap
         self._tracks: dict[int, _Track] = {}
         self._ref: int | None = None
         # fitted line: mission = _m_a + _rate * (wall - _w_a)
@@ -210,7 +220,8 @@ class MissionClock:
         if self._ref is None:
             return 0.0
         self._refit()
-        t = self._m_a + self._rate * (self._wall() - self._w_a)
+        t = self._m_a + self._rate * (min(self._wall(), self._heard_wall) - self._w_a)
+        t += min(self._rate * max(self._wall() - self._heard_wall, 0.0), self._silence_cap)
         if t < self._last_now:
             return self._last_now
         self._last_now = t

@@ -42,7 +42,7 @@ from convoy_mav.tracks.geotrack import SPEED_WINDOW_S
 from sitl_mock import MockFleet
 from sitl_mock.config import config_from_mapping
 
-__all__ = ["SCENARIOS", "DemoResult", "Scenario", "replay_scenario", "run_demo"]
+__all__ = ["SCENARIOS", "DemoResult", "Scenario", "replay_scenario", "run_demo", "score_fleet"]
 
 ScenarioName = Literal["stationary", "moving", "turning", "replay"]
 
@@ -286,14 +286,17 @@ async def run_demo(
                 script.cancel()
                 with contextlib.suppress(asyncio.CancelledError):
                     await script
-        truth = None
         start = report.snapshot.protect_start
-        if start is not None and fleet.history is not None:
-            fixes = (
-                TruthFix(r.t, r.sysid, r.kind, r.lat, r.lon, r.mode != "KILLED", r.airborne)
-                for r in fleet.history.rows
-            )
-            truth = score_truth(
-                fixes, cfg.origin, cfg.sensor_radius_m, start=start, end=report.end_t
-            )
+        truth = None if start is None else score_fleet(fleet, cfg, start, report.end_t)
         return DemoResult(report, truth, scenario)
+
+
+def score_fleet(fleet: MockFleet, cfg: MissionConfig, start: float, end: float) -> CoverageStats:
+    """Coverage from the mock's ground truth (killed or grounded aircraft see nothing)."""
+    if fleet.history is None:
+        raise ValueError("the fleet keeps no truth history (record_truth=False)")
+    fixes = (
+        TruthFix(r.t, r.sysid, r.kind, r.lat, r.lon, r.mode != "KILLED", r.airborne)
+        for r in fleet.history.rows
+    )
+    return score_truth(fixes, cfg.origin, cfg.sensor_radius_m, start=start, end=end)

@@ -16,9 +16,8 @@ import math
 import pytest
 
 from convoy_mav.app import ConvoyService
-from convoy_mav.demo import SCENARIOS, run_demo
+from convoy_mav.demo import SCENARIOS, run_demo, score_fleet
 from convoy_mav.planning import make_plan
-from convoy_mav.scoring import TruthFix, score_truth
 from sitl_mock import MockFleet
 
 pytestmark = pytest.mark.integration
@@ -26,6 +25,12 @@ pytestmark = pytest.mark.integration
 SPEEDUP = 25.0
 PAUSE_AT = 140.0  # sim s: well into the protect phase (about 80 s in)
 DURATION = 420.0
+
+
+def _orbit() -> float:
+    """Seconds of one orbit of the stationary plan (2 pi R / V)."""
+    request = make_plan(SCENARIOS["stationary"].plan_request()).request
+    return 2 * math.pi * request.turn_radius / request.uav_speed
 
 
 async def _protecting(fleet: MockFleet, service: ConvoyService) -> None:
@@ -82,19 +87,10 @@ async def test_a_fleet_wide_pause_is_followed_and_everyone_rejoins(
     assert any("every UAV silent at once" in e for e in report["events"])
     assert not {"uav_lost", "uav_returned"} & {r["reason"] for r in report["replans"]}
     # coverage is back within one orbit of the resumption (ground truth)
-    request = make_plan(scenario.plan_request()).request
-    orbit = 2 * math.pi * request.turn_radius / request.uav_speed
-    fleet = marks_fleet[0]
-    assert fleet.history is not None
-    fixes = [
-        TruthFix(r.t, r.sysid, r.kind, r.lat, r.lon, r.mode != "KILLED", r.airborne)
-        for r in fleet.history.rows
-    ]
-    cfg = result.report.config
-    after = score_truth(
-        fixes, cfg.origin, cfg.sensor_radius_m, start=marks["resumed"] + orbit,
-        end=result.report.end_t,
-    )  # fmt: skip
+    orbit = _orbit()
+    after = score_fleet(
+        marks_fleet[0], result.report.config, marks["resumed"] + orbit, result.report.end_t
+    )
     print(
         f"\npause {pause_s:.0f} s, {first} first: clock error median "
         f"{settled[len(settled) // 2]:.3f} s max {settled[-1]:.3f} s, "
@@ -132,19 +128,9 @@ async def test_a_killed_and_restarted_uav_rejoins_and_the_rest_rephase_back() ->
     assert returned["uav_count"] == 5 and returned["predicted_coverage"] == 1.0
     assert report["predicted_coverage"] == 1.0
     assert "back" in marks, "UAV 2 never counted again"
-    request = make_plan(scenario.plan_request()).request
-    orbit = 2 * math.pi * request.turn_radius / request.uav_speed
-    fleet = fleets[0]
-    assert fleet.history is not None
-    fixes = [
-        TruthFix(r.t, r.sysid, r.kind, r.lat, r.lon, r.mode != "KILLED", r.airborne)
-        for r in fleet.history.rows
-    ]
-    cfg = result.report.config
-    after = score_truth(
-        fixes, cfg.origin, cfg.sensor_radius_m, start=marks["back"] + orbit,
-        end=result.report.end_t,
-    )  # fmt: skip
+    after = score_fleet(
+        fleets[0], result.report.config, marks["back"] + _orbit(), result.report.end_t
+    )
     print(
         f"\nkilled at {marks['killed']:.0f} s, restarted at {marks['restarted']:.0f} s, "
         f"every UAV counting again at {marks['back']:.0f} s; truth coverage from one orbit "

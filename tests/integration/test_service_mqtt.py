@@ -65,7 +65,7 @@ ISO_TS = re.compile(r"^\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d\.\d{3}Z$")
 STATUS_KEYS = {"t", "ts", "phase", "paused", "uptime_s", "uavs", "alarms"}
 VEHICLE_KEYS = {
     *("t", "ts", "sysid", "state", "mode", "firmware", "phase", "position", "velocity"),
-    *("yaw", "telemetry_t", "tracking_error_m", "statustext"),
+    *("yaw", "telemetry_t", "tracking_error_m", "statustext", "counted", "why_not_counted"),
 }
 COVERAGE_KEYS = {
     *("t", "ts", "covered", "covering", "nearest_m", "fraction", "elapsed_s", "covered_s"),

@@ -368,3 +368,22 @@ def test_a_reboot_during_a_fleet_wide_silence_does_not_move_mission_time() -> No
     feed(clock, wall, {1: aps[1], 2: rebooted}, 1.0)
     assert clock.reboots == 1
     assert clock.now() == pytest.approx(aps[1].mission(), abs=0.2)
+
+
+def test_mission_time_waits_out_a_silence_past_its_cap() -> None:
+    """Nobody heard: now() runs on for silence_cap (liveness needs it), then waits; the
+    step back when paused clocks are heard again is at most the cap."""
+    wall = FakeWall()
+    clock = MissionClock(wall, rate_hint=20.0, silence_cap=10.0)
+    aps = {i: PausedAutopilot(wall, 20.0, boot_offset=10.0 * i) for i in (1, 2)}
+    feed(clock, wall, aps, 2.0)
+    heard = clock.now()
+    wall.value += 0.25  # 5 mission s: still running on
+    assert clock.now() == pytest.approx(heard + 5.0, abs=0.05)
+    wall.value += 5.0  # 100 mission s of silence: held at the cap
+    for ap in aps.values():
+        ap.lost_wall += 5.25
+    assert clock.now() == pytest.approx(heard + 10.0, abs=0.05)
+    feed(clock, wall, {2: aps[2]}, 0.5)  # vehicle 2 first: resynced onto the clocks
+    feed(clock, wall, aps, 0.5)
+    assert clock.now() == pytest.approx(aps[1].mission(), abs=0.2)

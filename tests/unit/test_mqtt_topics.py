@@ -311,3 +311,15 @@ def test_command_rejected_with_reason(raw: bytes, reason: str) -> None:
 def test_command_never_raises_anything_else(raw: bytes) -> None:
     with contextlib.suppress(BadPayload):
         assert topics.parse_command(raw) in topics.COMMANDS
+
+
+def test_vehicle_payload_says_whether_and_why_not_a_uav_counts() -> None:
+    counting = topics.vehicle_payload(
+        sysid=3, t=5.0, wall=0.0, state="flying", why_not_counted=None
+    )
+    assert counting["counted"] is True and counting["why_not_counted"] is None
+    grounded = topics.vehicle_payload(
+        sysid=3, t=5.0, wall=0.0, state="flying", why_not_counted="on ground"
+    )
+    assert grounded["counted"] is False and grounded["why_not_counted"] == "on ground"
+    json.dumps(grounded, allow_nan=False)

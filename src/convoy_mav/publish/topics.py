@@ -59,6 +59,8 @@ topic: while the broker is away, older values are dropped, not queued.
 | `telemetry_t` | number/null | mission time of the telemetry sample (its age: `t - telemetry_t`) |
 | `tracking_error_m` | number/null | horizontal distance to the planned position, m |
 | `statustext` | string/null | the autopilot's latest STATUSTEXT |
+| `counted` | bool | it counts for coverage now (flying, airborne, in its band, on slot) |
+| `why_not_counted` | string/null | why not (``monitor.why_not_counted``): `on ground`... |
 
 `<prefix>/coverage`
 
@@ -299,6 +301,7 @@ def vehicle_payload(
     phase: str | None = None,
     tracking_error_m: float | None = None,
     statustext: str | None = None,
+    why_not_counted: str | None = "not flying",
 ) -> dict[str, Any]:
     """``<prefix>/vehicle/<sysid>``: one UAV's state as the service sees it."""
     position: dict[str, float | None] | None = None
@@ -334,6 +337,8 @@ def vehicle_payload(
         "telemetry_t": telemetry_t,
         "tracking_error_m": _num(tracking_error_m, 2),
         "statustext": statustext,
+        "counted": why_not_counted is None,
+        "why_not_counted": why_not_counted,
     }
 
 
