@@ -20,6 +20,7 @@ from convoy_mav.mavlink.autopilots import (
     ArduCopter,
     ArduPlane,
     Autopilot,
+    PhaseLoop,
     SetupStep,
     VehicleClass,
     along_track_error,
@@ -407,3 +408,31 @@ def test_arduplane_loiter_is_flown_by_the_mock() -> None:
         (0.0, 0.0, 150.0, False), abs=0.02
     )
     assert goal.down == pytest.approx(-40.0, abs=0.01)
+
+
+@pytest.mark.parametrize(("gain", "integral_time"), [(1.045, 400.0), (0.96, 400.0), (1.0, 400.0)])
+def test_phase_loop_removes_the_steady_error_a_speed_offset_leaves(
+    gain: float, integral_time: float
+) -> None:
+    """A plane that makes ``gain`` times the commanded speed along its path (an ArduPlane
+    cutting inside at arc switches: 1.045) on a slot moving at V: the proportional loop
+    alone sits V T (1 - 1/gain) off its slot; with the integral the error goes to 0."""
+    v, dt = 22.0, 0.5
+
+    def fly(loop: PhaseLoop, seconds: float) -> tuple[float, float]:
+        s_plane, fastest = -150.0, 0.0  # starts 150 m behind its slot
+        for k in range(round(seconds / dt)):
+            t = k * dt
+            sp = Setpoint(t, v * t, 0.0, -100.0, v, 0.0, 0.0, 0.0, 0.0)  # north at V
+            cmd = loop.speed(sp, s_plane, 0.0, t)
+            fastest = max(fastest, cmd)
+            s_plane += gain * cmd * dt
+        return v * round(seconds / dt) * dt - s_plane, fastest
+
+    p_only, _ = fly(PhaseLoop(integral_time=math.inf), 900.0)
+    assert p_only == pytest.approx(-v * 20.0 * (1.0 - 1.0 / gain), abs=1.0)  # ahead: < 0
+    loop = PhaseLoop(integral_time=integral_time)
+    error, fastest = fly(loop, 900.0)
+    assert abs(error) < 1.0
+    assert loop.bias == pytest.approx(1.0 / gain - 1.0, abs=0.005)  # the offset, learnt
+    assert fastest <= 1.15 * v + 1e-9  # within the airspeed band throughout

@@ -141,3 +141,33 @@ def test_service_errors_name_the_key(doc: dict[str, Any], key: str, needle: str)
         parse_config(doc)
     assert info.value.key == key
     assert needle in str(info.value)
+
+
+def test_the_run_config_for_the_mock_matches_the_mocks_endpoints() -> None:
+    """configs/mock_run.toml flies configs/mock_px4.toml's vehicles, as the README says."""
+    from sitl_mock.config import config_from_mapping, load_toml
+
+    root = Path(__file__).resolve().parents[2] / "configs"
+    mock = config_from_mapping(load_toml(root / "mock_px4.toml"), str(root))
+    cfg = load_config(root / "mock_run.toml")
+    ports = {v.sysid: mock.port_of(v.sysid) for v in mock.vehicles}
+    kinds = {v.sysid: v.kind for v in mock.vehicles}
+    for uav in cfg.uav_list:
+        assert kinds[uav.sysid] == "aircraft"
+        assert uav.connection == f"udpout:127.0.0.1:{ports[uav.sysid]}"
+    for ground in cfg.convoy.vehicles:
+        assert kinds[ground.sysid] == "ground"
+        assert ground.connection == f"udpout:127.0.0.1:{ports[ground.sysid]}"
+    assert {u.sysid for u in cfg.uav_list} == {s for s, k in kinds.items() if k == "aircraft"}
+
+
+def test_new_mission_keys_are_validated() -> None:
+    base = {"mission": {"sensor_radius_m": 100.0}}
+    cfg = parse_config(base)
+    assert (cfg.end, cfg.altitude_band_m) == ("loiter", 15.0)
+    cfg = parse_config({"mission": {"sensor_radius_m": 100.0, "end": "rtl"}})
+    assert cfg.end == "rtl"
+    with pytest.raises(ConfigError, match=r"mission.end = 'home': must be 'loiter', 'rtl' or"):
+        parse_config({"mission": {"sensor_radius_m": 100.0, "end": "home"}})
+    with pytest.raises(ConfigError, match="altitude_band_m"):
+        parse_config({"mission": {"sensor_radius_m": 100.0, "altitude_band_m": -1.0}})

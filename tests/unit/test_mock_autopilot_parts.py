@@ -75,6 +75,24 @@ def test_request_data_stream_sets_groups() -> None:
     assert s.interval(GPI) is None and s.interval(HB) == 1.0
 
 
+def test_stream_groups_switch_on_what_the_firmware_does() -> None:
+    """ArduPilot 4.7: asking for positions brings LOCAL_POSITION_NED too; no group holds
+    EXTENDED_SYS_STATE (only SET_MESSAGE_INTERVAL starts it); stopping all groups and
+    then asking for single messages gives exactly those (what the service does)."""
+    s = StreamScheduler(AIRCRAFT_DEFAULT_INTERVALS, now=0.0, enabled=False)
+    local = mavlink.MAVLINK_MSG_ID_LOCAL_POSITION_NED
+    ext = mavlink.MAVLINK_MSG_ID_EXTENDED_SYS_STATE
+    s.request_data_stream(mavlink.MAV_DATA_STREAM_POSITION, 10, 1, now=0.0)
+    assert s.interval(GPI) == pytest.approx(0.1) and s.interval(local) == pytest.approx(0.1)
+    s.request_data_stream(mavlink.MAV_DATA_STREAM_ALL, 1, 1, now=0.0)
+    assert s.interval(ext) is None
+    s.request_data_stream(mavlink.MAV_DATA_STREAM_ALL, 0, 0, now=0.0)
+    assert s.set_message_interval(GPI, 100_000, now=0.0)
+    assert s.set_message_interval(ext, 5_000_000, now=0.0)
+    on = {m for m in AIRCRAFT_DEFAULT_INTERVALS if s.interval(m) is not None}
+    assert on == {HB, GPI, ext}
+
+
 # =================================================================== params
 def test_param_table_lookup_scaling_and_limits() -> None:
     table = ParamTable(

@@ -44,10 +44,10 @@ from convoy_mav.mavlink.autopilots.base import (
     Autopilot,
     CommandSpec,
     Message,
+    PhaseLoop,
     SetupStep,
     VehicleClass,
     global_setpoint,
-    phase_corrected_speed,
 )
 from convoy_mav.mavlink.autopilots.loiter import LoiterModel
 from convoy_mav.types import Setpoint
@@ -246,6 +246,8 @@ class ArduPlane(ArduPilot):
         """The last speed commanded (m/s), None to re-send."""
         self.speed_t = -math.inf
         self.counters = {"reposition": 0, "change_speed": 0, "refused": 0}
+        self.phase = PhaseLoop()
+        """The along-track phase loop (its learnt speed offset is the airframe's)."""
         self.model = LoiterModel()
         """How wide this aircraft flies its loiters (learnt while flying them)."""
         self.arc: tuple[float, float, float, bool] | None = None
@@ -312,7 +314,7 @@ class ArduPlane(ArduPilot):
             self.counters["reposition"] += 1
         if sp.hold or position is None or t - self.speed_t < self.speed_interval:
             return out
-        speed = phase_corrected_speed(sp, *position)
+        speed = self.phase.speed(sp, *position, t)
         if speed > 0.0 and (self.speed is None or abs(speed - self.speed) >= self.speed_step):
             out.append(self.change_speed(speed))
             self.speed, self.speed_t = speed, t

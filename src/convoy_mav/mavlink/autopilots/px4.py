@@ -22,10 +22,10 @@ from convoy_mav.mavlink.autopilots.base import (
     Autopilot,
     CommandSpec,
     Message,
+    PhaseLoop,
     SetupStep,
     VehicleClass,
     global_setpoint,
-    phase_corrected_speed,
 )
 from convoy_mav.types import Setpoint
 
@@ -66,6 +66,7 @@ class PX4(Autopilot):
 
     def __init__(self, sysid: int, compid: int, frame: LocalFrame, kind: VehicleClass) -> None:
         super().__init__(sysid, compid, frame, kind)
+        self.phase = PhaseLoop()
         if kind is VehicleClass.PLANE:
             self.setup_steps = (
                 SetupStep.ARM,
@@ -118,5 +119,5 @@ class PX4(Autopilot):
         if self.kind is VehicleClass.PLANE and position is not None and not sp.hold:
             v = (sp.vn * sp.vn + sp.ve * sp.ve) ** 0.5
             if v > 1e-6:
-                scale = phase_corrected_speed(sp, *position) / v
+                scale = self.phase.speed(sp, *position, t) / v
         return [global_setpoint(sp, self.frame, self.sysid, self.compid, t, speed_scale=scale)]
