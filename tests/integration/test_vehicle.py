@@ -27,7 +27,7 @@ from convoy_mav.geo import LocalFrame
 from convoy_mav.mavlink import MavLink
 from convoy_mav.mavlink.autopilots import FLIGHT_STREAM_RATES
 from convoy_mav.streaming import SetpointStreamer
-from convoy_mav.types import Setpoint, VehicleStatus
+from convoy_mav.types import Setpoint, Telemetry, VehicleStatus
 from convoy_mav.vehicle import EventKind, Vehicle, VehicleEvent
 from sitl_mock.config import MockConfig
 from sitl_mock.server import MockFleet
@@ -434,3 +434,57 @@ async def test_in_progress_foreign_acks_and_refusals() -> None:
         "UAV 1 (ArduCopter): arm refused (DENIED): 'PreArm: Throttle'; retrying in 1.0 s"
     ]
     assert peer.alt == pytest.approx(15.0)  # relative to home, which is at the origin here
+
+
+async def test_an_arduplane_armed_on_the_runway_is_taken_off_not_counted(
+    start_mock: StartMock,
+) -> None:
+    """The field failure: ArduPlane armed in GUIDED on the runway keeps its throttle
+    suppressed. A set-up that only checks mode and arm calls it flying while it sits
+    there; the service must take it off (TAKEOFF mode) and never count it grounded."""
+    from convoy_mav.monitor import why_not_counted
+
+    config = MockConfig.simple(
+        1, speedup=SPEEDUP, base_port=0, personality="ardupilot", frame="plane",
+        airspeed=18.0, turn_radius=80.0, warmup=1.0,
+    )  # fmt: skip
+    fleet = await start_mock(config, record_truth=True)
+    sim = fleet.vehicles[1]
+    await sim_sleep(fleet, 1.5)  # warm: a pilot arms it in GUIDED on the runway
+    sim.flight.request_mode(sim.firmware.mode("GUIDED"), fleet.now)
+    sim.flight.armed = True
+    await sim_sleep(fleet, 5.0)
+    assert sim.armed and sim.mode == "GUIDED" and not fleet.truth(1).airborne
+    grounded: list[str | None] = []
+
+    def on_telemetry(tel: Telemetry) -> None:  # each update while the truth is grounded
+        if not fleet.truth(1).airborne:
+            why = why_not_counted(
+                status=str(vehicle.status), airborne=vehicle.airborne,
+                altitude_error=0.0, band=15.0, phase="protect",
+            )  # fmt: skip
+            grounded.append(why)
+            claims.append(vehicle.airborne)  # what the autopilot's telemetry says
+
+    claims: list[bool] = []
+    clock = MissionClock(rate_hint=SPEEDUP)
+    events: list[VehicleEvent] = []
+    link = MavLink(fleet.endpoint(1).connect, lambda m: vehicle.handle(m))  # noqa: PLW0108
+    vehicle = Vehicle(
+        1,
+        link,
+        clock,
+        LocalFrame(config.origin),
+        on_event=events.append,
+        altitude=ALTITUDE,
+        on_telemetry=on_telemetry,
+    )
+    async with link, running(vehicle.run()):
+        await until(lambda: has_status(vehicle, VehicleStatus.FLYING), timeout=20)
+        row = fleet.truth(1)
+    assert grounded and None not in grounded, grounded  # never counted on the runway
+    assert not any(claims)  # and never taken for airborne there
+    steps = [e.message for e in events if e.kind is EventKind.SETUP]
+    assert any("in TAKEOFF" in s for s in steps) and any("in GUIDED" in s for s in steps)
+    assert row.airborne and row.mode == "GUIDED"
+    assert -row.down == pytest.approx(ALTITUDE, abs=0.05 * ALTITUDE + 1.0)
