@@ -495,6 +495,7 @@ class ConvoyService:
             self.monitor.start_protect(view.protect_start)
             self.monitor.predicted_coverage = view.predicted_coverage or 1.0
             self._note(f"protect phase begins at t={view.protect_start:.1f}")
+        self._check_airframes(t)
         telemetry = self._counted_telemetry(t)
         for alarm in self.monitor.update(t, est, telemetry):
             self._alarm(alarm)
@@ -580,6 +581,13 @@ class ConvoyService:
             if planned is None:
                 return
         self.monitor.track(tel, *position_at(planned, tel.t))
+
+    def _check_airframes(self, t: float) -> None:
+        """Alarm (once per UAV) when a plane cannot fly what the plan asks of it."""
+        for sysid, v in self.vehicles.items():
+            why = None if v.firmware is None else v.firmware.cannot_fly()
+            if why is not None and f"airframe:{sysid}" not in self._vehicle_alarms:
+                self._alarm(Alarm(t, "airframe", True, f"UAV {sysid} {why}"), sysid)
 
     def _counted_telemetry(self, t: float) -> dict[int, Telemetry]:
         """The telemetry of the UAVs that can see now (``monitor.why_not_counted``);
@@ -793,4 +801,5 @@ class ConvoyService:
                 why: round(s, 1) for why, s in sorted(self._not_counted_s.get(sysid, {}).items())
             },
             "messages_per_s": round(v.received / heard, 2) if heard else None,
+            "learnt": {} if v.firmware is None else v.firmware.learnt(),
         }

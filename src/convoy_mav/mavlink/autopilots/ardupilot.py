@@ -54,6 +54,9 @@ from convoy_mav.types import Setpoint
 
 __all__ = ["ArduCopter", "ArduPilot", "ArduPlane"]
 
+_LEARNT_SAMPLES = 200
+"""Loiter samples (10 s at 20 Hz) before the learnt overshoot is trusted to judge a plan."""
+
 _M = mavlink
 
 _COPTER_MODES = {
@@ -250,6 +253,8 @@ class ArduPlane(ArduPilot):
         """The along-track phase loop (its learnt speed offset is the airframe's)."""
         self.model = LoiterModel()
         """How wide this aircraft flies its loiters (learnt while flying them)."""
+        self.too_tight: float | None = None
+        """The largest planned radius no loiter command flies (None: all flyable)."""
         self.arc: tuple[float, float, float, bool] | None = None
         """(north, east, planned radius, clockwise) of the arc being flown, and since when:"""
         self.arc_since = -math.inf
@@ -280,6 +285,8 @@ class ArduPlane(ArduPilot):
         if sp.hold:
             return sp.north, sp.east, sp.down, 0.0, True
         if sp.center is not None and sp.radius > 0.0:
+            if self.model.samples >= _LEARNT_SAMPLES and not self.model.feasible(sp.radius):
+                self.too_tight = max(self.too_tight or 0.0, sp.radius)
             radius = self.model.command_radius(sp.radius)
             return sp.center[0], sp.center[1], sp.down, radius, sp.clockwise
         v = math.hypot(sp.vn, sp.ve)
@@ -341,6 +348,25 @@ class ArduPlane(ArduPilot):
             return
         distance = math.hypot(position[0] - loiter[0], position[1] - loiter[1])
         self.model.observe(distance, loiter[3], t - self.arc_since, math.hypot(sp.vn, sp.ve))
+
+    def learnt(self) -> dict[str, float]:
+        """The loiter overshoot k (m^2), the tightest loiter flown, the speed offset."""
+        k = self.model.k
+        return {
+            "loiter_overshoot_m2": round(k, 1),
+            "tightest_loiter_m": round(2.0 * math.sqrt(max(k, 0.0)), 1),
+            "phase_speed_offset": round(self.phase.bias, 4),
+        }
+
+    def cannot_fly(self) -> str | None:
+        """The plan's arcs are tighter than any loiter command makes this plane fly."""
+        if self.too_tight is None:
+            return None
+        tightest = 2.0 * math.sqrt(max(self.model.k, 0.0))
+        return (
+            f"flies no loiter tighter than {tightest:.0f} m (its L1 overshoot), the plan "
+            f"asks for {self.too_tight:.0f} m: plan with turn_radius_m >= {tightest:.0f}"
+        )
 
     def on_ack(self, command: int, result: int, t: float) -> None:
         """Confirm a loiter; a refused loiter or speed change is re-sent."""

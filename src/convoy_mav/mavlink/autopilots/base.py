@@ -447,3 +447,11 @@ class Autopilot(ABC):
 
     def reset(self) -> None:  # noqa: B027 - optional hook
         """Forget what was sent: everything is re-sent (after a re-set-up or reboot)."""
+
+    def learnt(self) -> dict[str, float]:
+        """What the strategy has learnt of the airframe while flying (for the report)."""
+        return {}
+
+    def cannot_fly(self) -> str | None:
+        """Why the plan asks for more than this airframe gives, if it does."""
+        return None

@@ -10,8 +10,9 @@ Model: a loiter commanded at radius ``c`` is flown at ``c + k / c``, with ``k`` 
 a property of the airframe and its tuning, ``(V T)^2`` for a lag ``T`` at airspeed
 ``V``: the overshoot grows with speed and shrinks with the radius. To fly ``R`` the
 command is the larger root of ``c^2 - R c + k = 0``, ``c = (R + sqrt(R^2 - 4k)) / 2``;
-below ``2 sqrt(k)`` no command flies that tight, and the tightest one is sent (the
-plan then asks for more than the airframe gives, which ``feasible`` says).
+below ``2 sqrt(k)`` no command flies that tight, and ``sqrt(k)``, which flies the
+tightest circle, is sent (the plan then asks for more than the airframe gives, which
+``feasible`` says and the service raises as an alarm).
 
 ``k`` may be negative (an autopilot that flies tight: commanded wider). It is
 learnt from telemetry while a loiter has been held long enough to settle
@@ -50,9 +51,12 @@ class LoiterModel:
     samples: int = 0
 
     def command_radius(self, radius: float) -> float:
-        """The radius to command so that ``radius`` is flown (the tightest if none can)."""
+        """The radius to command so that ``radius`` is flown; if none can, ``sqrt(k)``,
+        the command that flies the tightest circle (``2 sqrt(k)``)."""
         disc = radius * radius - 4.0 * self.k
-        return 0.5 * (radius + math.sqrt(max(disc, 0.0)))
+        if disc < 0.0:
+            return math.sqrt(self.k)
+        return 0.5 * (radius + math.sqrt(disc))
 
     def flown_radius(self, commanded: float) -> float:
         """Where a loiter commanded at ``commanded`` is flown, by the model."""
