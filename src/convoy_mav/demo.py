@@ -167,6 +167,9 @@ class DemoResult:
             out["track_format"] = track.format
             out["track_duration_s"] = track.duration
             out["track_planning_speed_mps"] = self.scenario.convoy_speed_mps
+            out["track_fixes_merged"] = track.cleaning.merged
+            out["track_fixes_out_of_order"] = track.cleaning.out_of_order
+            out["track_spikes_rejected"] = track.cleaning.spikes
         out["truth_coverage_fraction"] = self.truth.fraction if self.truth else None
         out["truth_longest_gap_s"] = self.truth.longest_gap_s if self.truth else None
         return out

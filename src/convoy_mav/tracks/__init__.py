@@ -15,8 +15,11 @@ Design rules:
     * Parsing is pure: the ``parse_*`` functions take text or bytes and a name for
       messages; :func:`load_track` alone opens a file.
     * Bad input is a ``ValueError`` whose message starts with ``file:line:`` (CSV,
-      GPX) or ``file: message #N:`` (tlog) and says what is wrong; nothing is
-      guessed or silently dropped except what the docstrings list.
+      GPX) or ``file: message #N:`` (tlog) and says what is wrong. What real
+      receivers record is not bad input: fixes sharing a time stamp are merged,
+      backward stamps and single-fix spikes dropped, each counted in
+      ``GeoTrack.cleaning`` (:mod:`convoy_mav.tracks.cleaning`); nothing else is
+      guessed or dropped.
     * Parsers keep the source's clock (CSV seconds, POSIX seconds, vehicle boot
       seconds); :meth:`GeoTrack.rebased` (done by :func:`load_track`) starts it at 0.
 """

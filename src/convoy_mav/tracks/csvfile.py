@@ -36,7 +36,9 @@ def parse_csv_track(lines: Iterable[str], name: str) -> GeoTrack:
         The track with the file's times (not rebased).
 
     Raises:
-        ValueError: A row is malformed or out of order; the message gives file and line.
+        ValueError: A row is malformed; the message gives file and line. Repeated,
+            backward and spiking fixes are merged or dropped and counted
+            (``GeoTrack.cleaning``), never refused.
     """
     times: list[float] = []
     lats: list[float] = []
@@ -66,16 +68,12 @@ def parse_csv_track(lines: Iterable[str], name: str) -> GeoTrack:
         if not all(math.isfinite(v) for v in (t, lat, lon)):
             raise ValueError(f"{name}:{lineno}: time, lat and lon must be finite")
         check_fix(f"{name}:{lineno}", lat, lon)
-        if times and t <= times[-1]:
-            raise ValueError(
-                f"{name}:{lineno}: time {t!r} does not increase (previous {times[-1]!r})"
-            )
         times.append(t)
         lats.append(lat)
         lons.append(lon)
     if not times:
         raise ValueError(f"{name}: no data rows (expected time,lat,lon)")
-    return GeoTrack(tuple(times), tuple(lats), tuple(lons), name, "csv")
+    return GeoTrack.from_fixes(times, lats, lons, name, "csv")
 
 
 def _is_number(text: str) -> bool:

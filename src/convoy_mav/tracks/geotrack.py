@@ -16,6 +16,7 @@ import math
 from dataclasses import dataclass, replace
 
 from convoy_mav.geo import GeoPoint, LocalFrame
+from convoy_mav.tracks.cleaning import TrackCleaning, clean_fixes
 
 __all__ = [
     "PLANNING_PERCENTILE",
@@ -25,6 +26,9 @@ __all__ = [
     "check_fix",
     "track_speeds",
 ]
+
+
+_CLEAN = TrackCleaning()
 
 
 @dataclass(frozen=True, slots=True)
@@ -38,6 +42,7 @@ class GeoTrack:
         source: The file it came from (for messages and reports).
         format: ``"csv"``, ``"gpx"``, ``"tlog"`` or ``""``.
         epoch: Source-clock time of ``t = 0`` (what :meth:`rebased` subtracted).
+        cleaning: What reading the file merged and dropped (``cleaning.clean_fixes``).
     """
 
     times: tuple[float, ...]
@@ -46,6 +51,7 @@ class GeoTrack:
     source: str = ""
     format: str = ""
     epoch: float = 0.0
+    cleaning: TrackCleaning = _CLEAN
 
     def __post_init__(self) -> None:
         for name in ("times", "lats", "lons"):
@@ -70,6 +76,20 @@ class GeoTrack:
                     f"GeoTrack.times must increase strictly: times[{i}] = {self.times[i]!r} "
                     f"after {self.times[i - 1]!r}"
                 )
+
+    @classmethod
+    def from_fixes(
+        cls,
+        times: list[float],
+        lats: list[float],
+        lons: list[float],
+        source: str,
+        fmt: str,
+    ) -> GeoTrack:
+        """A track from fixes as a receiver recorded them: repeated time stamps merged,
+        backward ones and single-fix spikes dropped (``cleaning.clean_fixes``)."""
+        (ts, la, lo), cleaning = clean_fixes(times, lats, lons)
+        return cls(ts, la, lo, source, fmt, cleaning=cleaning)
 
     @property
     def duration(self) -> float:

@@ -36,7 +36,8 @@ def parse_gpx_track(data: bytes | str, name: str) -> GeoTrack:
 
     Raises:
         ValueError: Malformed XML, no points, a point without ``lat``/``lon`` or
-            ``<time>``, or times that do not increase; ``file:line:`` first.
+            ``<time>``; ``file:line:`` first. Repeated, backward and spiking fixes
+            are merged or dropped and counted (``GeoTrack.cleaning``), not refused.
     """
     parser = expat.ParserCreate(namespace_separator=" ")
     points: list[_GpxPoint] = []
@@ -86,7 +87,6 @@ def parse_gpx_track(data: bytes | str, name: str) -> GeoTrack:
     times: list[float] = []
     lats: list[float] = []
     lons: list[float] = []
-    previous = ""
     for p in chosen:
         where = f"{name}:{p.line}"
         what = f"{p.kind} #{p.number}"
@@ -98,16 +98,10 @@ def parse_gpx_track(data: bytes | str, name: str) -> GeoTrack:
                 f"{where}: {what} has no <time>: replaying a track needs when the convoy "
                 "was at each point"
             )
-        t = _iso_seconds(where, what, p.time)
-        if times and t <= times[-1]:
-            raise ValueError(
-                f"{where}: {what} time {p.time} does not increase (previous point {previous})"
-            )
-        previous = p.time
-        times.append(t)
+        times.append(_iso_seconds(where, what, p.time))
         lats.append(lat)
         lons.append(lon)
-    return GeoTrack(tuple(times), tuple(lats), tuple(lons), name, "gpx")
+    return GeoTrack.from_fixes(times, lats, lons, name, "gpx")
 
 
 def _gpx_coordinate(where: str, what: str, attr: str, value: str | None) -> float:
