@@ -23,7 +23,14 @@ from typing import Any, NoReturn, TypeVar
 from convoy_mav import __version__, eventloop
 from convoy_mav.app import ConvoyService, Progress
 from convoy_mav.config import AircraftConfig, ConvoyConfig, MissionConfig, load_config
-from convoy_mav.demo import SCENARIOS, Scenario, replay_scenario, run_demo
+from convoy_mav.demo import (
+    SCENARIOS,
+    Scenario,
+    rehearsal,
+    rehearsed_config,
+    replay_scenario,
+    run_demo,
+)
 from convoy_mav.errors import ConfigError, ConvoyError
 from convoy_mav.oplog import operator_log
 from convoy_mav.planning import Pose, make_plan, optimal_path_from_entry
@@ -138,6 +145,12 @@ def _add_mock_flight_options(
     """The options ``demo`` and ``replay`` share (flying against the in-process mock)."""
     parser.add_argument("--duration", type=float, default=duration, metavar="S",
                         help=duration_help)  # fmt: skip
+    parser.add_argument(
+        "--config", metavar="FILE",
+        help="rehearse your own mission: its [mission] (sensor radius, altitude band, "
+        "end...) and [aircraft] (airspeed, turn radius, altitude) fly the plan, and the "
+        "mock's aircraft are built to match (its [[uav]] and [convoy] are not used)",
+    )  # fmt: skip
     parser.add_argument("--speedup", type=float, default=40.0, metavar="X",
                         help="sim seconds per wall second (default 40)")  # fmt: skip
     parser.add_argument(
@@ -426,7 +439,14 @@ def _check_mock_flight_options(args: argparse.Namespace) -> None:
 
 async def _cmd_demo(args: argparse.Namespace) -> int:
     _check_mock_flight_options(args)
-    return await _fly_mock(args, SCENARIOS[args.scenario], args.duration)
+    return await _fly_mock(args, _rehearsed(args, SCENARIOS[args.scenario]), args.duration)
+
+
+def _rehearsed(args: argparse.Namespace, scenario: Scenario) -> Scenario:
+    """The scenario with the aircraft of ``--config``, if given."""
+    if args.config is None:
+        return scenario
+    return rehearsal(scenario, load_config(args.config))
 
 
 async def _cmd_replay(args: argparse.Namespace) -> int:
@@ -440,7 +460,7 @@ async def _cmd_replay(args: argparse.Namespace) -> int:
         raise ConvoyError(f"{args.track}: cannot read the track: {e.strerror or e}") from e
     except ValueError as e:  # the message names the file and the line
         raise ConvoyError(str(e)) from e
-    scenario = replay_scenario(track)
+    scenario = replay_scenario(track, _rehearsed(args, SCENARIOS["stationary"]))
     duration = track.duration if args.duration is None else args.duration
     if duration <= 0.0:
         raise ConfigError(
@@ -461,6 +481,7 @@ async def _fly_mock(args: argparse.Namespace, scenario: Scenario, duration: floa
     stop = asyncio.Event()
     _stop_on_signals(stop)
     services: list[ConvoyService] = []
+    mission = None if args.config is None else load_config(args.config)
     result = await run_demo(
         scenario,
         duration=duration,
@@ -472,6 +493,7 @@ async def _fly_mock(args: argparse.Namespace, scenario: Scenario, duration: floa
         on_progress=None if args.quiet else _print_progress,
         stop=stop,
         history=services,
+        configure=None if mission is None else lambda cfg: rehearsed_config(cfg, mission),
     )
     report = result.to_dict()
     _summary(report)

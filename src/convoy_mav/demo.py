@@ -42,7 +42,16 @@ from convoy_mav.tracks.geotrack import SPEED_WINDOW_S
 from sitl_mock import MockFleet
 from sitl_mock.config import config_from_mapping
 
-__all__ = ["SCENARIOS", "DemoResult", "Scenario", "replay_scenario", "run_demo", "score_fleet"]
+__all__ = [
+    "SCENARIOS",
+    "DemoResult",
+    "Scenario",
+    "rehearsal",
+    "rehearsed_config",
+    "replay_scenario",
+    "run_demo",
+    "score_fleet",
+]
 
 ScenarioName = Literal["stationary", "moving", "turning", "replay"]
 
@@ -99,6 +108,37 @@ class Scenario:
             "points": [[0.0, 0.0], list(corner), list(end)],
             "speed": self.convoy_speed_mps,
         }
+
+
+def rehearsal(scenario: Scenario, mission: MissionConfig) -> Scenario:
+    """``scenario`` flown by the aircraft and sensor of a user's own mission config.
+
+    The plan's aircraft (``[aircraft]``, the slowest airspeed and largest turn radius
+    of its ``[[uav]]``), its sensor radius and altitude replace the demo's; the mock's
+    airframes follow from them (``mock_mapping``). The mission's other keys are
+    applied by :func:`rehearsed_config`.
+    """
+    craft = mission.plan_aircraft
+    return replace(
+        scenario,
+        sensor_radius_m=mission.sensor_radius_m,
+        turn_radius_m=craft.turn_radius_m,
+        airspeed_mps=craft.airspeed_mps,
+        altitude_m=craft.altitude_m,
+    )
+
+
+def rehearsed_config(cfg: MissionConfig, mission: MissionConfig) -> MissionConfig:
+    """The mock mission ``cfg`` with the ``[mission]`` settings of the user's config."""
+    return replace(
+        cfg,
+        setpoint_rate_hz=mission.setpoint_rate_hz,
+        altitude_step_m=mission.altitude_step_m,
+        altitude_band_m=mission.altitude_band_m,
+        setup_timeout_s=mission.setup_timeout_s,
+        lost_after_s=mission.lost_after_s,
+        end=mission.end,
+    )
 
 
 SCENARIOS: dict[str, Scenario] = {

@@ -171,3 +171,23 @@ def test_new_mission_keys_are_validated() -> None:
         parse_config({"mission": {"sensor_radius_m": 100.0, "end": "home"}})
     with pytest.raises(ConfigError, match="altitude_band_m"):
         parse_config({"mission": {"sensor_radius_m": 100.0, "altitude_band_m": -1.0}})
+
+
+def test_a_mission_config_rehearses_its_own_aircraft() -> None:
+    """demo/replay --config: the plan and the mock's airframes come from the config."""
+    from dataclasses import replace
+
+    from convoy_mav.demo import SCENARIOS, mock_mapping, rehearsal, rehearsed_config
+
+    root = Path(__file__).resolve().parents[2] / "configs"
+    mission = load_config(root / "rehearse_fast_planes.toml")
+    scenario = rehearsal(SCENARIOS["moving"], mission)
+    assert (scenario.airspeed_mps, scenario.turn_radius_m) == (28.0, 200.0)
+    assert (scenario.sensor_radius_m, scenario.altitude_m) == (120.0, 120.0)
+    assert scenario.convoy_speed_mps == SCENARIOS["moving"].convoy_speed_mps  # the road's
+    mock = mock_mapping(scenario, 3, speedup=20.0, duration=60.0)
+    assert mock["aircraft"]["airspeed"] == 28.0
+    assert mock["aircraft"]["turn_radius"] == pytest.approx(200.0 * scenario.turn_margin)
+    base = parse_config({"mission": {"sensor_radius_m": 50.0}})
+    cfg = rehearsed_config(replace(base, end="rtl"), replace(mission, end="land"))
+    assert (cfg.end, cfg.altitude_band_m, cfg.sensor_radius_m) == ("land", 15.0, 50.0)
