@@ -532,7 +532,8 @@ class ConvoyService:
             began, ended = self._silence
             if ended is None:
                 self._silence = (began, t)
-                self._note(f"heard again after a fleet-wide silence of {t - began:.1f} s")
+                # (mission time: about 0 when the clocks stood still, a paused host)
+                self._note(f"heard again after {max(t - began, 0.0):.1f} s of fleet silence")
             elif t - ended >= self.config.lost_after_s:
                 self._silence = None
             if self._silence is not None:
@@ -599,14 +600,15 @@ class ConvoyService:
         counted: dict[int, Telemetry] = {}
         for sysid, v in self.vehicles.items():
             tel = v.telemetry
+            flying = v.status is VehicleStatus.FLYING
             why = why_not_counted(
                 status=str(v.status),
-                airborne=v.airborne,
+                airborne=flying and v.airborne,  # (asked only of those it can matter for)
                 altitude_error=None if tel is None else -tel.down - self._altitudes[sysid],
                 band=self.config.altitude_band_m,
                 phase=view.phase(sysid, t),
             )
-            news = why != self.why_not_counted.get(sysid, "") and v.status is VehicleStatus.FLYING
+            news = flying and why != self.why_not_counted.get(sysid, "")
             if news and why not in ("joining", "not assigned"):  # (phases are noted apart)
                 self._note(f"uav{sysid}: " + ("counts for coverage" if why is None else why))
             self.why_not_counted[sysid] = why
