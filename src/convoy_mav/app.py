@@ -601,9 +601,10 @@ class ConvoyService:
         for sysid, v in self.vehicles.items():
             tel = v.telemetry
             flying = v.status is VehicleStatus.FLYING
+            heard = v.status not in (VehicleStatus.LOST, VehicleStatus.CONNECTING)
             why = why_not_counted(
                 status=str(v.status),
-                airborne=flying and v.airborne,  # (asked only of those it can matter for)
+                airborne=heard and v.airborne,  # (asked only of those it can matter for)
                 altitude_error=None if tel is None else -tel.down - self._altitudes[sysid],
                 band=self.config.altitude_band_m,
                 phase=view.phase(sysid, t),

@@ -10,7 +10,7 @@ Design rules:
   sampled as their telemetry trickles in, not all at once on the tick.
 - Coverage is counted from the protect phase on (joining UAVs are not yet
   expected to cover); before that only the live "covered now?" is reported.
-- Only a UAV that can see counts: flying the mission, airborne by its autopilot's
+- Only a UAV that can see counts: heard (not lost), airborne by its autopilot's
   word, within its altitude band and on its protecting slot. ``why_not_counted``
   is the one rule, and its answer is what the report and MQTT show.
 - Alarms are edge-triggered values: raised once when a condition starts, and
@@ -43,6 +43,9 @@ def why_not_counted(
 ) -> str | None:
     """Why a UAV does not count towards coverage now; None if it does.
 
+    A UAV being set up again (after a link outage or a setpoint failsafe) or holding
+    still counts while it is airborne in its band on its slot: it sees what it sees.
+
     Args:
         status: Its driver's status (``flying``, ``lost``, ``holding``...).
         airborne: The autopilot says it is flying (``Vehicle.airborne``).
@@ -51,14 +54,14 @@ def why_not_counted(
         phase: Its mission phase (``protect``, ``join``, ``pending``, ``lost``).
 
     Returns:
-        ``"lost"``, its status (``"setting up"``, ``"holding"``...), ``"on ground"``,
+        ``"lost"``, ``"connecting"`` or ``"failed"``, ``"on ground"``,
         ``"climbing"`` (below its band), ``"above its altitude band"``, ``"joining"``
         or ``"not assigned"``; None when it counts.
     """
     if status == "lost" or phase == "lost":
         return "lost"
-    if status != "flying":
-        return status.replace("_", " ")
+    if status in ("connecting", "failed"):  # (never set up, or gave up: nothing to trust)
+        return status
     if not airborne:
         return "on ground"
     if altitude_error is None or not math.isfinite(altitude_error):

@@ -107,8 +107,12 @@ def test_tracking_error_is_scored_per_update_from_protect_on() -> None:
         ("flying", True, None, "protect", "no position"),
         ("lost", True, 0.0, "protect", "lost"),
         ("flying", True, 0.0, "lost", "lost"),
-        ("setting_up", True, 0.0, "protect", "setting up"),
-        ("holding", True, 0.0, "protect", "holding"),
+        # set up again after a failsafe, or holding: airborne on its slot, it still sees
+        ("setting_up", True, 0.0, "protect", None),
+        ("holding", True, 0.0, "protect", None),
+        ("setting_up", False, 0.0, "protect", "on ground"),
+        ("connecting", True, 0.0, "protect", "connecting"),
+        ("failed", False, 0.0, "protect", "failed"),
     ],
 )
 def test_only_a_uav_that_can_see_counts(

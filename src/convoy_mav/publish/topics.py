@@ -59,7 +59,7 @@ topic: while the broker is away, older values are dropped, not queued.
 | `telemetry_t` | number/null | mission time of the telemetry sample (its age: `t - telemetry_t`) |
 | `tracking_error_m` | number/null | horizontal distance to the planned position, m |
 | `statustext` | string/null | the autopilot's latest STATUSTEXT |
-| `counted` | bool | it counts for coverage now (flying, airborne, in its band, on slot) |
+| `counted` | bool | it counts for coverage now (heard, airborne, in its band, on slot) |
 | `why_not_counted` | string/null | why not (``monitor.why_not_counted``): `on ground`... |
 
 `<prefix>/coverage`
