@@ -35,6 +35,7 @@ from pymavlink.dialects.v20 import common as mavlink
 from convoy_mav.clock import MissionClock
 from convoy_mav.config import MissionConfig
 from convoy_mav.convoy import ConvoyTracker
+from convoy_mav.errors import ConfigError
 from convoy_mav.gcpolicy import collect_on_schedule, flight_gc
 from convoy_mav.geo import GeoPoint, LocalFrame
 from convoy_mav.history import History
@@ -48,13 +49,17 @@ from convoy_mav.mission import (
     Replanned,
     ReplanThresholds,
 )
+from convoy_mav.mission.choose import choose_planner
+from convoy_mav.mission.road import RoadMission
 from convoy_mav.monitor import Alarm, Monitor, MonitorSnapshot, why_not_counted
 from convoy_mav.planning.export import compass_to_planner
+from convoy_mav.planning.road import Road
 from convoy_mav.publish import topics
 from convoy_mav.publish.mqtt import MqttPublisher
 from convoy_mav.recording import TlogRecorder
 from convoy_mav.schedule import POSITION_AT_HORIZON_S, position_at
 from convoy_mav.streaming import SetpointStreamer
+from convoy_mav.tracks import load_track
 from convoy_mav.types import ConvoyEstimate, Setpoint, Telemetry, VehicleStatus
 from convoy_mav.vehicle import EventKind, Vehicle, VehicleEvent
 
@@ -177,6 +182,8 @@ class ConvoyService:
         thresholds: Replan thresholds (defaults: ``ReplanThresholds()``).
         publisher: Something with ``publish(subtopic, payload)`` (the MQTT adapter),
             or None.
+        route: The convoy's route (mission frame as planner x east, y north), for
+            the road planner; default: the config's ``convoy.route`` file, if any.
     """
 
     def __init__(
@@ -191,6 +198,7 @@ class ConvoyService:
         control_rate_hz: float = 10.0,
         progress_every: float = 10.0,
         history_interval: float = 0.5,
+        route: Road | None = None,
     ) -> None:
         self.config = config
         self.frame = LocalFrame(config.origin)
@@ -215,12 +223,19 @@ class ConvoyService:
             uav.sysid: uav.aircraft.altitude_m + i * config.altitude_step_m
             for i, uav in enumerate(config.uav_list)
         }
-        self.mission = Mission(
-            config.plan_request(),
-            [u.sysid for u in config.uav_list],
-            down=self._down,
-            thresholds=thresholds,
+        request = config.plan_request()
+        uav_ids = [u.sysid for u in config.uav_list]
+        self.planner, why = choose_planner(
+            config.planner, len(uav_ids), request.turn_radius, request.sensor_radius
         )
+        self.mission: Mission | RoadMission
+        if self.planner == "road":
+            if route is None and config.convoy.route_file is not None:
+                route = self._load_route(config)
+            self.mission = RoadMission(request, uav_ids, down=self._down, route=route)
+        else:
+            self.mission = Mission(request, uav_ids, down=self._down, thresholds=thresholds)
+        self._planner_note = f"planner: {self.planner} ({why})"
         # What the streamer and the monitor read: swapped after each mission step.
         self.view = MissionView()
         self.replans: list[dict[str, Any]] = []
@@ -235,6 +250,17 @@ class ConvoyService:
         self._not_counted_s: dict[int, dict[str, float]] = {}  # protect-phase seconds per reason
         self._counted_t: float | None = None
         self._silence: tuple[float, float | None] | None = None  # fleet-wide: (began, ended)
+
+    @staticmethod
+    def _load_route(config: MissionConfig) -> Road:
+        """The convoy's route file as a road in the mission frame."""
+        path = config.convoy.route_file
+        assert path is not None
+        try:
+            norths, easts = load_track(path).in_frame(LocalFrame(config.origin))
+            return Road.from_points(easts, norths)
+        except (OSError, ValueError) as exc:
+            raise ConfigError("convoy.route", path, f"cannot be used as a route ({exc})") from exc
 
     # ------------------------------------------------------------------ inputs
 
@@ -328,6 +354,7 @@ class ConvoyService:
         """Fly the mission until ``stop`` is set or ``duration`` mission seconds pass."""
         stop = stop or asyncio.Event()
         cfg = self.config
+        self._note(self._planner_note)
         # Mission work runs in a worker thread; a short GIL switch interval lets the
         # flight loop (setpoints, telemetry) in every millisecond meanwhile.
         switch = sys.getswitchinterval()

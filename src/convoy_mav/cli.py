@@ -22,7 +22,13 @@ from typing import Any, NoReturn, TypeVar
 
 from convoy_mav import __version__, eventloop
 from convoy_mav.app import ConvoyService, Progress
-from convoy_mav.config import AircraftConfig, ConvoyConfig, MissionConfig, load_config
+from convoy_mav.config import (
+    DEFAULT_ORIGIN,
+    AircraftConfig,
+    ConvoyConfig,
+    MissionConfig,
+    load_config,
+)
 from convoy_mav.demo import (
     SCENARIOS,
     Scenario,
@@ -37,6 +43,8 @@ from convoy_mav.planning import Pose, make_plan, optimal_path_from_entry
 from convoy_mav.planning.export import entry_to_dict, plan_to_dict
 from convoy_mav.plot import plot_mission
 from convoy_mav.tracks import FORMATS, load_track
+from convoy_mav.tracks.roads import KINDS as ROAD_KINDS
+from convoy_mav.tracks.roads import road_kind
 
 __all__ = ["main"]
 
@@ -118,10 +126,20 @@ def _build_parser() -> argparse.ArgumentParser:
         help="fly the mock with the convoy replaying a recorded track",
         description="Start sitl_mock with the convoy's ground vehicles driving a recorded "
         "track (CSV time,lat,lon; GPX; or the ground vehicles of a .tlog) and the aircraft "
-        "it needs (the paper's minimum at the track's planning speed), fly the mission, "
+        "it needs (the road's count: the stationary minimum + 1), fly the mission, "
         "score it from the mock's ground truth.",
     )
-    replay.add_argument("track", metavar="TRACK", help="the track: .csv, .gpx or .tlog")
+    replay.add_argument("track", metavar="TRACK", nargs="?", help="the track: .csv, .gpx or .tlog")
+    replay.add_argument(
+        "--road", choices=sorted(ROAD_KINDS), metavar="KIND",
+        help="instead of TRACK, drive a generated road: " + ", ".join(sorted(ROAD_KINDS)),
+    )  # fmt: skip
+    replay.add_argument(
+        "--route-known",
+        action="store_true",
+        help="give the service the track's path (not its timing) as the convoy's route; "
+        "without it the service sees only the ground vehicles' telemetry",
+    )
     replay.add_argument(
         "--format", choices=FORMATS, help="the track's format (default: from the extension)"
     )
@@ -454,12 +472,18 @@ async def _cmd_replay(args: argparse.Namespace) -> int:
     for sysid in args.sysid or ():
         if not 1 <= sysid <= 255:
             raise ConfigError("--sysid", sysid, "must be a MAVLink system id in 1..255")
-    try:
-        track = load_track(args.track, args.format, sysids=args.sysid or ())
-    except OSError as e:
-        raise ConvoyError(f"{args.track}: cannot read the track: {e.strerror or e}") from e
-    except ValueError as e:  # the message names the file and the line
-        raise ConvoyError(str(e)) from e
+    if (args.track is None) == (args.road is None):
+        raise ConfigError("TRACK", args.track, "give a track file or --road KIND (one of them)")
+    if args.road is not None:
+        track = road_kind(args.road).geotrack(DEFAULT_ORIGIN)
+        args.track = f"road:{args.road}"
+    else:
+        try:
+            track = load_track(args.track, args.format, sysids=args.sysid or ())
+        except OSError as e:
+            raise ConvoyError(f"{args.track}: cannot read the track: {e.strerror or e}") from e
+        except ValueError as e:  # the message names the file and the line
+            raise ConvoyError(str(e)) from e
     scenario = replay_scenario(track, _rehearsed(args, SCENARIOS["stationary"]))
     duration = track.duration if args.duration is None else args.duration
     if duration <= 0.0:
@@ -467,10 +491,11 @@ async def _cmd_replay(args: argparse.Namespace) -> int:
             "--duration", args.duration, f"{args.track} spans 0 s: give the seconds to fly"
         )
     if not args.quiet:
-        uavs = args.uavs or make_plan(scenario.plan_request()).min_uavs
+        uavs = args.uavs or scenario.fleet()
+        known = ", route known" if args.route_known else ""
         print(
             f"replaying {args.track}: {len(track.times)} fixes over {track.duration:.1f} s, "
-            f"planning speed {scenario.convoy_speed_mps:.1f} m/s, {uavs} UAVs",
+            f"{uavs} UAVs{known}",
             flush=True,
         )
     return await _fly_mock(args, scenario, duration)
@@ -494,6 +519,7 @@ async def _fly_mock(args: argparse.Namespace, scenario: Scenario, duration: floa
         stop=stop,
         history=services,
         configure=None if mission is None else lambda cfg: rehearsed_config(cfg, mission),
+        route_known=getattr(args, "route_known", False),
     )
     report = result.to_dict()
     _summary(report)

@@ -20,6 +20,10 @@ seconds)::
     altitude_band_m = 15.0        # a UAV counts for coverage only within this of its altitude
     end = "loiter"                # at the end: "loiter" where it is, "rtl" home, "land" there
                                   #   (an ArduPlane cannot land by command: it returns home)
+    planner = "auto"              # "road": the paper's pattern laid along the road, flyable
+                                  #   legs; "paper": the paper's plans, re-planned on changes;
+                                  #   "auto": road when the fleet has the road's count
+                                  #   (the stationary minimum + 1), else paper
 
     [aircraft]                    # defaults for every [[uav]]
     airspeed_mps = 18.0
@@ -37,6 +41,9 @@ seconds)::
     heading_deg = 0.0             # route: compass course
     start = { north = 0.0, east = 0.0 }   # route: start point in the mission frame
     stale_after_s = 3.0           # no fresh convoy fix this long: hold + alarm
+    route = "route.gpx"           # optional: the road the convoy will drive (GPX trk/rte or
+                                  #   CSV lat,lon[,time]; relative to this file); the road
+                                  #   planner predicts along it (the convoy may still leave it)
     [[convoy.vehicle]]            # source = "mavlink": the ground vehicles' autopilots
     connection = "udpout:127.0.0.1:14544"
     sysid = 5
@@ -55,7 +62,7 @@ from __future__ import annotations
 import math
 import tomllib
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Literal, cast, get_args
 
@@ -124,6 +131,7 @@ class ConvoyVehicleConfig:
 
 ConvoySource = Literal["route", "mavlink", "mqtt"]
 EndAction = Literal["loiter", "rtl", "land"]
+Planner = Literal["auto", "road", "paper"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -137,6 +145,7 @@ class ConvoyConfig:
     start_east_m: float = 0.0
     stale_after_s: float = 3.0
     vehicles: tuple[ConvoyVehicleConfig, ...] = ()
+    route_file: str | None = None  # the road it will drive (GPX/CSV), if known
 
 
 @dataclass(frozen=True, slots=True)
@@ -164,6 +173,7 @@ class MissionConfig:
     lost_after_s: float = 3.0
     altitude_band_m: float = 15.0
     end: EndAction = "loiter"
+    planner: Planner = "auto"
     mqtt: MqttConfig | None = None
     tlog: str | None = None
 
@@ -316,8 +326,11 @@ def _convoy(data: Mapping[str, Any]) -> ConvoyConfig:
     table = _table(
         data,
         "convoy",
-        {"source", "speed_mps", "heading_deg", "start", "stale_after_s", "vehicle"},
+        {"source", "speed_mps", "heading_deg", "start", "stale_after_s", "vehicle", "route"},
     )
+    route = table.get("route")
+    if route is not None and (not isinstance(route, str) or not route):
+        raise ConfigError("convoy.route", route, "must be the path of a GPX or CSV route file")
     source = table.get("source", "route")
     if source not in ("route", "mavlink", "mqtt"):
         raise ConfigError("convoy.source", source, "must be 'route', 'mavlink' or 'mqtt'")
@@ -344,6 +357,7 @@ def _convoy(data: Mapping[str, Any]) -> ConvoyConfig:
         start_east_m=_number(start, "convoy.start", "east", 0.0),
         stale_after_s=_number(table, "convoy", "stale_after_s", 3.0, positive=True),
         vehicles=tuple(vehicles),
+        route_file=route,
     )
 
 
@@ -369,6 +383,14 @@ def _end_action(mission: Mapping[str, Any]) -> EndAction:
     raise ConfigError("mission.end", end, "must be 'loiter', 'rtl' or 'land'")
 
 
+def _planner(mission: Mapping[str, Any]) -> Planner:
+    planner = mission.get("planner", "auto")
+    for name in get_args(Planner):
+        if planner == name:
+            return cast(Planner, name)
+    raise ConfigError("mission.planner", planner, "must be 'auto', 'road' or 'paper'")
+
+
 def parse_config(data: Mapping[str, Any]) -> MissionConfig:
     """Validate a decoded TOML document into a ``MissionConfig``.
 
@@ -384,7 +406,7 @@ def parse_config(data: Mapping[str, Any]) -> MissionConfig:
         "mission",
         {
             "sensor_radius_m", "uavs", "origin", "setpoint_rate_hz", "altitude_step_m",
-            "setup_timeout_s", "lost_after_s", "altitude_band_m", "end",
+            "setup_timeout_s", "lost_after_s", "altitude_band_m", "end", "planner",
         },
     )  # fmt: skip
     aircraft = _aircraft(
@@ -412,6 +434,7 @@ def parse_config(data: Mapping[str, Any]) -> MissionConfig:
         lost_after_s=_number(mission, "mission", "lost_after_s", 3.0, positive=True),
         altitude_band_m=_number(mission, "mission", "altitude_band_m", 15.0, positive=True),
         end=_end_action(mission),
+        planner=_planner(mission),
         mqtt=_mqtt(data),
         tlog=tlog,
     )
@@ -442,4 +465,8 @@ def load_config(path: str | Path) -> MissionConfig:
         raise ConfigError("config", str(path), f"cannot be read ({exc.strerror})") from exc
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError("config", str(path), f"is not valid TOML ({exc})") from exc
-    return parse_config(data)
+    cfg = parse_config(data)
+    route = cfg.convoy.route_file
+    if route is not None and not Path(route).is_absolute():  # relative to the config file
+        cfg = replace(cfg, convoy=replace(cfg.convoy, route_file=str(Path(path).parent / route)))
+    return cfg

@@ -34,8 +34,11 @@ from convoy_mav.config import (
 )
 from convoy_mav.coverage import CoverageStats
 from convoy_mav.errors import PlanningError
+from convoy_mav.geo import GeoPoint, LocalFrame
+from convoy_mav.mission.choose import road_fleet
 from convoy_mav.planning import PlanRequest, make_plan
 from convoy_mav.planning.export import compass_to_planner
+from convoy_mav.planning.road import Road
 from convoy_mav.scoring import TruthFix, score_truth
 from convoy_mav.tracks import GeoTrack, track_speeds
 from convoy_mav.tracks.geotrack import SPEED_WINDOW_S
@@ -71,6 +74,21 @@ class Scenario:
     altitude_m: float = 100.0
     turn_margin: float = 0.85  # mock airframe min turn radius / planned radius
     track: GeoTrack | None = None  # replay: the convoy's recorded route, t = 0 at its start
+
+    def fleet(self) -> int:
+        """Aircraft a scenario flies by default: the paper's minimum for a parked or
+        straight-line convoy, the road's count (``road_fleet``) for a road."""
+        if self.name in ("stationary", "moving"):
+            return make_plan(self.plan_request()).min_uavs
+        return road_fleet(self.turn_radius_m, self.sensor_radius_m)
+
+    def route(self) -> Road | None:
+        """The replayed track's path (not its timing) in the mission frame, if replaying."""
+        if self.track is None:
+            return None
+        origin = GeoPoint(self.track.lats[0], self.track.lons[0])
+        norths, easts = self.track.in_frame(LocalFrame(origin))
+        return Road.from_points(easts, norths)
 
     def plan_request(self, uavs: int | None = None) -> PlanRequest:
         """The planner's view (the convoy at its cruise speed)."""
@@ -280,6 +298,7 @@ async def run_demo(
     stop: asyncio.Event | None = None,
     history: list[ConvoyService] | None = None,
     during: Callable[[MockFleet, ConvoyService], Coroutine[Any, Any, None]] | None = None,
+    route_known: bool = False,
 ) -> DemoResult:
     """Start the mock, fly ``duration`` mission seconds, score from ground truth.
 
@@ -298,8 +317,10 @@ async def run_demo(
         history: If given, the service is appended to it (for plots after the run).
         during: A fault script run beside the service (pauses, kills, restarts);
             cancelled when the flight ends.
+        route_known: Replay: the service is given the track's path (not its
+            timing) as the convoy's route.
     """
-    count = uavs or make_plan(scenario.plan_request()).min_uavs
+    count = uavs or scenario.fleet()
     faults = {"kill": [f"{kill[0]}@{kill[1]}"]} if kill else None
     mock = config_from_mapping(
         mock_mapping(
@@ -318,7 +339,8 @@ async def run_demo(
             cfg = replace(cfg, uav_count=uavs)
         if configure is not None:
             cfg = configure(cfg)
-        service = ConvoyService(cfg, rate_hint=speedup, on_progress=on_progress)
+        route = scenario.route() if route_known else None
+        service = ConvoyService(cfg, rate_hint=speedup, on_progress=on_progress, route=route)
         if history is not None:
             history.append(service)
         script = None if during is None else asyncio.create_task(during(fleet, service))

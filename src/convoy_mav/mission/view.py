@@ -12,14 +12,40 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from typing import Protocol
 
 from convoy_mav.mission.events import Phase, phase_at
-from convoy_mav.mission.mission import Mission
 from convoy_mav.planning.plan import Trajectory
 from convoy_mav.schedule import setpoint_on
 from convoy_mav.types import Setpoint
 
-__all__ = ["MissionView", "SlotView"]
+__all__ = ["MissionLike", "MissionView", "SlotView"]
+
+
+class _Motion(Protocol):
+    @property
+    def speed(self) -> float: ...
+
+
+class MissionLike(Protocol):
+    """What a snapshot reads of a mission (``Mission`` and ``RoadMission`` both have it)."""
+
+    @property
+    def live_uavs(self) -> tuple[int, ...]: ...
+    @property
+    def lost_uavs(self) -> tuple[int, ...]: ...
+    @property
+    def plan_origin(self) -> tuple[float, float]: ...
+    @property
+    def plan_t0(self) -> float: ...
+    @property
+    def predicted_coverage(self) -> float | None: ...
+    @property
+    def protect_start(self) -> float | None: ...
+    @property
+    def motion(self) -> _Motion | None: ...
+    def trajectory(self, uav: int) -> Trajectory | None: ...
+    def arrival(self, uav: int) -> float | None: ...
 
 
 @dataclass(frozen=True, slots=True)
@@ -44,7 +70,7 @@ class MissionView:
     convoy_speed: float | None = None  # what the plan in force assumes, m/s
 
     @classmethod
-    def of(cls, mission: Mission, down: Callable[[int], float]) -> MissionView:
+    def of(cls, mission: MissionLike, down: Callable[[int], float]) -> MissionView:
         """Snapshot a ``Mission`` (call from the thread that owns it)."""
         slots = {}
         for uav in mission.live_uavs:

@@ -1,0 +1,130 @@
+"""Where the convoy will be: a known route driven at the estimated speed, or its track extended.
+
+Design rules:
+- Planner frame (x east, y north); mission time.
+- With a route (``convoy_mav.planning.road.Road``) the convoy's arc length is
+  its estimated position projected on the route (searched near the last
+  one, so a route that doubles back is not confused), and it is predicted
+  to drive on along the route at its speed along it. A convoy farther than
+  ``off_route_m`` from the route for ``off_route_s`` has left it: it is
+  then predicted like a convoy with no route until it is back on it.
+- With no route the convoy is predicted to go on at its estimated velocity
+  (the tracker's least-squares slope, never a raw difference of fixes).
+- Pure: estimates carry their time.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from convoy_mav.planning.road import Road
+from convoy_mav.types import ConvoyEstimate
+
+__all__ = ["ConvoyModel", "RoadMotion"]
+
+FloatArray = npt.NDArray[np.float64]
+
+
+@dataclass(frozen=True, slots=True)
+class RoadMotion:
+    """What the model says of the convoy now (for reports and the mission view)."""
+
+    t: float
+    speed: float  # m/s along its predicted path
+    on_route: bool | None  # None: no route was given
+
+
+class ConvoyModel:
+    """The convoy's predicted path from its estimates and, if known, its route.
+
+    Args:
+        route: The route the convoy is expected to drive, or None.
+        off_route_m: Farther than this from the route, the convoy may have left it.
+        off_route_s: ... for this long, and it has.
+    """
+
+    def __init__(
+        self, route: Road | None = None, *, off_route_m: float = 60.0, off_route_s: float = 5.0
+    ) -> None:
+        self.route = route
+        self.off_route_m = off_route_m
+        self.off_route_s = off_route_s
+        self._est: ConvoyEstimate | None = None
+        self._s = 0.0  # arc length on the route
+        self._along = 0.0  # speed along the route
+        self._off_since: float | None = None
+        self.left_route = False
+        self.counters = {"left_route": 0, "back_on_route": 0}
+
+    @property
+    def estimate(self) -> ConvoyEstimate | None:
+        """The latest estimate folded in."""
+        return self._est
+
+    @property
+    def motion(self) -> RoadMotion | None:
+        """Speed and route status now, None before the first estimate."""
+        est = self._est
+        if est is None:
+            return None
+        if self.route is None:
+            return RoadMotion(est.t, est.speed, None)
+        speed = est.speed if self.left_route else self._along
+        return RoadMotion(est.t, speed, not self.left_route)
+
+    def observe(self, est: ConvoyEstimate) -> None:
+        """Fold in a fresh estimate (stale ones say nothing new: skip them)."""
+        if est.stale or not all(map(math.isfinite, (est.north, est.east, est.vn, est.ve))):
+            return
+        first = self._est is None
+        self._est = est
+        route = self.route
+        if route is None:
+            return
+        x, y = est.east, est.north
+        self._s = route.project(x, y, None if first else self._s)
+        p = route.point(self._s)
+        off = math.hypot(p.x - x, p.y - y)
+        self._along = max(0.0, est.ve * math.cos(p.heading) + est.vn * math.sin(p.heading))
+        if off > self.off_route_m:
+            if self._off_since is None:
+                self._off_since = est.t
+            if not self.left_route and est.t - self._off_since >= self.off_route_s:
+                self.left_route = True
+                self.counters["left_route"] += 1
+        else:
+            self._off_since = None
+            if self.left_route:
+                self.left_route = False
+                self.counters["back_on_route"] += 1
+
+    def position(self, t: float) -> tuple[float, float]:
+        """Predicted (x, y) at time ``t`` (>= the latest estimate's time)."""
+        est = self._est
+        if est is None:
+            return 0.0, 0.0
+        dt = max(t - est.t, 0.0)
+        if self.route is None or self.left_route:
+            return est.east + est.ve * dt, est.north + est.vn * dt
+        p = self.route.point(self._s + self._along * dt)
+        return p.x, p.y
+
+    def positions(self, times: npt.NDArray[np.float64]) -> tuple[FloatArray, FloatArray]:
+        """:meth:`position` at every time of ``times`` (each >= the latest estimate's)."""
+        est = self._est
+        if est is None:
+            return np.zeros(len(times)), np.zeros(len(times))
+        dt = np.maximum(times - est.t, 0.0)
+        if self.route is None or self.left_route:
+            return est.east + est.ve * dt, est.north + est.vn * dt
+        x, y, _, _ = self.route.arrays(self._s + self._along * dt)
+        return x, y
+
+    def velocity(self) -> tuple[float, float]:
+        """Estimated velocity (vx, vy) now."""
+        est = self._est
+        return (0.0, 0.0) if est is None else (est.ve, est.vn)

@@ -1,0 +1,592 @@
+"""The road mission: the paper's pattern laid along whatever road the convoy drives.
+
+Design rules:
+- What each UAV should fly is the moving-convoy pattern of Section IV
+  (``planning.pattern``) around the convoy: ``c(t) + Rot(course) q(phase + i/N;
+  beta)``, with the course and ``beta`` from the convoy's velocity
+  low-passed over ``course_tau_s`` (``PatternClock``), so curves, stops and
+  speed changes reshape it gradually and a stop is the ``beta -> pi`` limit
+  of the same family: nothing ever forces a re-join.
+- What each UAV is commanded is flyable: meet-to-meet legs
+  (``planning.meets``) that follow the pattern from the UAV's pose to the
+  pattern at its next meetings, re-planned every ``replan_every_s`` from
+  the pose the last plan put it at now, so setpoints are continuous in
+  position and heading, curvature never exceeds 1/R and speed stays in the
+  band. The pattern's arcs are laid wider than R when the fleet has a UAV
+  to spare (``planning.pattern.pattern_radius``): turn left over to follow
+  the road with.
+- A joining UAV takes a free slot and flies legs from where it is; it is
+  ``protect`` from its first meeting on time. A UAV lost or back changes N:
+  the others' offsets are re-spread, and their legs re-planned.
+- ``predicted_coverage`` is the coverage the commanded paths give against
+  the convoy as estimated, over the protect phase so far: what the UAVs
+  will have delivered if they fly what they are sent.
+- The same driving surface as ``Mission`` (``on_convoy``, ``join_many``,
+  ``on_lost``, ``on_returned``, ``tick``, ``setpoint``), so the service
+  flies either. Pure and synchronous: every method takes the mission time.
+- Frames: the planner frame is the mission frame with x east, y north
+  (``plan_origin`` (0, 0), ``plan_t0`` 0).
+"""
+
+from __future__ import annotations
+
+import bisect
+import itertools
+import math
+from collections import deque
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from convoy_mav.errors import PlanningError
+from convoy_mav.mission.convoy_model import ConvoyModel, RoadMotion
+from convoy_mav.mission.events import MissionEvent, Phase, PhaseChanged, Replanned, phase_at
+from convoy_mav.planning.dubins import Pose, Segment, Turn
+from convoy_mav.planning.meets import Leg, LegLimits, Where, plan_leg
+from convoy_mav.planning.pattern import (
+    PatternClock,
+    beta_for_speed,
+    half_cycle_rate,
+    min_uavs_road,
+    pattern_radius,
+    relative_offsets,
+)
+from convoy_mav.planning.plan import PlanRequest, Trajectory
+from convoy_mav.planning.road import Road
+from convoy_mav.schedule import setpoint_on, yaw_to_heading
+from convoy_mav.types import ConvoyEstimate, Setpoint
+
+__all__ = ["RoadMission", "RoadSettings"]
+
+FloatArray = npt.NDArray[np.float64]
+
+_EXHAUSTIVE_LIMIT = 5040
+_FORECAST_STEP = 0.5  # s
+_SCORE_STEP = 0.5  # s: resolution of the planned-coverage score
+_REPLAN_BATCHES = 8  # a fleet's re-plans are spread over this many mission steps at least
+
+
+@dataclass(frozen=True, slots=True)
+class RoadSettings:
+    """How the road mission plans.
+
+    Attributes:
+        speed_band: (low, high) fractions of cruise the legs may fly (planes +-15 %).
+        replan_every_s: Mission seconds between two re-plans of every UAV's legs.
+        course_tau_s: Time constant of the convoy velocity the pattern is laid along.
+        legs_ahead: Meetings planned ahead at each re-plan (>= 2 keeps a
+            plan in force past the next re-plan).
+        min_lead_s: A meeting closer than this is not aimed at (the next one is).
+        pattern_cap: Widest pattern radius, as a multiple of R.
+        settle_s: Seconds of convoy fixes before the pattern is laid (the
+            tracker's velocity settles first).
+        heading_weight: Metres of a leg's mean offset from the pattern a radian
+            of heading missed at its meeting is worth (``LegLimits``).
+        on_pattern_m: A UAV protects from its first leg that arrives on time
+            within this mean distance of the pattern (0: half of r).
+    """
+
+    speed_band: tuple[float, float] = (0.85, 1.15)
+    replan_every_s: float = 4.0
+    course_tau_s: float = 20.0
+    legs_ahead: int = 2
+    min_lead_s: float = 3.0
+    pattern_cap: float = 1.3
+    settle_s: float = 4.0
+    heading_weight: float = 50.0
+    on_pattern_m: float = 0.0
+
+
+@dataclass(frozen=True, slots=True)
+class RoadPlanInfo:
+    """What is in force: the pattern radius, its count and the convoy motion."""
+
+    pattern_radius: float
+    uavs: int
+    min_uavs: int
+
+
+class _Forecast:
+    """The pattern's clock and the convoy's path over a horizon, on a grid (interpolated)."""
+
+    def __init__(
+        self,
+        clock: PatternClock,
+        model: ConvoyModel,
+        t: float,
+        horizon: float,
+        radius: float,
+        V: float,
+    ) -> None:
+        n = max(2, math.ceil(horizon / _FORECAST_STEP) + 1)
+        self.t: FloatArray = (t + _FORECAST_STEP * np.arange(n)).astype(np.float64)
+        self.cx, self.cy = model.positions(self.t)
+        vx = np.gradient(self.cx, _FORECAST_STEP)
+        vy = np.gradient(self.cy, _FORECAST_STEP)
+        c = clock.copy()
+        phase = np.empty(n)
+        course = np.empty(n)
+        beta = np.empty(n)
+        for k, tk in enumerate(self.t):
+            c.advance(float(tk), float(vx[k]), float(vy[k]), radius, V)
+            phase[k], course[k], beta[k] = c.state(V)
+        self.phase = phase
+        self.course = np.unwrap(course)
+        self.beta = beta
+        self.radius = radius
+
+    def pattern(self, offset: float) -> Where:
+        """Where the pattern puts the UAV of phase ``offset`` at given times (vectorised)."""
+
+        def where(times: FloatArray) -> tuple[FloatArray, FloatArray]:
+            t = self.t
+            cx = np.interp(times, t, self.cx)
+            cy = np.interp(times, t, self.cy)
+            ph = np.interp(times, t, self.phase) + offset
+            co = np.interp(times, t, self.course)
+            be = np.interp(times, t, self.beta)
+            qx, qy = relative_offsets(ph, be, self.radius)
+            c, s = np.cos(co), np.sin(co)
+            return cx + c * qx - s * qy, cy + s * qx + c * qy
+
+        return where
+
+    def meetings(self, offset: float, after: float) -> list[float]:
+        """Times after ``after`` at which ``phase + offset`` crosses a whole number."""
+        ph = self.phase + offset
+        out = []
+        for k in range(1, len(self.t)):
+            if math.floor(ph[k]) > math.floor(ph[k - 1]):
+                # Interpolate the crossing inside the step.
+                target = math.floor(ph[k])
+                f = (target - ph[k - 1]) / max(ph[k] - ph[k - 1], 1e-12)
+                tm = float(self.t[k - 1] + f * _FORECAST_STEP)
+                if tm > after:
+                    out.append(tm)
+        return out
+
+
+class RoadMission:
+    """Plans and phases of the UAVs protecting a convoy on a road.
+
+    Args:
+        request: Geometry and speeds (turn radius R, sensor radius r, UAV speed V).
+        uav_ids: The UAVs of the mission (MAVLink sysids).
+        down: Altitude setpoint (metres down) of each UAV, by id.
+        route: The route the convoy will drive, if known (planner frame).
+        settings: Planning settings.
+
+    Raises:
+        ValueError: If ``uav_ids`` is empty or has duplicates.
+    """
+
+    def __init__(
+        self,
+        request: PlanRequest,
+        uav_ids: Sequence[int],
+        *,
+        down: Callable[[int], float],
+        route: Road | None = None,
+        settings: RoadSettings | None = None,
+    ) -> None:
+        if not uav_ids or len(set(uav_ids)) != len(uav_ids):
+            raise ValueError(f"uav_ids must be non-empty and unique, got {list(uav_ids)!r}")
+        self.request = request
+        self.settings = settings or RoadSettings()
+        self.model = ConvoyModel(route)
+        self._down = down
+        self._live: list[int] = list(uav_ids)
+        self._lost: list[int] = []
+        self._slots: dict[int, int] = {}  # uav -> slot index in 0..N-1
+        self._trajectories: dict[int, Trajectory] = {}
+        self._starts: dict[int, Pose] = {}  # joined, not yet planned: pose at _start_t
+        self._arrival: dict[int, float] = {}
+        self._announced: set[int] = set()
+        self._protect_start: float | None = None
+        self._clock: PatternClock | None = None
+        self._planned_at: dict[int, float] = {}
+        self._first_fix: float | None = None
+        self._history: deque[tuple[float, float, float]] = deque(maxlen=4096)
+        self._scored_until: float | None = None
+        self._covered_s = 0.0
+        self._scored_s = 0.0
+        self.replans = 0
+        self.legs_late = 0
+        self.legs = 0
+        self.min_turn_radius = math.inf
+        self.speed_range = (math.inf, 0.0)
+
+    # ------------------------------------------------------------------ state
+
+    @property
+    def plan(self) -> RoadPlanInfo | None:
+        """What is in force, None before the convoy is located."""
+        if self._clock is None:
+            return None
+        return RoadPlanInfo(self.pattern_radius, len(self._live), self.min_uavs)
+
+    @property
+    def pattern_radius(self) -> float:
+        """Radius the pattern's arcs are laid with for the live fleet, metres."""
+        r = self.request
+        n = max(len(self._live), 1)
+        return pattern_radius(r.turn_radius, r.sensor_radius, n, self.settings.pattern_cap)
+
+    @property
+    def min_uavs(self) -> int:
+        """UAVs that cover this convoy wherever it may stop (``min_uavs_road``)."""
+        r = self.request
+        return min_uavs_road(r.turn_radius, r.sensor_radius, r.uav_speed)
+
+    @property
+    def motion(self) -> RoadMotion | None:
+        """The convoy's speed (and route status) as the model sees it."""
+        return self.model.motion
+
+    @property
+    def plan_origin(self) -> tuple[float, float]:
+        """Planner origin in the mission frame: the mission origin."""
+        return (0.0, 0.0)
+
+    @property
+    def plan_t0(self) -> float:
+        """Planner time is mission time."""
+        return 0.0
+
+    @property
+    def predicted_coverage(self) -> float | None:
+        """Coverage the commanded paths give against the convoy as estimated, so far."""
+        if self._scored_s <= 0.0:
+            return None
+        return self._covered_s / self._scored_s
+
+    @property
+    def live_uavs(self) -> tuple[int, ...]:
+        """UAVs still in the mission."""
+        return tuple(self._live)
+
+    @property
+    def lost_uavs(self) -> tuple[int, ...]:
+        """UAVs removed by ``on_lost``."""
+        return tuple(self._lost)
+
+    @property
+    def awaiting_join(self) -> tuple[int, ...]:
+        """Live UAVs with no slot yet."""
+        return tuple(u for u in self._live if u not in self._slots)
+
+    @property
+    def protect_start(self) -> float | None:
+        """First mission time at which every live UAV was protecting."""
+        return self._protect_start
+
+    def arrival(self, uav: int) -> float | None:
+        """Mission time of the UAV's first meeting on time (its protect phase), if planned."""
+        if uav not in self._slots:
+            return None
+        return self._arrival.get(uav, math.inf)
+
+    def trajectory(self, uav: int) -> Trajectory | None:
+        """The UAV's commanded path (planner frame = mission frame, mission time)."""
+        return self._trajectories.get(uav)
+
+    def phase(self, uav: int, t: float) -> Phase:
+        """Where ``uav`` is at mission time ``t``."""
+        return phase_at(uav in self._lost, self.arrival(uav), t)
+
+    def setpoint(self, uav: int, t: float) -> Setpoint | None:
+        """What ``uav`` should fly at mission time ``t``; None if it has no path."""
+        traj = self._trajectories.get(uav)
+        if traj is None:
+            return None
+        return setpoint_on(traj, t, plan_origin=(0.0, 0.0), plan_t0=0.0, down=self._down(uav))
+
+    def convoy_position(self, t: float) -> tuple[float, float] | None:
+        """Where the model expects the convoy (mission north, east) at ``t``."""
+        if self.model.estimate is None:
+            return None
+        x, y = self.model.position(t)
+        return y, x
+
+    # --------------------------------------------------------------- inputs
+
+    def tick(self, t: float) -> list[MissionEvent]:
+        """Report UAVs that reached their first meeting; note when protection began."""
+        events: list[MissionEvent] = []
+        due = sorted(
+            (a, u)
+            for u, a in self._arrival.items()
+            if u in self._slots and u not in self._announced and a <= t
+        )
+        for arrival, uav in due:
+            self._announced.add(uav)
+            events.append(PhaseChanged(uav, "protect", arrival))
+        if self._protect_start is None and self._live and not self.awaiting_join:
+            arrivals = [self._arrival.get(u, math.inf) for u in self._live]
+            if max(arrivals) <= t:
+                self._protect_start = max(arrivals)
+        return events
+
+    def on_convoy(self, est: ConvoyEstimate) -> list[MissionEvent]:
+        """Fold in a convoy estimate; re-plan every UAV's legs when due."""
+        events = self.tick(est.t)
+        if est.stale or not all(map(math.isfinite, (est.t, est.north, est.east, est.vn, est.ve))):
+            return events
+        self.model.observe(est)
+        self._history.append((est.t, est.east, est.north))
+        V = self.request.uav_speed
+        if self._clock is None:
+            if self._first_fix is None:
+                self._first_fix = est.t
+            if est.t - self._first_fix < self.settings.settle_s:
+                return events  # (the tracker's velocity is still settling)
+            self._clock = PatternClock(est.t, est.ve, est.vn, tau=self.settings.course_tau_s)
+            events.append(self._replanned(est.t, "initial"))
+            return events
+        self._clock.advance(est.t, est.ve, est.vn, self.pattern_radius, V)
+        # Each UAV is re-planned every replan_every_s, a few at a time (a plan is
+        # about 2 ms a UAV): the loop driving the mission never waits long.
+        every = self.settings.replan_every_s
+        due = sorted(
+            (self._planned_at.get(u, -math.inf), u)
+            for u in self._slots
+            if est.t - self._planned_at.get(u, -math.inf) >= every
+        )
+        if due:
+            batch = max(1, math.ceil(len(self._slots) / _REPLAN_BATCHES))
+            self._plan_paths(est.t, [u for _, u in due[:batch]])
+        return events + self.tick(est.t)
+
+    def join(self, uav: int, north: float, east: float, yaw: float, t: float) -> list[MissionEvent]:
+        """``join_many`` for one UAV."""
+        return self.join_many({uav: (north, east, yaw)}, t)
+
+    def join_many(
+        self, poses: Mapping[int, tuple[float, float, float]], t: float
+    ) -> list[MissionEvent]:
+        """Give UAVs free slots (the nearest jointly) and plan their legs from these poses.
+
+        Raises:
+            PlanningError: If the convoy has not been located yet.
+            ValueError: If a UAV is not live, or a pose is not finite.
+        """
+        for uav, pose in poses.items():
+            if uav not in self._live:
+                raise ValueError(f"UAV {uav} is not live in this mission")
+            if len(pose) != 3 or not all(map(math.isfinite, (*pose, t))):
+                raise ValueError(f"UAV {uav}: join pose must be 3 finite numbers, got {pose}")
+        if self._clock is None:
+            raise PlanningError("no plan yet: the convoy has not been located")
+        self._advance_clock(t)
+        for uav in poses:
+            self._slots.pop(uav, None)
+            self._trajectories.pop(uav, None)
+            self._arrival.pop(uav, None)
+            self._announced.discard(uav)
+        self._respread()
+        n = len(self._live)
+        taken = set(self._slots.values())
+        free = [i for i in range(n) if i not in taken]
+        starts = {u: Pose(e, nn, yaw_to_heading(y)) for u, (nn, e, y) in poses.items()}
+        order = list(starts)
+        forecast = self._forecast(t, 60.0)
+        ahead = t + 30.0
+        cost = {}
+        for i in free:
+            px, py = forecast.pattern(i / n)(np.array([ahead]))
+            for u in order:
+                cost[u, i] = math.hypot(starts[u].x - float(px[0]), starts[u].y - float(py[0]))
+        for uav, slot in zip(order, _assign(order, free, cost), strict=True):
+            self._slots[uav] = slot
+            self._starts[uav] = starts[uav]
+        self._plan_paths(t)
+        return [*(PhaseChanged(u, "join", t) for u in order), *self.tick(t)]
+
+    def on_lost(self, uav: int, t: float) -> list[MissionEvent]:
+        """Take ``uav`` out; the others re-spread over the slots left and re-plan."""
+        if uav not in self._live:
+            return []
+        self._live.remove(uav)
+        self._lost.append(uav)
+        for table in (self._slots, self._trajectories, self._arrival, self._starts):
+            table.pop(uav, None)
+        self._planned_at.pop(uav, None)
+        self._announced.discard(uav)
+        if self._clock is None:
+            return []
+        self._advance_clock(t)
+        self._respread()
+        self._plan_paths(t)
+        return [*self.tick(t), self._replanned(t, "uav_lost")]
+
+    def on_returned(self, uav: int, t: float) -> list[MissionEvent]:
+        """Take a lost ``uav`` back as pending (join it from its pose)."""
+        if uav not in self._lost:
+            return []
+        self._lost.remove(uav)
+        self._live.append(uav)
+        if self._clock is None:
+            return []
+        return [*self.tick(t), self._replanned(t, "uav_returned")]
+
+    # ------------------------------------------------------------- internals
+
+    def _replanned(self, t: float, reason: str) -> Replanned:
+        self.replans += 1
+        n = len(self._live)
+        predicted = self.predicted_coverage
+        return Replanned(
+            t, reason, 1.0 if predicted is None else predicted, n, self.min_uavs, "road"
+        )
+
+    def _advance_clock(self, t: float) -> None:
+        assert self._clock is not None
+        if t > self._clock.t:
+            vx, vy = self.model.velocity()
+            self._clock.advance(t, vx, vy, self.pattern_radius, self.request.uav_speed)
+
+    def _respread(self) -> None:
+        """Slots 0..N-1 for the slotted UAVs, in their present order (N = live UAVs)."""
+        ranked = sorted(self._slots, key=self._slots.__getitem__)
+        n = len(self._live)
+        step = n / max(len(ranked), 1)  # (pending UAVs keep gaps to join into)
+        self._slots = {u: min(round(k * step), n - 1) for k, u in enumerate(ranked)}
+
+    def _forecast(self, t: float, horizon: float) -> _Forecast:
+        assert self._clock is not None
+        return _Forecast(
+            self._clock, self.model, t, horizon, self.pattern_radius, self.request.uav_speed
+        )
+
+    def _limits(self) -> LegLimits:
+        r = self.request
+        return LegLimits(
+            r.turn_radius,
+            r.uav_speed,
+            self.settings.speed_band,
+            heading_weight=self.settings.heading_weight,
+            pattern_radius=self.pattern_radius,
+        )
+
+    def _plan_paths(self, t: float, uavs: Sequence[int] | None = None) -> None:
+        """Re-plan the legs of ``uavs`` (default: every slotted UAV) from where their
+        current paths have them at ``t``."""
+        if self._clock is None:
+            return
+        self._score(t)
+        self._advance_clock(t)
+        n = len(self._live)
+        V = self.request.uav_speed
+        beta = beta_for_speed(self._clock.speed, V)
+        period = 1.0 / half_cycle_rate(beta, self.pattern_radius, V)
+        horizon = (self.settings.legs_ahead + 1.5) * period + 60.0
+        forecast = self._forecast(t, horizon)
+        limits = self._limits()
+        for uav in self._slots if uavs is None else uavs:
+            slot = self._slots[uav]
+            pose = self._pose_at(uav, t)
+            self._planned_at[uav] = t
+            if pose is None:
+                continue
+            offset = slot / n
+            pattern = forecast.pattern(offset)
+            meetings = forecast.meetings(offset, t + self.settings.min_lead_s)
+            legs: list[Leg] = []
+            start, t0 = pose, t
+            for tm in meetings:
+                if tm < t0 + self.settings.min_lead_s:
+                    continue
+                leg = plan_leg(start, t0, pattern, tm, limits)
+                legs.append(leg)
+                start, t0 = leg.end, leg.t_end
+                if len(legs) >= self.settings.legs_ahead:
+                    break
+            if not legs:
+                continue
+            self._record(legs)
+            first = legs[0]
+            close = self.settings.on_pattern_m or 0.5 * self.request.sensor_radius
+            if uav not in self._arrival and first.on_time and first.mean_offset <= close:
+                self._arrival[uav] = first.t_end
+            segments = tuple(s for leg in legs for s in leg.segments)
+            end = legs[-1].end
+            # Past the last leg (a re-plan that never came): circle where it ends.
+            lap = 2.0 * math.pi * self.pattern_radius / legs[-1].speed
+            hold = Segment(end, Turn.LEFT, self.pattern_radius, legs[-1].speed, lap)
+            self._trajectories[uav] = Trajectory(t, (hold,), lead_in=segments)
+            self._starts.pop(uav, None)
+
+    def _pose_at(self, uav: int, t: float) -> Pose | None:
+        traj = self._trajectories.get(uav)
+        if traj is not None:
+            s = traj.sample(t)
+            return Pose(s.x, s.y, s.heading)
+        return self._starts.get(uav)
+
+    def _record(self, legs: list[Leg]) -> None:
+        for leg in legs:
+            self.legs += 1
+            self.legs_late += not leg.on_time
+            lo, hi = self.speed_range
+            self.speed_range = (min(lo, leg.speed), max(hi, leg.speed))
+            for seg in leg.segments:
+                if seg.turn != Turn.STRAIGHT:
+                    self.min_turn_radius = min(self.min_turn_radius, seg.radius)
+
+    def _score(self, t: float) -> None:
+        """Coverage the paths in force gave, since the last score, against the estimates."""
+        start = self._scored_until
+        self._scored_until = t
+        if start is None or self._protect_start is None or len(self._history) < 2:
+            return
+        start = max(start, self._protect_start)
+        times = np.arange(start, t, _SCORE_STEP)
+        if len(times) == 0:
+            return
+        hist = self._history
+        ht = [h[0] for h in hist]
+        r = self.request.sensor_radius
+        for tau in times.tolist():
+            j = bisect.bisect_right(ht, tau)
+            if j == 0:
+                continue
+            if j >= len(hist):
+                cx, cy = self.model.position(tau)
+            else:
+                (t0, x0, y0), (t1, x1, y1) = hist[j - 1], hist[j]
+                f = (tau - t0) / max(t1 - t0, 1e-9)
+                cx, cy = x0 + f * (x1 - x0), y0 + f * (y1 - y0)
+            seen = False
+            for uav, traj in self._trajectories.items():
+                if self._arrival.get(uav, math.inf) > tau:
+                    continue
+                s = traj.sample(tau)
+                if math.hypot(s.x - cx, s.y - cy) <= r:
+                    seen = True
+                    break
+            self._scored_s += _SCORE_STEP
+            self._covered_s += _SCORE_STEP * seen
+
+
+def _assign(
+    uavs: list[int], slots: list[int], cost: Mapping[tuple[int, int], float]
+) -> tuple[int, ...]:
+    """Slot for each UAV minimising the largest cost, then the total."""
+    if math.perm(len(slots), len(uavs)) <= _EXHAUSTIVE_LIMIT:
+        best: tuple[int, ...] = ()
+        best_key = (math.inf, math.inf)
+        for perm in itertools.permutations(slots, len(uavs)):
+            values = [cost[u, i] for u, i in zip(uavs, perm, strict=True)]
+            key = (max(values, default=0.0), sum(values))
+            if key < best_key:
+                best, best_key = perm, key
+        return best
+    chosen: dict[int, int] = {}
+    used: set[int] = set()
+    for (u, i), _ in sorted(cost.items(), key=lambda kv: kv[1]):
+        if u not in chosen and i not in used:
+            chosen[u] = i
+            used.add(i)
+    return tuple(chosen[u] for u in uavs)

@@ -1,0 +1,244 @@
+"""Meet-to-meet legs: flyable arcs that follow the pattern from one meeting to the next.
+
+Design rules:
+- Section IV's UAV meets the convoy at the end of every maximal arc
+  (Lemma 4.1), and N UAVs meet it in turn, ``T / N`` apart (Corollary 4.3).
+  Along a road the pattern (``convoy_mav.planning.pattern``, laid around
+  the convoy) is what the UAV should fly, but it is not always flyable: the
+  convoy's own turns and speed changes add to the pattern's maximal turns.
+  A *leg* is the flyable path that stays closest to the pattern from the
+  UAV's pose now to the pattern's position at the UAV's next meeting time.
+- A leg is an optional steering part (a maximal turn either way, or a
+  straight) of length ``l1``, then one circular arc tangent to the heading
+  that ends on the target. Its speed is its length over the time left,
+  clipped to the airframe's band. Of the candidates (three steering kinds x
+  a grid of ``l1``; arcs tighter than ``R`` are never candidates) the leg
+  kept is the one that arrives on time and stays nearest the pattern on
+  the way (mean distance). On a straight road at constant speed that is the
+  paper's arc itself, with no steering.
+- A leg that cannot arrive on time is planned again for where the pattern
+  will be when it does arrive: it meets late, never at a point the pattern
+  has left.
+- Every leg starts at the pose the previous one ended with: position and
+  heading are continuous, curvature is at most 1/R and speed inside the
+  band, by construction, whatever the road or the convoy does.
+- Pure; vectorised over the candidates.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from convoy_mav.errors import PlanningError
+from convoy_mav.planning.dubins import Pose, Segment, Turn
+
+__all__ = ["Leg", "LegLimits", "Where", "plan_leg"]
+
+FloatArray = npt.NDArray[np.float64]
+Where = Callable[["FloatArray"], tuple["FloatArray", "FloatArray"]]
+"""Where the pattern puts a UAV (planner x, y arrays) at each of an array of times."""
+
+_TRACK_SAMPLES = 16  # points per candidate at which its distance to the pattern is taken
+_RETARGETS = 3  # times a late leg is planned again for the pattern where it arrives
+_HEADING_DT = 0.5  # s: the pattern's heading at a meeting, from its positions this far apart
+
+
+@dataclass(frozen=True, slots=True)
+class LegLimits:
+    """What a leg may ask of the airframe.
+
+    Attributes:
+        turn_radius: R, metres: no arc is tighter.
+        cruise: V, m/s.
+        speed_band: (low, high) fractions of cruise a leg may be flown at.
+        steer_max_s: Longest steering part considered, seconds at cruise.
+        steer_step_s: Grid step of the steering part, seconds at cruise.
+        heading_weight: Metres of mean offset a radian of heading missed at the
+            meeting is worth.
+        pattern_radius: Radius of the pattern's arcs (0: R), a steering curvature.
+    """
+
+    turn_radius: float
+    cruise: float
+    speed_band: tuple[float, float] = (0.85, 1.15)
+    steer_max_s: float = 40.0
+    steer_step_s: float = 2.0
+    heading_weight: float = 50.0
+    pattern_radius: float = 0.0
+
+    def __post_init__(self) -> None:
+        lo, hi = self.speed_band
+        for name in ("turn_radius", "cruise", "steer_max_s", "steer_step_s"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0.0):
+                raise PlanningError(f"leg {name} must be positive and finite, got {value!r}")
+        if not (0.0 < lo <= 1.0 <= hi and math.isfinite(hi)):
+            raise PlanningError(f"speed band must satisfy 0 < low <= 1 <= high, got {lo}, {hi}")
+
+    @property
+    def steer_curvatures(self) -> tuple[float, ...]:
+        """Steering curvatures: either way at R, at the pattern radius and at 2R; straight."""
+        out = [0.0]
+        for radius in (
+            self.turn_radius,
+            self.pattern_radius or self.turn_radius,
+            2.0 * self.turn_radius,
+        ):
+            out += [1.0 / radius, -1.0 / radius]
+        return tuple(sorted(set(out)))
+
+    @property
+    def speeds(self) -> tuple[float, float]:
+        """Slowest and fastest speed a leg is flown at, m/s."""
+        return self.speed_band[0] * self.cruise, self.speed_band[1] * self.cruise
+
+
+@dataclass(frozen=True, slots=True)
+class Leg:
+    """One planned leg.
+
+    Attributes:
+        segments: The steering part (if any) then the arc, all flown at ``speed``.
+        t_start: When the leg begins.
+        t_end: When it ends: the meeting time when ``on_time``, else later or earlier.
+        speed: Speed it is flown at, m/s.
+        on_time: The band allowed arriving at the meeting time.
+        mean_offset: Mean distance from the pattern along the leg, metres.
+    """
+
+    segments: tuple[Segment, ...]
+    t_start: float
+    t_end: float
+    speed: float
+    on_time: bool
+    mean_offset: float
+
+    @property
+    def end(self) -> Pose:
+        """Pose at the end of the leg."""
+        last = self.segments[-1]
+        return last.at(last.duration)
+
+
+def plan_leg(pose: Pose, t: float, pattern: Where, t_meet: float, limits: LegLimits) -> Leg:
+    """The flyable leg from ``pose`` at ``t`` to the pattern at ``t_meet``.
+
+    Args:
+        pose: The UAV's pose at ``t`` (planner frame).
+        t: Start time.
+        pattern: Where the pattern puts this UAV at a time (at ``t_meet``: on
+            the convoy, its meeting).
+        t_meet: The meeting this leg is for (> t).
+        limits: What the airframe can fly.
+    """
+    leg = _leg_to(pose, t, t_meet, pattern, limits)
+    for _ in range(_RETARGETS):
+        if leg.on_time:
+            break
+        leg = _leg_to(pose, t, leg.t_end, pattern, limits)
+    return leg
+
+
+def _leg_to(pose: Pose, t: float, t_meet: float, pattern: Where, limits: LegLimits) -> Leg:
+    lo, hi = limits.speeds
+    left = max(t_meet - t, 1e-3)
+    tx, ty = pattern(np.array([t_meet, t_meet + _HEADING_DT]))
+    target = (float(tx[0]), float(ty[0]))
+    k1, l1, k2, arc, total = _candidates(pose, target, limits)
+    ok = np.abs(k2) <= 1.0 / limits.turn_radius + 1e-12
+    speed = np.clip(total / left, lo, hi)
+    late = np.abs(total / speed - left)  # seconds early or late
+    taus = np.linspace(0.0, left, _TRACK_SAMPLES)
+    px, py = _positions(pose, k1, l1, k2, speed, taus)
+    rx, ry = pattern(t + taus)
+    offset = np.mean(np.hypot(px - rx[None, :], py - ry[None, :]), axis=1)
+    # Arriving on the pattern's heading too makes the next leg the pattern itself.
+    want = math.atan2(float(ty[1] - ty[0]), float(tx[1] - tx[0]))
+    h_end = pose.heading + k1 * l1 + np.where(np.isfinite(k2), k2, 0.0) * arc
+    miss = np.abs(np.mod(h_end - want + math.pi, 2.0 * math.pi) - math.pi)
+    cost = late * limits.cruise + offset + limits.heading_weight * miss
+    cost = np.where(ok, cost, np.inf)
+    i = int(np.argmin(cost))
+    if not math.isfinite(float(cost[i])):  # pragma: no cover - a long enough turn always fits
+        raise PlanningError("no flyable leg reaches the pattern")
+    v = float(speed[i])
+    segments = []
+    start = pose
+    if l1[i] > 0.0:
+        kind = Turn.STRAIGHT if k1[i] == 0.0 else (Turn.LEFT if k1[i] > 0.0 else Turn.RIGHT)
+        radius = 0.0 if k1[i] == 0.0 else 1.0 / abs(float(k1[i]))
+        first = Segment(start, kind, radius, v, float(l1[i]) / v)
+        segments.append(first)
+        start = first.at(first.duration)
+    if abs(k2[i]) > 1e-12:
+        kind = Turn.LEFT if k2[i] > 0.0 else Turn.RIGHT
+        segments.append(Segment(start, kind, 1.0 / abs(float(k2[i])), v, float(arc[i]) / v))
+    elif arc[i] > 1e-9:
+        segments.append(Segment(start, Turn.STRAIGHT, 0.0, v, float(arc[i]) / v))
+    if not segments:  # already there, at the meeting time
+        segments.append(Segment(start, Turn.STRAIGHT, 0.0, v, 1e-3))
+    end = t + sum(s.duration for s in segments)
+    return Leg(tuple(segments), t, end, v, bool(late[i] < 0.05), float(offset[i]))
+
+
+def _candidates(
+    pose: Pose, target: tuple[float, float], limits: LegLimits
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Every candidate: (steer curvature, steer length, arc curvature, arc length, total)."""
+    step = limits.steer_step_s * limits.cruise
+    lengths = np.arange(0.0, limits.steer_max_s * limits.cruise + 0.5 * step, step)
+    kinds = np.array(limits.steer_curvatures)
+    k1 = np.repeat(kinds, len(lengths))
+    l1 = np.tile(lengths, len(kinds))
+    h0 = pose.heading
+    h1 = h0 + k1 * l1
+    turning = k1 != 0.0
+    safe = np.where(turning, k1, 1.0)
+    x1 = np.where(turning, pose.x + (np.sin(h1) - math.sin(h0)) / safe, pose.x + l1 * math.cos(h0))
+    y1 = np.where(turning, pose.y - (np.cos(h1) - math.cos(h0)) / safe, pose.y + l1 * math.sin(h0))
+    dx, dy = target[0] - x1, target[1] - y1
+    d2 = dx * dx + dy * dy
+    hx, hy = np.cos(h1), np.sin(h1)
+    cross = hx * dy - hy * dx
+    dot = hx * dx + hy * dy
+    # The circle tangent to the heading through the target: signed curvature
+    # 2 cross / d^2, turning twice the angle between the heading and the chord.
+    k2 = np.where(d2 > 1e-12, 2.0 * cross / np.maximum(d2, 1e-12), 0.0)
+    turn = 2.0 * np.arctan2(np.abs(cross), dot)
+    straight = np.abs(k2) <= 1e-12
+    arc = np.where(straight, np.sqrt(d2), turn / np.where(straight, 1.0, np.abs(k2)))
+    # A target straight behind is only reached by a full turn: not a candidate.
+    k2 = np.where(straight & (dot < 0.0), np.inf, k2)
+    return k1, l1, k2, arc, l1 + arc
+
+
+def _positions(
+    pose: Pose, k1: FloatArray, l1: FloatArray, k2: FloatArray, speed: FloatArray, taus: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """Where each candidate (rows) is ``taus`` seconds after it starts (columns)."""
+    dist = speed[:, None] * taus[None, :]
+    h0 = pose.heading
+    k1c, l1c = k1[:, None], l1[:, None]
+    k2c = np.where(np.isfinite(k2), k2, 0.0)[:, None]
+    s1 = np.minimum(dist, l1c)
+    turning1 = k1c != 0.0
+    safe1 = np.where(turning1, k1c, 1.0)
+    h1 = h0 + k1c * s1
+    x1 = np.where(
+        turning1, pose.x + (np.sin(h1) - math.sin(h0)) / safe1, pose.x + s1 * math.cos(h0)
+    )
+    y1 = np.where(
+        turning1, pose.y - (np.cos(h1) - math.cos(h0)) / safe1, pose.y + s1 * math.sin(h0)
+    )
+    s2 = np.maximum(dist - l1c, 0.0)
+    turning2 = np.abs(k2c) > 1e-12
+    safe2 = np.where(turning2, k2c, 1.0)
+    h2 = h1 + k2c * s2
+    x2 = np.where(turning2, x1 + (np.sin(h2) - np.sin(h1)) / safe2, x1 + s2 * np.cos(h1))
+    y2 = np.where(turning2, y1 - (np.cos(h2) - np.cos(h1)) / safe2, y1 + s2 * np.sin(h1))
+    return x2, y2

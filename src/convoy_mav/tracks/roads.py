@@ -1,0 +1,293 @@
+"""Road-shaped convoy tracks: curves, bends, hairpins, roundabouts, stops, speed changes.
+
+Design rules:
+- A road is pieces laid end to end: straights and arcs (radius, signed
+  turn angle). A drive along it is a speed profile over arc length: a
+  cruise speed per stretch and stops (position, duration), with bounded
+  acceleration and braking, as a vehicle drives.
+- The track is the drive sampled at ``rate_hz`` with optional GPS noise
+  (Gaussian, per axis) and optional repeated time stamps, as receivers
+  record them; a seeded ``numpy.random.Generator`` makes it reproducible.
+- :data:`KINDS` are the named roads ``demo`` and the tests fly; :func:`random_road`
+  draws one of any kind for property tests. Pure: nothing here opens a file.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from convoy_mav.geo import GeoPoint, LocalFrame
+from convoy_mav.tracks.geotrack import GeoTrack
+
+__all__ = ["KINDS", "Drive", "Piece", "RoadTrack", "drive", "random_road", "road_kind"]
+
+FloatArray = npt.NDArray[np.float64]
+
+_STEP = 0.5  # m: arc-length resolution of the laid-out road
+
+
+@dataclass(frozen=True, slots=True)
+class Piece:
+    """A straight (``radius`` 0) or an arc of ``radius`` turning ``angle_deg`` (> 0 left)."""
+
+    length: float = 0.0
+    radius: float = 0.0
+    angle_deg: float = 0.0
+
+    @property
+    def arc_length(self) -> float:
+        """Length of the piece, metres."""
+        if self.radius > 0.0:
+            return self.radius * math.radians(abs(self.angle_deg))
+        return self.length
+
+
+@dataclass(frozen=True, slots=True)
+class Drive:
+    """How the convoy drives the road.
+
+    Attributes:
+        speeds: (from arc length, cruise speed m/s) pairs, the first from 0.
+        stops: (at arc length, seconds stopped) pairs.
+        accel: Acceleration and braking, m/s^2.
+        end_stop_s: Seconds parked at the end of the road.
+    """
+
+    speeds: tuple[tuple[float, float], ...]
+    stops: tuple[tuple[float, float], ...] = ()
+    accel: float = 1.0
+    end_stop_s: float = 0.0
+
+
+@dataclass(frozen=True, slots=True)
+class RoadTrack:
+    """A generated drive: true positions (mission frame) and the fixes recorded."""
+
+    name: str
+    t: FloatArray  # fix times, s
+    north: FloatArray  # recorded (noisy) positions, m
+    east: FloatArray
+    true_north: FloatArray  # where the convoy really was at each fix time
+    true_east: FloatArray
+    length_m: float
+
+    def geotrack(self, origin: GeoPoint) -> GeoTrack:
+        """The recorded fixes as a WGS-84 track around ``origin``."""
+        frame = LocalFrame(origin)
+        points = [
+            frame.to_geo(float(n), float(e)) for n, e in zip(self.north, self.east, strict=True)
+        ]
+        lats = [p.lat for p in points]
+        lons = [p.lon for p in points]
+        return GeoTrack.from_fixes([float(t) for t in self.t], lats, lons, self.name, "generated")
+
+
+def _layout(pieces: Sequence[Piece], heading: float) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Arc length, north and east of the road every ``_STEP`` metres."""
+    xs, ys, h = [0.0], [0.0], heading  # x east, y north, heading CCW from east
+    for p in pieces:
+        n = max(1, round(p.arc_length / _STEP))
+        ds = p.arc_length / n
+        dh = 0.0 if p.radius <= 0.0 else math.radians(p.angle_deg) / n
+        for _ in range(n):
+            mid = h + 0.5 * dh
+            xs.append(xs[-1] + ds * math.cos(mid))
+            ys.append(ys[-1] + ds * math.sin(mid))
+            h += dh
+    x, y = np.array(xs), np.array(ys)
+    s = np.concatenate(([0.0], np.cumsum(np.hypot(np.diff(x), np.diff(y)))))
+    return s, y, x
+
+
+def _profile(drive_: Drive, length: float, dt: float) -> FloatArray:
+    """Arc length against time (step ``dt``), driving ``drive_`` to the end of the road."""
+    speeds = sorted(drive_.speeds)
+    stops = sorted(drive_.stops)
+
+    def cruise(s: float) -> float:
+        v = speeds[0][1]
+        for start, value in speeds:
+            if s >= start:
+                v = value
+        return v
+
+    out = [0.0]
+    s, v, waited = 0.0, 0.0, 0.0
+    stop_i = 0
+    while s < length:
+        target = cruise(s)
+        # Brake for the next stop (or the end): v^2 = 2 a d.
+        next_stop = stops[stop_i][0] if stop_i < len(stops) else length
+        room = max(next_stop - s, 0.0)
+        target = min(target, math.sqrt(2.0 * drive_.accel * room))
+        if room < 0.05 and v < 0.05:
+            if stop_i < len(stops):
+                waited += dt
+                if waited >= stops[stop_i][1]:
+                    stop_i, waited = stop_i + 1, 0.0
+                    s += 0.06  # pull away
+                out.append(s)
+                continue
+            break
+        v = (
+            target
+            if abs(target - v) <= drive_.accel * dt
+            else v + math.copysign(drive_.accel * dt, target - v)
+        )
+        s = min(s + v * dt, next_stop if room > 0.0 else s + v * dt)
+        out.append(s)
+    out += [length] * int(drive_.end_stop_s / dt)
+    return np.array(out)
+
+
+def drive(
+    name: str,
+    pieces: Sequence[Piece],
+    how: Drive,
+    *,
+    heading_deg: float = 0.0,
+    rate_hz: float = 1.0,
+    noise_m: float = 0.0,
+    repeat_every: int = 0,
+    seed: int = 0,
+) -> RoadTrack:
+    """The convoy driving ``pieces`` as ``how`` says, recorded at ``rate_hz``.
+
+    Args:
+        heading_deg: Compass course of the first piece.
+        noise_m: GPS noise, standard deviation per axis, metres.
+        repeat_every: Every this many fixes, one is stamped with the previous
+            fix's time (0: never), as some receivers do.
+        seed: Seed of the noise.
+    """
+    s_grid, n_grid, e_grid = _layout(pieces, math.radians(90.0 - heading_deg))
+    dt = 0.1
+    s_t = _profile(how, float(s_grid[-1]), dt)
+    every = max(1, round(1.0 / (rate_hz * dt)))
+    s_fix = s_t[::every]
+    t = np.arange(len(s_fix)) * every * dt
+    true_n = np.interp(s_fix, s_grid, n_grid)
+    true_e = np.interp(s_fix, s_grid, e_grid)
+    rng = np.random.default_rng(seed)
+    north = true_n + rng.normal(0.0, noise_m, len(t)) if noise_m > 0 else true_n.copy()
+    east = true_e + rng.normal(0.0, noise_m, len(t)) if noise_m > 0 else true_e.copy()
+    stamps = t.astype(np.float64)
+    if repeat_every > 0:
+        for i in range(repeat_every, len(stamps), repeat_every):
+            stamps[i] = stamps[i - 1]  # (a receiver stamping a fix with the last one's time)
+    return RoadTrack(name, stamps, north, east, true_n, true_e, float(s_grid[-1]))
+
+
+def _zigzag(count: int, straight: float, radius: float, angle: float) -> list[Piece]:
+    pieces = [Piece(straight)]
+    for i in range(count):
+        pieces += [Piece(radius=radius, angle_deg=angle if i % 2 == 0 else -angle), Piece(straight)]
+    return pieces
+
+
+def _urban(rng: np.random.Generator, blocks: int) -> tuple[list[Piece], list[tuple[float, float]]]:
+    pieces: list[Piece] = []
+    stops: list[tuple[float, float]] = []
+    s = 0.0
+    for _ in range(blocks):
+        block = float(rng.uniform(120.0, 300.0))
+        pieces.append(Piece(block))
+        s += block
+        if rng.random() < 0.5:
+            stops.append((s, float(rng.uniform(10.0, 45.0))))
+        turn = float(rng.choice([-90.0, 90.0, 0.0]))
+        if turn:
+            corner = Piece(radius=12.0, angle_deg=turn)
+            pieces.append(corner)
+            s += corner.arc_length
+    return pieces, stops
+
+
+def road_kind(kind: str, *, seed: int = 0) -> RoadTrack:
+    """One of :data:`KINDS`, about 15-25 minutes of driving."""
+    return KINDS[kind](np.random.default_rng(seed))
+
+
+def _gentle(rng: np.random.Generator) -> RoadTrack:
+    return drive("gentle curves", _zigzag(8, 400.0, 1000.0, 30.0), Drive(((0.0, 8.0),)))
+
+
+def _bends(rng: np.random.Generator) -> RoadTrack:
+    return drive("90 deg bends", _zigzag(14, 400.0, 150.0, 90.0), Drive(((0.0, 8.0),)))
+
+
+def _hairpins(rng: np.random.Generator) -> RoadTrack:
+    return drive("hairpins", _zigzag(10, 300.0, 25.0, 180.0), Drive(((0.0, 6.0),), accel=0.8))
+
+
+def _roundabout(rng: np.random.Generator) -> RoadTrack:
+    pieces = [
+        Piece(1500.0),
+        Piece(radius=15.0, angle_deg=-30.0),
+        Piece(radius=25.0, angle_deg=240.0),
+        Piece(radius=15.0, angle_deg=-30.0),
+        Piece(1500.0),
+        Piece(radius=15.0, angle_deg=-30.0),
+        Piece(radius=25.0, angle_deg=150.0),
+        Piece(radius=15.0, angle_deg=-30.0),
+        Piece(1500.0),
+    ]
+    how = Drive(((0.0, 10.0), (1450.0, 4.0), (1700.0, 10.0), (3150.0, 4.0), (3400.0, 10.0)))
+    return drive("roundabouts", pieces, how)
+
+
+def _stop_and_go(rng: np.random.Generator) -> RoadTrack:
+    how = Drive(((0.0, 8.0),), stops=((1500.0, 120.0), (3500.0, 120.0), (5000.0, 30.0)))
+    return drive("stop and go", [Piece(6500.0)], how)
+
+
+def _speeds(rng: np.random.Generator) -> RoadTrack:
+    how = Drive(((0.0, 4.0), (1200.0, 12.0), (5000.0, 4.0), (6200.0, 12.0)))
+    return drive("speed changes", [Piece(9000.0)], how)
+
+
+def _urban_grid(rng: np.random.Generator) -> RoadTrack:
+    pieces, stops = _urban(rng, 24)
+    return drive(
+        "urban grid", pieces, Drive(((0.0, 8.0),), stops=tuple(stops)), noise_m=3.0, seed=1
+    )
+
+
+#: The named roads: a generator of each from a random source.
+KINDS: dict[str, Callable[[np.random.Generator], RoadTrack]] = {
+    "gentle": _gentle,
+    "bends": _bends,
+    "hairpins": _hairpins,
+    "roundabout": _roundabout,
+    "stop-and-go": _stop_and_go,
+    "speeds": _speeds,
+    "urban": _urban_grid,
+}
+
+
+def random_road(rng: np.random.Generator, *, max_speed: float = 12.0, pieces: int = 8) -> RoadTrack:
+    """A random road of random pieces, speeds and stops (property tests)."""
+    out: list[Piece] = []
+    for _ in range(pieces):
+        if rng.random() < 0.4:
+            out.append(Piece(float(rng.uniform(50.0, 800.0))))
+        else:
+            radius = float(rng.uniform(10.0, 1500.0))
+            out.append(Piece(radius=radius, angle_deg=float(rng.uniform(-180.0, 180.0))))
+    total = sum(p.arc_length for p in out)
+    speeds = tuple(
+        (float(s), float(rng.uniform(1.0, max_speed))) for s in np.sort(rng.uniform(0.0, total, 3))
+    )
+    stops = tuple(
+        (float(s), float(rng.uniform(5.0, 120.0)))
+        for s in np.sort(rng.uniform(0.0, total, int(rng.integers(0, 3))))
+    )
+    how = Drive(((0.0, speeds[0][1]), *speeds), stops=stops)
+    return drive(
+        "random", out, how, noise_m=float(rng.uniform(0.0, 3.0)), seed=int(rng.integers(1 << 30))
+    )
