@@ -107,6 +107,7 @@ class ServiceReport:
     events: list[str] = field(default_factory=list)
     vehicle_extra: dict[int, dict[str, Any]] = field(default_factory=dict)
     route_start_s: float | None = None
+    planner: dict[str, Any] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         """The report JSON (keys documented in the README)."""
@@ -128,6 +129,7 @@ class ServiceReport:
             "route_start_s": self.route_start_s,
             "end_s": self.end_t,
             "protected_s": stats.elapsed_s,
+            "planner": self.planner,
             "replans": self.replans,
             "alarms": self.alarms,
             "events": self.events,
@@ -235,6 +237,7 @@ class ConvoyService:
             self.mission = RoadMission(request, uav_ids, down=self._down, route=route)
         else:
             self.mission = Mission(request, uav_ids, down=self._down, thresholds=thresholds)
+        self._planner_why = why
         self._planner_note = f"planner: {self.planner} ({why})"
         # What the streamer and the monitor read: swapped after each mission step.
         self.view = MissionView()
@@ -818,7 +821,14 @@ class ConvoyService:
             events=self.events,
             vehicle_extra={s: self._vehicle_report(s, v, end_t) for s, v in self.vehicles.items()},
             route_start_s=self._route_t0,
+            planner=self._planner_report(),
         )
+
+    def _planner_report(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"name": self.planner, "why": self._planner_why}
+        if isinstance(self.mission, RoadMission):
+            out.update(self.mission.report())
+        return out
 
     def _vehicle_report(self, sysid: int, v: Vehicle, end_t: float) -> dict[str, Any]:
         """What the report adds per UAV: why it did not count, and its telemetry rate."""

@@ -63,7 +63,7 @@ def test_replay_gpx_end_to_end_and_the_tlog_round_trip(
     assert report["track_format"] == "gpx"
     assert report["track_duration_s"] == pytest.approx(DURATION)
     assert report["track_planning_speed_mps"] == pytest.approx(SPEED, rel=1e-3)
-    assert report["uav_count"] == 4  # the paper's minimum at 8 m/s
+    assert report["uav_count"] == 6  # a road: the stationary minimum + 1 (the road planner)
     assert report["convoy_speed_mps"] == pytest.approx(SPEED, rel=0.05)  # the service's own
     assert report["end_s"] == pytest.approx(DURATION, abs=5.0)  # default: the track's length
     start = report["protect_start_s"]

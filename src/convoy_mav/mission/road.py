@@ -36,6 +36,7 @@ import math
 from collections import deque
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -82,8 +83,6 @@ class RoadSettings:
         pattern_cap: Widest pattern radius, as a multiple of R.
         settle_s: Seconds of convoy fixes before the pattern is laid (the
             tracker's velocity settles first).
-        heading_weight: Metres of a leg's mean offset from the pattern a radian
-            of heading missed at its meeting is worth (``LegLimits``).
         on_pattern_m: A UAV protects from its first leg that arrives on time
             within this mean distance of the pattern (0: half of r).
     """
@@ -95,7 +94,6 @@ class RoadSettings:
     min_lead_s: float = 3.0
     pattern_cap: float = 1.3
     settle_s: float = 4.0
-    heading_weight: float = 50.0
     on_pattern_m: float = 0.0
 
 
@@ -217,6 +215,8 @@ class RoadMission:
         self.legs = 0
         self.min_turn_radius = math.inf
         self.speed_range = (math.inf, 0.0)
+        self._margins: dict[int, tuple[float, float, float]] = {}  # radius, slowest, fastest
+        self._convoy_speeds: tuple[float, float] | None = None
 
     # ------------------------------------------------------------------ state
 
@@ -336,6 +336,9 @@ class RoadMission:
             return events
         self.model.observe(est)
         self._history.append((est.t, est.east, est.north))
+        if self._protect_start is not None:
+            lo, hi = self._convoy_speeds or (math.inf, 0.0)
+            self._convoy_speeds = (min(lo, est.speed), max(hi, est.speed))
         V = self.request.uav_speed
         if self._clock is None:
             if self._first_fix is None:
@@ -463,11 +466,7 @@ class RoadMission:
     def _limits(self) -> LegLimits:
         r = self.request
         return LegLimits(
-            r.turn_radius,
-            r.uav_speed,
-            self.settings.speed_band,
-            heading_weight=self.settings.heading_weight,
-            pattern_radius=self.pattern_radius,
+            r.turn_radius, r.uav_speed, self.settings.speed_band, pattern_radius=self.pattern_radius
         )
 
     def _plan_paths(self, t: float, uavs: Sequence[int] | None = None) -> None:
@@ -490,50 +489,81 @@ class RoadMission:
             self._planned_at[uav] = t
             if pose is None:
                 continue
-            offset = slot / n
-            pattern = forecast.pattern(offset)
-            meetings = forecast.meetings(offset, t + self.settings.min_lead_s)
-            legs: list[Leg] = []
-            start, t0 = pose, t
-            for tm in meetings:
-                if tm < t0 + self.settings.min_lead_s:
-                    continue
-                leg = plan_leg(start, t0, pattern, tm, limits)
-                legs.append(leg)
-                start, t0 = leg.end, leg.t_end
-                if len(legs) >= self.settings.legs_ahead:
-                    break
+            pattern = forecast.pattern(slot / n)
+            close = self.settings.on_pattern_m or 0.5 * self.request.sensor_radius
+            legs = self._legs(pose, t, pattern, forecast.meetings(slot / n, t), limits)
             if not legs:
                 continue
-            self._record(legs)
-            first = legs[0]
-            close = self.settings.on_pattern_m or 0.5 * self.request.sensor_radius
-            if uav not in self._arrival and first.on_time and first.mean_offset <= close:
-                self._arrival[uav] = first.t_end
-            segments = tuple(s for leg in legs for s in leg.segments)
-            end = legs[-1].end
-            # Past the last leg (a re-plan that never came): circle where it ends.
-            lap = 2.0 * math.pi * self.pattern_radius / legs[-1].speed
-            hold = Segment(end, Turn.LEFT, self.pattern_radius, legs[-1].speed, lap)
+            segments = tuple(seg for leg in legs for seg in leg.segments)
+            first_leg = legs[0]
+            self.legs_late += not first_leg.on_time
+            if uav not in self._arrival and first_leg.on_time and first_leg.mean_offset <= close:
+                self._arrival[uav] = first_leg.t_end
+            self._record(uav, segments)
+            # Past the last arc (a re-plan that never came): circle where it ends.
+            last = segments[-1]
+            lap = 2.0 * math.pi * self.pattern_radius / last.speed
+            hold = Segment(last.at(last.duration), Turn.LEFT, self.pattern_radius, last.speed, lap)
             self._trajectories[uav] = Trajectory(t, (hold,), lead_in=segments)
             self._starts.pop(uav, None)
 
+    def _legs(
+        self, pose: Pose, t: float, pattern: Where, meetings: list[float], limits: LegLimits
+    ) -> list[Leg]:
+        legs: list[Leg] = []
+        start, t0 = pose, t
+        for tm in meetings:
+            if tm < t0 + self.settings.min_lead_s:
+                continue
+            leg = plan_leg(start, t0, pattern, tm, limits)
+            legs.append(leg)
+            start, t0 = leg.end, leg.t_end
+            if len(legs) >= self.settings.legs_ahead:
+                break
+        return legs
+
     def _pose_at(self, uav: int, t: float) -> Pose | None:
+        """Where the UAV's path in force has it at ``t`` (a joining UAV: where it is)."""
         traj = self._trajectories.get(uav)
         if traj is not None:
             s = traj.sample(t)
             return Pose(s.x, s.y, s.heading)
         return self._starts.get(uav)
 
-    def _record(self, legs: list[Leg]) -> None:
-        for leg in legs:
-            self.legs += 1
-            self.legs_late += not leg.on_time
-            lo, hi = self.speed_range
-            self.speed_range = (min(lo, leg.speed), max(hi, leg.speed))
-            for seg in leg.segments:
-                if seg.turn != Turn.STRAIGHT:
-                    self.min_turn_radius = min(self.min_turn_radius, seg.radius)
+    def _record(self, uav: int, segments: Sequence[Segment]) -> None:
+        """Flyability margins of what is commanded, per UAV (for the report)."""
+        self.legs += 1
+        radius, lo, hi = self._margins.get(uav, (math.inf, math.inf, 0.0))
+        for seg in segments:
+            lo, hi = min(lo, seg.speed), max(hi, seg.speed)
+            if seg.turn != Turn.STRAIGHT:
+                radius = min(radius, seg.radius)
+        self._margins[uav] = (radius, lo, hi)
+        self.min_turn_radius = min(self.min_turn_radius, radius)
+        self.speed_range = (min(self.speed_range[0], lo), max(self.speed_range[1], hi))
+
+    def report(self) -> dict[str, Any]:
+        """What the report says of the road mission: the pattern, the road, the margins."""
+        route = self.model.route
+        speeds = self._convoy_speeds
+        return {
+            "pattern_radius_m": round(self.pattern_radius, 1),
+            "road_min_uavs": self.min_uavs,
+            "route_known": route is not None,
+            "route_length_m": None if route is None else round(route.length, 1),
+            "route_max_curvature_per_m": None if route is None else route.max_curvature(),
+            "convoy_left_route": self.model.counters["left_route"],
+            "convoy_speed_range_mps": None if speeds is None else [round(v, 2) for v in speeds],
+            "legs_planned": self.legs,
+            "legs_late": self.legs_late,
+            "flyability": {
+                str(u): {
+                    "min_turn_radius_m": round(radius, 1),
+                    "speed_range_mps": [round(lo, 2), round(hi, 2)],
+                }
+                for u, (radius, lo, hi) in sorted(self._margins.items())
+            },
+        }
 
     def _score(self, t: float) -> None:
         """Coverage the paths in force gave, since the last score, against the estimates."""

@@ -45,7 +45,6 @@ Where = Callable[["FloatArray"], tuple["FloatArray", "FloatArray"]]
 
 _TRACK_SAMPLES = 16  # points per candidate at which its distance to the pattern is taken
 _RETARGETS = 3  # times a late leg is planned again for the pattern where it arrives
-_HEADING_DT = 0.5  # s: the pattern's heading at a meeting, from its positions this far apart
 
 
 @dataclass(frozen=True, slots=True)
@@ -58,8 +57,6 @@ class LegLimits:
         speed_band: (low, high) fractions of cruise a leg may be flown at.
         steer_max_s: Longest steering part considered, seconds at cruise.
         steer_step_s: Grid step of the steering part, seconds at cruise.
-        heading_weight: Metres of mean offset a radian of heading missed at the
-            meeting is worth.
         pattern_radius: Radius of the pattern's arcs (0: R), a steering curvature.
     """
 
@@ -68,7 +65,6 @@ class LegLimits:
     speed_band: tuple[float, float] = (0.85, 1.15)
     steer_max_s: float = 40.0
     steer_step_s: float = 2.0
-    heading_weight: float = 50.0
     pattern_radius: float = 0.0
 
     def __post_init__(self) -> None:
@@ -147,7 +143,7 @@ def plan_leg(pose: Pose, t: float, pattern: Where, t_meet: float, limits: LegLim
 def _leg_to(pose: Pose, t: float, t_meet: float, pattern: Where, limits: LegLimits) -> Leg:
     lo, hi = limits.speeds
     left = max(t_meet - t, 1e-3)
-    tx, ty = pattern(np.array([t_meet, t_meet + _HEADING_DT]))
+    tx, ty = pattern(np.array([t_meet]))
     target = (float(tx[0]), float(ty[0]))
     k1, l1, k2, arc, total = _candidates(pose, target, limits)
     ok = np.abs(k2) <= 1.0 / limits.turn_radius + 1e-12
@@ -157,12 +153,7 @@ def _leg_to(pose: Pose, t: float, t_meet: float, pattern: Where, limits: LegLimi
     px, py = _positions(pose, k1, l1, k2, speed, taus)
     rx, ry = pattern(t + taus)
     offset = np.mean(np.hypot(px - rx[None, :], py - ry[None, :]), axis=1)
-    # Arriving on the pattern's heading too makes the next leg the pattern itself.
-    want = math.atan2(float(ty[1] - ty[0]), float(tx[1] - tx[0]))
-    h_end = pose.heading + k1 * l1 + np.where(np.isfinite(k2), k2, 0.0) * arc
-    miss = np.abs(np.mod(h_end - want + math.pi, 2.0 * math.pi) - math.pi)
-    cost = late * limits.cruise + offset + limits.heading_weight * miss
-    cost = np.where(ok, cost, np.inf)
+    cost = np.where(ok, late * limits.cruise + offset, np.inf)
     i = int(np.argmin(cost))
     if not math.isfinite(float(cost[i])):  # pragma: no cover - a long enough turn always fits
         raise PlanningError("no flyable leg reaches the pattern")

@@ -58,7 +58,7 @@ def _smooth(v: FloatArray, sigma: float) -> FloatArray:
     k = np.arange(-half, half + 1, dtype=np.float64)
     kernel = np.exp(-0.5 * (k / sigma) ** 2)
     kernel /= kernel.sum()
-    m = min(len(v) - 1, max(1, int(sigma)))
+    m = min(len(v) - 1, max(1, int(3.0 * sigma)))  # (a slope over a long base: noise-proof)
     head = v[0] + (v[0] - v[m]) / m * np.arange(half, 0, -1)
     tail = v[-1] + (v[-1] - v[-1 - m]) / m * np.arange(1, half + 1)
     padded = np.concatenate((head, v, tail))

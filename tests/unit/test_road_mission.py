@@ -1,0 +1,181 @@
+"""The road mission: flyable by construction on any road, covering on the paper's and real roads."""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+import numpy.typing as npt
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from convoy_mav.convoy import ConvoyTracker
+from convoy_mav.errors import PlanningError
+from convoy_mav.mission.choose import choose_planner, road_fleet
+from convoy_mav.mission.events import PhaseChanged, Replanned
+from convoy_mav.mission.road import RoadMission
+from convoy_mav.mission.simulate import fly_road
+from convoy_mav.planning import PlanRequest
+from convoy_mav.planning.dubins import Segment, Turn, wrap_angle
+from convoy_mav.planning.road import Road
+from convoy_mav.tracks.roads import random_road, road_kind
+from convoy_mav.types import Setpoint
+
+R, r, V = 150.0, 100.0, 18.0
+REQUEST = PlanRequest(R, r, V)
+BAND = (0.85 * V, 1.15 * V)
+
+
+Arr = npt.NDArray[np.float64]
+Streams = dict[int, list[Setpoint]]
+
+
+def _fly(
+    t: Arr,
+    north: Arr,
+    east: Arr,
+    uavs: int,
+    *,
+    route: Road | None = None,
+    dt: float = 0.1,
+    until: float | None = None,
+) -> tuple[RoadMission, Streams]:
+    """Drive a RoadMission like the service does; every setpoint it would stream, per UAV."""
+    ids = list(range(1, uavs + 1))
+    mission = RoadMission(REQUEST, ids, down=lambda _u: -100.0, route=route)
+    tracker = ConvoyTracker(window=4.0)
+    k, joined = 0, False
+    streams: Streams = {u: [] for u in ids}
+    end = float(t[-1]) if until is None else until
+    for now in np.arange(0.0, end, dt).tolist():
+        while k < len(t) and t[k] <= now:
+            tracker.update(float(t[k]), float(north[k]), float(east[k]))
+            k += 1
+        est = tracker.estimate(now)
+        if est is not None:
+            mission.on_convoy(est)
+        if not joined and mission.plan is not None:
+            mission.join_many(
+                {
+                    u: (north[0] + 300.0 * math.cos(u), east[0] + 300.0 * math.sin(u), u)
+                    for u in ids
+                },
+                now,
+            )
+            joined = True
+        mission.tick(now)
+        for u in ids:
+            sp = mission.setpoint(u, now)
+            if sp is not None:
+                streams[u].append(sp)
+    return mission, streams
+
+
+def _assert_flyable(mission: RoadMission, streams: Streams) -> None:
+    assert mission.min_turn_radius >= R * (1.0 - 1e-9)
+    lo, hi = mission.speed_range
+    assert BAND[0] - 1e-9 <= lo and hi <= BAND[1] + 1e-9
+    for stream in streams.values():
+        for a, b in itertools.pairwise(stream):
+            dt = b.t - a.t
+            step = math.hypot(b.north - a.north, b.east - a.east)
+            assert step <= BAND[1] * dt + 1e-6  # no jump in position, across re-plans too
+            turn = abs(wrap_angle(b.yaw - a.yaw))
+            assert turn <= BAND[1] / R * dt + 1e-6  # no jump in heading: curvature <= 1/R
+            speed = math.hypot(b.vn, b.ve)
+            assert BAND[0] - 1e-6 <= speed <= BAND[1] + 1e-6
+
+
+@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.integers(0, 2**31 - 1), st.booleans())
+def test_every_commanded_path_is_flyable_on_random_roads(seed: int, known: bool) -> None:
+    """Curvature <= 1/R, speed in the band (planes +-15 %), continuous through every
+    re-plan, whatever the road does (curves of 10 m to 1.5 km radius, stops, speed changes)."""
+    road = random_road(np.random.default_rng(seed), pieces=5)
+    route = Road.from_points(road.true_east, road.true_north) if known else None
+    mission, streams = _fly(
+        road.t, road.north, road.east, road_fleet(R, r), route=route, until=240.0
+    )
+    assert sum(len(s) for s in streams.values()) > 1000
+    _assert_flyable(mission, streams)
+
+
+@pytest.mark.parametrize("speed", [0.0, 4.0, 8.0, 12.0])
+def test_parked_and_straight_convoys_are_covered_throughout(speed: float) -> None:
+    t = np.arange(0.0, 900.0, 1.0)
+    run = fly_road(t, speed * t * 0.6, speed * t * 0.8, REQUEST, road_fleet(R, r))
+    # (joining from 300 m off a convoy driving away at 12 m/s takes the longest)
+    assert run.protect_start is not None and run.protect_start < 300.0
+    assert run.coverage >= 0.995 and run.longest_gap_s <= 2.0
+    assert run.predicted_coverage == pytest.approx(run.coverage, abs=0.01)
+
+
+@pytest.mark.parametrize("kind", ["gentle", "bends", "stop-and-go"])
+def test_roads_with_a_known_route_are_covered(kind: str) -> None:
+    rt = road_kind(kind)
+    run = fly_road(
+        rt.t, rt.north, rt.east, REQUEST, road_fleet(R, r),
+        true_north=rt.true_north, true_east=rt.true_east, route_known=True,
+    )  # fmt: skip
+    assert run.protect_start is not None and run.protect_start < 240.0
+    assert run.coverage >= 0.95
+    assert run.predicted_coverage == pytest.approx(run.coverage, abs=0.01)
+    assert run.min_turn_radius >= R * (1 - 1e-9)
+
+
+def test_joins_lost_and_returned_uavs() -> None:
+    t = np.arange(0.0, 600.0, 1.0)
+    mission, _ = _fly(t, 8.0 * t, 0.0 * t, 6, until=200.0)
+    assert mission.protect_start is not None
+    assert all(mission.phase(u, 200.0) == "protect" for u in range(1, 7))
+    events = mission.on_lost(3, 200.0)
+    assert any(
+        isinstance(e, Replanned) and e.reason == "uav_lost" and e.uav_count == 5 for e in events
+    )
+    assert mission.phase(3, 200.0) == "lost" and mission.setpoint(3, 200.0) is None
+    slots = sorted(mission._slots.values())
+    assert slots == [0, 1, 2, 3, 4]  # the others re-spread over five slots
+    events = mission.on_returned(3, 210.0)
+    assert mission.phase(3, 210.0) == "pending"
+    events = mission.join(3, 0.0, 1500.0, 0.0, 210.0)
+    assert PhaseChanged(3, "join", 210.0) in events
+    assert mission.setpoint(3, 211.0) is not None
+    with pytest.raises(ValueError, match="not live"):
+        mission.join(99, 0.0, 0.0, 0.0, 210.0)
+    with pytest.raises(ValueError, match="finite"):
+        mission.join(3, float("nan"), 0.0, 0.0, 210.0)
+
+
+def test_no_join_before_the_convoy_is_located() -> None:
+    mission = RoadMission(REQUEST, [1, 2], down=lambda _u: -100.0)
+    assert mission.plan is None
+    with pytest.raises(PlanningError, match="not been located"):
+        mission.join(1, 0.0, 0.0, 0.0, 0.0)
+    with pytest.raises(ValueError, match="unique"):
+        RoadMission(REQUEST, [1, 1], down=lambda _u: -100.0)
+
+
+def test_planner_choice() -> None:
+    assert road_fleet(R, r) == 6
+    assert choose_planner("auto", 6, R, r)[0] == "road"
+    plan, why = choose_planner("auto", 5, R, r)
+    assert plan == "paper" and "needs 6" in why
+    assert choose_planner("road", 2, R, r) == ("road", "asked for, with 2 of the 6 UAVs it needs")
+    assert choose_planner("paper", 9, R, r)[0] == "paper"
+
+
+def test_commanded_arcs_are_the_papers_on_a_straight_road() -> None:
+    """With the paper's count for a straight road there is no spare turn: the legs are
+    Section IV's arcs of radius R themselves."""
+    t = np.arange(0.0, 800.0, 1.0)
+    mission, _ = _fly(t, 12.0 * t, 0.0 * t, 3, until=700.0)
+    radii = [s.radius for u in (1, 2, 3) for s in _lead_in(mission, u) if s.turn != Turn.STRAIGHT]
+    assert np.median(radii) == pytest.approx(R, rel=0.02)
+
+
+def _lead_in(mission: RoadMission, uav: int) -> tuple[Segment, ...]:
+    traj = mission.trajectory(uav)
+    assert traj is not None
+    return traj.lead_in
