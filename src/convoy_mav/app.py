@@ -59,7 +59,7 @@ from convoy_mav.publish.mqtt import MqttPublisher
 from convoy_mav.recording import TlogRecorder
 from convoy_mav.schedule import POSITION_AT_HORIZON_S, position_at
 from convoy_mav.streaming import SetpointStreamer
-from convoy_mav.tracks import load_track
+from convoy_mav.tracks import load_route
 from convoy_mav.types import ConvoyEstimate, Setpoint, Telemetry, VehicleStatus
 from convoy_mav.vehicle import EventKind, Vehicle, VehicleEvent
 
@@ -260,8 +260,9 @@ class ConvoyService:
         path = config.convoy.route_file
         assert path is not None
         try:
-            norths, easts = load_track(path).in_frame(LocalFrame(config.origin))
-            return Road.from_points(easts, norths)
+            frame = LocalFrame(config.origin)
+            ned = [frame.to_ned(GeoPoint(a, b)) for a, b in zip(*load_route(path), strict=True)]
+            return Road.from_points([p[1] for p in ned], [p[0] for p in ned])
         except (OSError, ValueError) as exc:
             raise ConfigError("convoy.route", path, f"cannot be used as a route ({exc})") from exc
 
@@ -824,11 +825,26 @@ class ConvoyService:
             planner=self._planner_report(),
         )
 
+    @property
+    def route(self) -> Road | None:
+        """The convoy's route the road planner was given, if any (planner frame)."""
+        return self.mission.model.route if isinstance(self.mission, RoadMission) else None
+
     def _planner_report(self) -> dict[str, Any]:
         out: dict[str, Any] = {"name": self.planner, "why": self._planner_why}
         if isinstance(self.mission, RoadMission):
             out.update(self.mission.report())
         return out
+
+    def _stream_health(self, sysid: int) -> dict[str, float | None]:
+        streamer = getattr(self, "streamer", None)
+        stats = None if streamer is None else streamer.stats.get(sysid)
+        if stats is None or stats.count < 2:
+            return {"setpoint_gap_max_s": None, "setpoint_gap_p99_s": None}
+        return {
+            "setpoint_gap_max_s": round(stats.mission.max, 3),
+            "setpoint_gap_p99_s": round(stats.mission.percentile(99.0), 3),
+        }
 
     def _vehicle_report(self, sysid: int, v: Vehicle, end_t: float) -> dict[str, Any]:
         """What the report adds per UAV: why it did not count, and its telemetry rate."""
@@ -841,5 +857,9 @@ class ConvoyService:
                 why: round(s, 1) for why, s in sorted(self._not_counted_s.get(sysid, {}).items())
             },
             "messages_per_s": round(v.received / heard, 2) if heard else None,
+            # Setpoint stream health: the longest wait between two setpoints sent (mission
+            # s), and its 99th percentile over the last 2048: the mission's planning runs
+            # off the flight loop and must never hold the stream.
+            **self._stream_health(sysid),
             "learnt": {} if v.firmware is None else v.firmware.learnt(),
         }

@@ -389,10 +389,12 @@ def _write_outputs(
             json.dump(report, fh, indent=2)
         print(f"report written to {args.report}")
     if args.plot and service is not None:
+        route = service.route
         plot_mission(
             service.history,
             args.plot,
             sensor_radius=service.config.sensor_radius_m,
+            road=None if route is None else (route.y.tolist(), route.x.tolist()),
             title=f"convoy-mav: {report.get('scenario', 'mission')}"
             + (f" of {os.path.basename(report['track'])}" if report.get("track") else "")
             + ", "

@@ -26,6 +26,7 @@ def plot_mission(
     sensor_radius: float,
     title: str = "",
     disk_instants: Sequence[float] | None = None,
+    road: tuple[Sequence[float], Sequence[float]] | None = None,
 ) -> None:
     """Write a PNG: tracks and disks on the left, the coverage timeline below.
 
@@ -36,6 +37,7 @@ def plot_mission(
         title: Figure title.
         disk_instants: Mission times at which to draw every UAV's sensor disk
             (default: three instants spread over the protect phase).
+        road: The convoy's known route, (norths, easts), drawn under the tracks.
     """
     samples = history.samples
     if not samples:
@@ -44,6 +46,8 @@ def plot_mission(
     grid = fig.add_gridspec(2, 1, height_ratios=[4, 1])
     ax = fig.add_subplot(grid[0])
     tl = fig.add_subplot(grid[1])
+    if road is not None:
+        ax.plot(road[1], road[0], color="0.6", lw=6, alpha=0.5, label="route", zorder=0)
     sysids = sorted({s for sample in samples for s in sample.uavs})
     cmap = colormaps["tab10"]
     for i, sysid in enumerate(sysids):

@@ -191,3 +191,35 @@ def test_a_mission_config_rehearses_its_own_aircraft() -> None:
     base = parse_config({"mission": {"sensor_radius_m": 50.0}})
     cfg = rehearsed_config(replace(base, end="rtl"), replace(mission, end="land"))
     assert (cfg.end, cfg.altitude_band_m, cfg.sensor_radius_m) == ("land", 15.0, 50.0)
+
+
+def test_planner_and_route_keys(tmp_path: Path) -> None:
+    cfg = parse_config({"mission": {"sensor_radius_m": 100.0}})
+    assert (cfg.planner, cfg.convoy.route_file) == ("auto", None)
+    cfg = parse_config({"mission": {"sensor_radius_m": 100.0, "planner": "road"}})
+    assert cfg.planner == "road"
+    with pytest.raises(ConfigError, match=r"mission.planner = 'fast': must be 'auto', 'road'"):
+        parse_config({"mission": {"sensor_radius_m": 100.0, "planner": "fast"}})
+    with pytest.raises(ConfigError, match="convoy.route"):
+        parse_config({"mission": {"sensor_radius_m": 100.0}, "convoy": {"route": 3}})
+    # A route file is found beside the config that names it.
+    (tmp_path / "sub").mkdir()
+    path = tmp_path / "sub" / "m.toml"
+    path.write_text('[mission]\nsensor_radius_m = 100.0\n[convoy]\nroute = "r.gpx"\n')
+    assert load_config(path).convoy.route_file == str(tmp_path / "sub" / "r.gpx")
+
+
+def test_a_bad_route_file_is_a_config_error(tmp_path: Path) -> None:
+    from convoy_mav.app import ConvoyService
+
+    bad = tmp_path / "r.csv"
+    bad.write_text("time,lat,lon\n0,91.0,8.0\n")
+    doc = {"mission": {"sensor_radius_m": 100.0, "planner": "road"}, "convoy": {"route": str(bad)}}
+    doc["uav"] = [{"connection": "udpin:127.0.0.1:14540", "sysid": 1}]
+    with pytest.raises(ConfigError, match=r"convoy.route .*cannot be used as a route"):
+        ConvoyService(parse_config(doc))
+    good = tmp_path / "g.csv"
+    good.write_text("lat,lon\n47.397742,8.545594\n47.398742,8.545594\n47.398742,8.547594\n")
+    doc["convoy"] = {"route": str(good)}
+    service = ConvoyService(parse_config(doc))
+    assert service.route is not None and service.route.length == pytest.approx(262.0, rel=0.1)

@@ -395,3 +395,27 @@ def test_the_recorded_drive_is_read_as_it_comes() -> None:
     assert track.cleaning.merged >= 1  # (it was refused for the pair sharing one stamp)
     assert len(track.times) > 2500 and 3600.0 < track.duration < 3800.0
     assert all(b > a for a, b in itertools.pairwise(track.times))
+
+
+def test_a_route_needs_no_times(tmp_path: Path) -> None:
+    """[convoy] route: GPX <rtept> without <time>, CSV lat,lon[,time]."""
+    from convoy_mav.tracks import load_route
+
+    gpx = tmp_path / "r.gpx"
+    gpx.write_text(
+        '<gpx version="1.1"><rte><rtept lat="47.1" lon="8.1"/><rtept lat="47.2" lon="8.2"/>'
+        "</rte></gpx>"
+    )
+    assert load_route(gpx) == ([47.1, 47.2], [8.1, 8.2])
+    csv_ = tmp_path / "r.csv"
+    csv_.write_text("# a route\n47.1,8.1\n47.2,8.2,60\n")
+    assert load_route(csv_) == ([47.1, 47.2], [8.1, 8.2])
+    named = tmp_path / "n.csv"
+    named.write_text("lon,lat\n8.1,47.1\n8.2,47.2\n")
+    assert load_route(named) == ([47.1, 47.2], [8.1, 8.2])
+    bad = tmp_path / "b.csv"
+    bad.write_text("47.1\n")
+    with pytest.raises(ValueError, match=r"b.csv:1: expected columns lat,lon"):
+        load_route(bad)
+    with pytest.raises(ValueError, match="a route is a .gpx or .csv"):
+        load_route(tmp_path / "x.tlog")

@@ -30,9 +30,9 @@ import os
 from collections.abc import Collection
 from typing import Literal
 
-from convoy_mav.tracks.csvfile import parse_csv_track
+from convoy_mav.tracks.csvfile import parse_csv_points, parse_csv_track
 from convoy_mav.tracks.geotrack import GeoTrack, TrackSpeeds, track_speeds
-from convoy_mav.tracks.gpx import parse_gpx_track
+from convoy_mav.tracks.gpx import parse_gpx_points, parse_gpx_track
 from convoy_mav.tracks.tlog import parse_tlog_track
 
 __all__ = [
@@ -41,6 +41,7 @@ __all__ = [
     "TrackFormat",
     "TrackSpeeds",
     "format_of",
+    "load_route",
     "load_track",
     "parse_csv_track",
     "parse_gpx_track",
@@ -67,6 +68,26 @@ def format_of(path: str | os.PathLike[str]) -> TrackFormat:
         f"{name}: cannot tell the track format from the extension {ext or '(none)'!r}; "
         "expected .csv, .gpx or .tlog (or name the format)"
     )
+
+
+def load_route(path: str | os.PathLike[str]) -> tuple[list[float], list[float]]:
+    """Read a route, the road a convoy will drive: (lats, lons), in order, times ignored.
+
+    GPX ``<trkpt>`` or ``<rtept>`` (no ``<time>`` needed) or CSV ``lat,lon[,time]``.
+
+    Raises:
+        ValueError: A malformed file, or one that is not .gpx or .csv.
+        OSError: The file cannot be read.
+    """
+    name = os.fspath(path)
+    kind = format_of(name)
+    if kind == "csv":
+        with open(name, newline="", encoding="utf-8-sig") as handle:
+            return parse_csv_points(handle, name)
+    if kind == "gpx":
+        with open(name, "rb") as binary:
+            return parse_gpx_points(binary.read(), name)
+    raise ValueError(f"{name}: a route is a .gpx or .csv file, not a {kind}")
 
 
 def load_track(

@@ -8,7 +8,7 @@ from collections.abc import Iterable
 
 from convoy_mav.tracks.geotrack import GeoTrack, check_fix
 
-__all__ = ["parse_csv_track"]
+__all__ = ["parse_csv_points", "parse_csv_track"]
 
 _COLUMN_NAMES = {
     "time": "time",
@@ -19,6 +19,46 @@ _COLUMN_NAMES = {
     "lng": "lon",
     "longitude": "lon",
 }
+
+
+def parse_csv_points(lines: Iterable[str], name: str) -> tuple[list[float], list[float]]:
+    """A route's ``lat,lon[,time]`` rows: the path only (any time column is ignored).
+
+    A first row that is not numeric is a header naming the columns, as for tracks
+    (``time`` optional). Blank lines and ``#`` comments are skipped.
+
+    Raises:
+        ValueError: A malformed row, or none; the message gives file and line.
+    """
+    lats: list[float] = []
+    lons: list[float] = []
+    columns = (0, 1)
+    seen_row = False
+    for lineno, row in enumerate(csv.reader(lines), start=1):
+        cells = [c.strip() for c in row]
+        if not any(cells) or cells[0].startswith("#"):
+            continue
+        if not seen_row:
+            seen_row = True
+            if not _is_number(cells[0]):
+                columns = _header_columns(cells, name, lineno, need=("lat", "lon"))[1:]
+                continue
+        if len(cells) <= max(columns):
+            raise ValueError(
+                f"{name}:{lineno}: expected columns lat,lon, got {len(cells)} field(s)"
+            )
+        try:
+            lat, lon = (float(cells[i]) for i in columns)
+        except ValueError:
+            raise ValueError(f"{name}:{lineno}: lat and lon must be numbers") from None
+        if not (math.isfinite(lat) and math.isfinite(lon)):
+            raise ValueError(f"{name}:{lineno}: lat and lon must be finite")
+        check_fix(f"{name}:{lineno}", lat, lon)
+        lats.append(lat)
+        lons.append(lon)
+    if not lats:
+        raise ValueError(f"{name}: no data rows (expected lat,lon)")
+    return lats, lons
 
 
 def parse_csv_track(lines: Iterable[str], name: str) -> GeoTrack:
@@ -84,16 +124,18 @@ def _is_number(text: str) -> bool:
     return True
 
 
-def _header_columns(cells: list[str], name: str, lineno: int) -> tuple[int, int, int]:
+def _header_columns(
+    cells: list[str], name: str, lineno: int, need: tuple[str, ...] = ("time", "lat", "lon")
+) -> tuple[int, int, int]:
     found: dict[str, int] = {}
     for i, cell in enumerate(cells):
         key = _COLUMN_NAMES.get(cell.lower())
         if key is not None and key not in found:
             found[key] = i
-    missing = [k for k in ("time", "lat", "lon") if k not in found]
+    missing = [k for k in need if k not in found]
     if missing:
         raise ValueError(
             f"{name}:{lineno}: header {cells!r} lacks column(s) {', '.join(missing)} "
-            "(expected time,lat,lon)"
+            f"(expected {','.join(need)})"
         )
-    return found["time"], found["lat"], found["lon"]
+    return found.get("time", -1), found["lat"], found["lon"]

@@ -22,6 +22,26 @@ class _GpxPoint:
     time: str | None = None
 
 
+def parse_gpx_points(data: bytes | str, name: str) -> tuple[list[float], list[float]]:
+    """A route's points: the ``<trkpt>`` of a GPX file, else its ``<rtept>``; times ignored.
+
+    Raises:
+        ValueError: As :func:`parse_gpx_track`, but a point needs no ``<time>``.
+    """
+    chosen = _gpx_points(data, name)
+    lats: list[float] = []
+    lons: list[float] = []
+    for p in chosen:
+        where = f"{name}:{p.line}"
+        what = f"{p.kind} #{p.number}"
+        lat = _gpx_coordinate(where, what, "lat", p.lat)
+        lon = _gpx_coordinate(where, what, "lon", p.lon)
+        check_fix(where, lat, lon)
+        lats.append(lat)
+        lons.append(lon)
+    return lats, lons
+
+
 def parse_gpx_track(data: bytes | str, name: str) -> GeoTrack:
     """Parse a GPX 1.0/1.1 file: its ``<trkpt>`` (all tracks and segments, in order).
 
@@ -39,6 +59,29 @@ def parse_gpx_track(data: bytes | str, name: str) -> GeoTrack:
             ``<time>``; ``file:line:`` first. Repeated, backward and spiking fixes
             are merged or dropped and counted (``GeoTrack.cleaning``), not refused.
     """
+    chosen = _gpx_points(data, name)
+    times: list[float] = []
+    lats: list[float] = []
+    lons: list[float] = []
+    for p in chosen:
+        where = f"{name}:{p.line}"
+        what = f"{p.kind} #{p.number}"
+        lat = _gpx_coordinate(where, what, "lat", p.lat)
+        lon = _gpx_coordinate(where, what, "lon", p.lon)
+        check_fix(where, lat, lon)
+        if p.time is None:
+            raise ValueError(
+                f"{where}: {what} has no <time>: replaying a track needs when the convoy "
+                "was at each point"
+            )
+        times.append(_iso_seconds(where, what, p.time))
+        lats.append(lat)
+        lons.append(lon)
+    return GeoTrack.from_fixes(times, lats, lons, name, "gpx")
+
+
+def _gpx_points(data: bytes | str, name: str) -> list[_GpxPoint]:
+    """The ``<trkpt>`` of a GPX file (else its ``<rtept>``), with their lines."""
     parser = expat.ParserCreate(namespace_separator=" ")
     points: list[_GpxPoint] = []
     counts = {"trkpt": 0, "rtept": 0}
@@ -84,24 +127,7 @@ def parse_gpx_track(data: bytes | str, name: str) -> GeoTrack:
     chosen = [p for p in points if p.kind == kind]
     if not chosen:
         raise ValueError(f"{name}: no <trkpt> or <rtept> points")
-    times: list[float] = []
-    lats: list[float] = []
-    lons: list[float] = []
-    for p in chosen:
-        where = f"{name}:{p.line}"
-        what = f"{p.kind} #{p.number}"
-        lat = _gpx_coordinate(where, what, "lat", p.lat)
-        lon = _gpx_coordinate(where, what, "lon", p.lon)
-        check_fix(where, lat, lon)
-        if p.time is None:
-            raise ValueError(
-                f"{where}: {what} has no <time>: replaying a track needs when the convoy "
-                "was at each point"
-            )
-        times.append(_iso_seconds(where, what, p.time))
-        lats.append(lat)
-        lons.append(lon)
-    return GeoTrack.from_fixes(times, lats, lons, name, "gpx")
+    return chosen
 
 
 def _gpx_coordinate(where: str, what: str, attr: str, value: str | None) -> float:

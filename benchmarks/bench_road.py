@@ -1,0 +1,93 @@
+"""Road planner speed: a one-hour route, one UAV's re-plan, one convoy fix.
+
+Run with ``make bench`` (or ``pytest benchmarks/bench_road.py --benchmark-only``).
+
+Where each runs in the service:
+- a convoy fix (``ConvoyTracker.update``) runs on the flight loop, per ground
+  vehicle message;
+- the road estimate (``RoadMission.on_convoy``: the route projection, the
+  pattern clock) and every re-plan run in the mission worker thread, once per
+  control step (10 Hz), off the flight loop: setpoints are streamed from the
+  last frozen view meanwhile, so planning never holds them (the report's
+  ``setpoint_gap_max_s`` per UAV shows it).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from pytest_benchmark.fixture import BenchmarkFixture
+
+from convoy_mav.convoy import ConvoyTracker
+from convoy_mav.geo import GeoPoint, LocalFrame
+from convoy_mav.mission.road import RoadMission
+from convoy_mav.mission.simulate import fly_road
+from convoy_mav.planning import PlanRequest
+from convoy_mav.planning.road import Road
+from convoy_mav.tracks import load_track
+from convoy_mav.types import ConvoyEstimate
+
+TRACKS = Path(__file__).resolve().parents[2] / "shared" / "tracks"
+FAST = PlanRequest(200.0, 120.0, 28.0)  # configs/rehearse_fast_planes.toml
+
+
+def _drive() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    track = load_track(TRACKS / "istanbul_drive.gpx")
+    norths, easts = track.in_frame(LocalFrame(GeoPoint(track.lats[0], track.lons[0])))
+    return np.array(track.times), np.array(norths), np.array(easts)
+
+
+def test_fly_a_one_hour_route(benchmark: BenchmarkFixture) -> None:
+    """The whole recorded drive (62 min, 2,685 fixes), 6 UAVs, route known: every
+    re-plan of every UAV and every setpoint, as the service would make them."""
+    t, north, east = _drive()
+    run = benchmark.pedantic(  # type: ignore[no-untyped-call]
+        fly_road, args=(t, north, east, FAST, 6), kwargs={"route_known": True}, rounds=3
+    )
+    assert run.protect_start is not None
+
+
+def test_replan_one_uav(benchmark: BenchmarkFixture) -> None:
+    """One UAV's legs re-planned (what a control step does for a few UAVs at a time)."""
+    t, north, east = _drive()
+    mission = RoadMission(FAST, [1, 2, 3, 4, 5, 6], down=lambda _u: -100.0)
+    tracker = ConvoyTracker(window=4.0)
+    for k in range(40):
+        tracker.update(float(t[k]), float(north[k]), float(east[k]))
+        est = tracker.estimate(float(t[k]))
+        assert est is not None
+        mission.on_convoy(est)
+    now = float(t[39])
+    mission.join_many({u: (north[0] + 50.0 * u, east[0], 0.0) for u in range(1, 7)}, now)
+    benchmark(mission._plan_paths, now, [1])
+
+
+def test_convoy_fix_on_the_flight_loop(benchmark: BenchmarkFixture) -> None:
+    """One ground vehicle fix folded into the convoy estimate (flight loop, per message)."""
+    tracker = ConvoyTracker(window=4.0)
+    state = {"t": 0.0}
+
+    def fix() -> None:
+        state["t"] += 0.1
+        tracker.update(state["t"], 8.0 * state["t"], 0.0, 5)
+
+    benchmark(fix)
+
+
+def test_road_estimate_update(benchmark: BenchmarkFixture) -> None:
+    """The road mission folding in one convoy estimate on a known 25-km route
+    (projection near the last arc length, the pattern clock): worker thread, 10 Hz."""
+    t, north, east = _drive()
+    route = Road.from_points(east, north)
+    mission = RoadMission(FAST, [1, 2, 3, 4, 5, 6], down=lambda _u: -100.0, route=route)
+    state = {"k": 0}
+
+    def update() -> None:
+        k = state["k"] = (state["k"] + 1) % (len(t) - 1)
+        est = ConvoyEstimate(
+            float(t[k]) + 1e4 * (k == 0), float(north[k]), float(east[k]), 5.0, 5.0
+        )
+        mission.model.observe(est)
+
+    benchmark(update)
