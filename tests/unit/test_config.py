@@ -200,7 +200,7 @@ def test_planner_and_route_keys(tmp_path: Path) -> None:
     assert cfg.planner == "road"
     with pytest.raises(ConfigError, match=r"mission.planner = 'fast': must be 'auto', 'road'"):
         parse_config({"mission": {"sensor_radius_m": 100.0, "planner": "fast"}})
-    with pytest.raises(ConfigError, match="convoy.route"):
+    with pytest.raises(ConfigError, match=r"convoy\.route"):
         parse_config({"mission": {"sensor_radius_m": 100.0}, "convoy": {"route": 3}})
     # A route file is found beside the config that names it.
     (tmp_path / "sub").mkdir()

@@ -417,5 +417,5 @@ def test_a_route_needs_no_times(tmp_path: Path) -> None:
     bad.write_text("47.1\n")
     with pytest.raises(ValueError, match=r"b.csv:1: expected columns lat,lon"):
         load_route(bad)
-    with pytest.raises(ValueError, match="a route is a .gpx or .csv"):
+    with pytest.raises(ValueError, match=r"a route is a \.gpx or \.csv"):
         load_route(tmp_path / "x.tlog")
