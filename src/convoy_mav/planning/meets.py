@@ -43,7 +43,7 @@ FloatArray = npt.NDArray[np.float64]
 Where = Callable[["FloatArray"], tuple["FloatArray", "FloatArray"]]
 """Where the pattern puts a UAV (planner x, y arrays) at each of an array of times."""
 
-_TRACK_SAMPLES = 16  # points per candidate at which its distance to the pattern is taken
+_TRACK_SAMPLES = 24  # points per candidate at which its distance to the pattern is taken
 _RETARGETS = 3  # times a late leg is planned again for the pattern where it arrives
 
 
@@ -64,7 +64,7 @@ class LegLimits:
     cruise: float
     speed_band: tuple[float, float] = (0.85, 1.15)
     steer_max_s: float = 40.0
-    steer_step_s: float = 2.0
+    steer_step_s: float = 1.0
     pattern_radius: float = 0.0
 
     def __post_init__(self) -> None:
