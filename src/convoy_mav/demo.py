@@ -1,15 +1,17 @@
 """``convoy-mav demo`` and ``replay``: the mock fleet, the service and a ground-truth score.
 
 A scenario names the convoy's motion; the mock is started with the right number
-of aircraft (the paper's minimum unless ``uavs`` says otherwise) and the
+of aircraft (``Scenario.fleet``: the paper's minimum for a parked or straight-line
+convoy, the road's count for a road, unless ``uavs`` says otherwise) and the
 convoy's ground vehicles, the service connects to them exactly as it would to
 PX4/ArduPilot SITL (UDP, MAVLink), flies the mission, and the mission is scored
 twice: by the service's own monitor, and from the mock's ground truth.
 
 A replay scenario (:func:`replay_scenario`) drives the ground vehicles along a
-recorded track instead, the mock's world origin at the track's first fix. Only
-the mock is given the track: the service locates the convoy from the ground
-vehicles' GLOBAL_POSITION_INT, as in every other scenario.
+recorded track instead, the mock's world origin at the track's first fix. The
+service locates the convoy from the ground vehicles' GLOBAL_POSITION_INT, as in
+every other scenario; with ``route_known`` it is also given the track's path (not
+its timing) as the convoy's route.
 
 The mock's airframes turn tighter than the plan asks (``turn_margin``): a plan
 at the hard turn limit leaves the autopilot no authority to correct errors.
@@ -169,15 +171,11 @@ SCENARIOS: dict[str, Scenario] = {
 def replay_scenario(track: GeoTrack, base: Scenario | None = None) -> Scenario:
     """The demo's aircraft and sensor, with the convoy replaying ``track``.
 
-    The scenario's convoy speed, from which :func:`run_demo` takes the paper's
-    minimum aircraft count, is the track's *planning speed*: the speed the convoy
-    is at least as fast as 90 % of the time (over 10-s windows, see
-    :func:`~convoy_mav.tracks.track_speeds`). A low quantile, not a high one,
-    because the paper's minimum grows as the convoy slows (with the demo's
-    aircraft: 5 up to 5.8 m/s, 4 up to 9.5 m/s, 3 up to 12.1 m/s): the slow
-    stretches decide how many aircraft the whole mission needs, while one short
-    stop should not cost an extra aircraft for all of it. The fastest window
-    must still be slower than the aircraft.
+    A replay is a road: :meth:`Scenario.fleet` flies the road's count. The
+    scenario's convoy speed (reported as the track's *planning speed*) is the
+    speed the convoy is at least as fast as 90 % of the time over 10-s windows
+    (:func:`~convoy_mav.tracks.track_speeds`), what the paper's planner would plan
+    for; the fastest window must still be slower than the aircraft.
 
     Args:
         track: The recorded track (rebased here to start at ``t = 0``).

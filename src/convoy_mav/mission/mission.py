@@ -21,12 +21,12 @@ Design rules:
 
 from __future__ import annotations
 
-import itertools
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 
 from convoy_mav.errors import PlanningError
+from convoy_mav.mission.assign import best_assignment
 from convoy_mav.mission.events import (
     MissionAlarm,
     MissionEvent,
@@ -43,9 +43,6 @@ from convoy_mav.schedule import mission_to_planner, setpoint_on
 from convoy_mav.types import ConvoyEstimate, Setpoint
 
 __all__ = ["Mission"]
-
-#: Exhaustive slot assignment up to this many candidate permutations.
-_EXHAUSTIVE_LIMIT = 5040
 
 
 @dataclass(frozen=True, slots=True)
@@ -387,19 +384,4 @@ class Mission:
     ) -> tuple[int, ...]:
         """Slot (of ``slots``) for each of ``uavs`` minimising the last arrival, then the total."""
         cost = {(u, i): self._cost(starts[u], i, tau0) for u in uavs for i in slots}
-        if math.perm(len(slots), len(uavs)) <= _EXHAUSTIVE_LIMIT:
-            best: tuple[int, ...] = ()
-            best_key = (math.inf, math.inf)
-            for perm in itertools.permutations(slots, len(uavs)):
-                values = [cost[u, i] for u, i in zip(uavs, perm, strict=True)]
-                key = (max(values, default=0.0), sum(values))
-                if key < best_key:
-                    best, best_key = perm, key
-            return best
-        chosen: dict[int, int] = {}
-        used: set[int] = set()
-        for (u, i), _ in sorted(cost.items(), key=lambda kv: kv[1]):
-            if u not in chosen and i not in used:
-                chosen[u] = i
-                used.add(i)
-        return tuple(chosen[u] for u in uavs)
+        return best_assignment(uavs, slots, cost)

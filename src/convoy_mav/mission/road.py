@@ -16,7 +16,8 @@ Design rules:
   to spare (``planning.pattern.pattern_radius``): turn left over to follow
   the road with.
 - A joining UAV takes a free slot and flies legs from where it is; it is
-  ``protect`` from its first meeting on time. A UAV lost or back changes N:
+  ``protect`` from its first meeting on time, within half of r of the pattern
+  on its way there. A UAV lost or back changes N:
   the others' offsets are re-spread, and their legs re-planned.
 - ``predicted_coverage`` is the coverage the commanded paths give against
   the convoy as estimated, over the protect phase so far: what the UAVs
@@ -31,7 +32,6 @@ Design rules:
 from __future__ import annotations
 
 import bisect
-import itertools
 import math
 from collections import deque
 from collections.abc import Callable, Mapping, Sequence
@@ -42,6 +42,7 @@ import numpy as np
 import numpy.typing as npt
 
 from convoy_mav.errors import PlanningError
+from convoy_mav.mission.assign import best_assignment
 from convoy_mav.mission.convoy_model import ConvoyModel, RoadMotion
 from convoy_mav.mission.events import MissionEvent, Phase, PhaseChanged, Replanned, phase_at
 from convoy_mav.planning.dubins import Pose, Segment, Turn
@@ -63,7 +64,6 @@ __all__ = ["RoadMission", "RoadSettings"]
 
 FloatArray = npt.NDArray[np.float64]
 
-_EXHAUSTIVE_LIMIT = 5040
 _FORECAST_STEP = 0.5  # s
 _SCORE_STEP = 0.5  # s: resolution of the planned-coverage score
 _REPLAN_BATCHES = 8  # a fleet's re-plans are spread over this many mission steps at least
@@ -83,6 +83,8 @@ class RoadSettings:
         pattern_cap: Widest pattern radius, as a multiple of R.
         settle_s: Seconds of convoy fixes before the pattern is laid (the
             tracker's velocity settles first).
+        join_heading_weight: A joining UAV's legs also aim to meet the pattern
+            on its heading (metres of mean offset a radian is worth, ``plan_leg``).
         on_pattern_m: A UAV protects from its first leg that arrives on time
             within this mean distance of the pattern (0: half of r).
     """
@@ -94,6 +96,7 @@ class RoadSettings:
     min_lead_s: float = 3.0
     pattern_cap: float = 1.3
     settle_s: float = 4.0
+    join_heading_weight: float = 50.0
     on_pattern_m: float = 0.0
 
 
@@ -154,16 +157,12 @@ class _Forecast:
     def meetings(self, offset: float, after: float) -> list[float]:
         """Times after ``after`` at which ``phase + offset`` crosses a whole number."""
         ph = self.phase + offset
-        out = []
-        for k in range(1, len(self.t)):
-            if math.floor(ph[k]) > math.floor(ph[k - 1]):
-                # Interpolate the crossing inside the step.
-                target = math.floor(ph[k])
-                f = (target - ph[k - 1]) / max(ph[k] - ph[k - 1], 1e-12)
-                tm = float(self.t[k - 1] + f * _FORECAST_STEP)
-                if tm > after:
-                    out.append(tm)
-        return out
+        whole = np.floor(ph)
+        k = np.nonzero(whole[1:] > whole[:-1])[0] + 1  # steps that cross one
+        # The crossing, interpolated inside its step.
+        f = (whole[k] - ph[k - 1]) / np.maximum(ph[k] - ph[k - 1], 1e-12)
+        times = self.t[k - 1] + f * _FORECAST_STEP
+        return [float(tm) for tm in times if tm > after]
 
 
 class RoadMission:
@@ -199,7 +198,7 @@ class RoadMission:
         self._lost: list[int] = []
         self._slots: dict[int, int] = {}  # uav -> slot index in 0..N-1
         self._trajectories: dict[int, Trajectory] = {}
-        self._starts: dict[int, Pose] = {}  # joined, not yet planned: pose at _start_t
+        self._starts: dict[int, Pose] = {}  # joined, not yet planned: where it was
         self._arrival: dict[int, float] = {}
         self._announced: set[int] = set()
         self._protect_start: float | None = None
@@ -401,7 +400,7 @@ class RoadMission:
             px, py = forecast.pattern(i / n)(np.array([ahead]))
             for u in order:
                 cost[u, i] = math.hypot(starts[u].x - float(px[0]), starts[u].y - float(py[0]))
-        for uav, slot in zip(order, _assign(order, free, cost), strict=True):
+        for uav, slot in zip(order, best_assignment(order, free, cost), strict=True):
             self._slots[uav] = slot
             self._starts[uav] = starts[uav]
         self._plan_paths(t)
@@ -491,7 +490,9 @@ class RoadMission:
                 continue
             pattern = forecast.pattern(slot / n)
             close = self.settings.on_pattern_m or 0.5 * self.request.sensor_radius
-            legs = self._legs(pose, t, pattern, forecast.meetings(slot / n, t), limits)
+            joining = uav not in self._arrival
+            weight = self.settings.join_heading_weight if joining else 0.0
+            legs = self._legs(pose, t, pattern, forecast.meetings(slot / n, t), limits, weight)
             if not legs:
                 continue
             segments = tuple(seg for leg in legs for seg in leg.segments)
@@ -508,14 +509,20 @@ class RoadMission:
             self._starts.pop(uav, None)
 
     def _legs(
-        self, pose: Pose, t: float, pattern: Where, meetings: list[float], limits: LegLimits
+        self,
+        pose: Pose,
+        t: float,
+        pattern: Where,
+        meetings: list[float],
+        limits: LegLimits,
+        heading_weight: float,
     ) -> list[Leg]:
         legs: list[Leg] = []
         start, t0 = pose, t
         for tm in meetings:
             if tm < t0 + self.settings.min_lead_s:
                 continue
-            leg = plan_leg(start, t0, pattern, tm, limits)
+            leg = plan_leg(start, t0, pattern, tm, limits, heading_weight=heading_weight)
             legs.append(leg)
             start, t0 = leg.end, leg.t_end
             if len(legs) >= self.settings.legs_ahead:
@@ -598,25 +605,3 @@ class RoadMission:
                     break
             self._scored_s += _SCORE_STEP
             self._covered_s += _SCORE_STEP * seen
-
-
-def _assign(
-    uavs: list[int], slots: list[int], cost: Mapping[tuple[int, int], float]
-) -> tuple[int, ...]:
-    """Slot for each UAV minimising the largest cost, then the total."""
-    if math.perm(len(slots), len(uavs)) <= _EXHAUSTIVE_LIMIT:
-        best: tuple[int, ...] = ()
-        best_key = (math.inf, math.inf)
-        for perm in itertools.permutations(slots, len(uavs)):
-            values = [cost[u, i] for u, i in zip(uavs, perm, strict=True)]
-            key = (max(values, default=0.0), sum(values))
-            if key < best_key:
-                best, best_key = perm, key
-        return best
-    chosen: dict[int, int] = {}
-    used: set[int] = set()
-    for (u, i), _ in sorted(cost.items(), key=lambda kv: kv[1]):
-        if u not in chosen and i not in used:
-            chosen[u] = i
-            used.add(i)
-    return tuple(chosen[u] for u in uavs)

@@ -45,6 +45,7 @@ Where = Callable[["FloatArray"], tuple["FloatArray", "FloatArray"]]
 
 _TRACK_SAMPLES = 24  # points per candidate at which its distance to the pattern is taken
 _RETARGETS = 3  # times a late leg is planned again for the pattern where it arrives
+_HEADING_DT = 0.5  # s: the pattern's heading at a meeting, from its positions this far apart
 
 
 @dataclass(frozen=True, slots=True)
@@ -121,7 +122,15 @@ class Leg:
         return last.at(last.duration)
 
 
-def plan_leg(pose: Pose, t: float, pattern: Where, t_meet: float, limits: LegLimits) -> Leg:
+def plan_leg(
+    pose: Pose,
+    t: float,
+    pattern: Where,
+    t_meet: float,
+    limits: LegLimits,
+    *,
+    heading_weight: float = 0.0,
+) -> Leg:
     """The flyable leg from ``pose`` at ``t`` to the pattern at ``t_meet``.
 
     Args:
@@ -131,19 +140,24 @@ def plan_leg(pose: Pose, t: float, pattern: Where, t_meet: float, limits: LegLim
             the convoy, its meeting).
         t_meet: The meeting this leg is for (> t).
         limits: What the airframe can fly.
+        heading_weight: Metres of mean distance from the pattern a radian of heading
+            off the pattern's at the meeting is worth: a joining UAV that meets the
+            pattern going its way flies it from there (0: position only).
     """
-    leg = _leg_to(pose, t, t_meet, pattern, limits)
+    leg = _leg_to(pose, t, t_meet, pattern, limits, heading_weight)
     for _ in range(_RETARGETS):
         if leg.on_time:
             break
-        leg = _leg_to(pose, t, leg.t_end, pattern, limits)
+        leg = _leg_to(pose, t, leg.t_end, pattern, limits, heading_weight)
     return leg
 
 
-def _leg_to(pose: Pose, t: float, t_meet: float, pattern: Where, limits: LegLimits) -> Leg:
+def _leg_to(
+    pose: Pose, t: float, t_meet: float, pattern: Where, limits: LegLimits, heading_weight: float
+) -> Leg:
     lo, hi = limits.speeds
     left = max(t_meet - t, 1e-3)
-    tx, ty = pattern(np.array([t_meet]))
+    tx, ty = pattern(np.array([t_meet, t_meet + _HEADING_DT]))
     target = (float(tx[0]), float(ty[0]))
     k1, l1, k2, arc, total = _candidates(pose, target, limits)
     ok = np.abs(k2) <= 1.0 / limits.turn_radius + 1e-12
@@ -153,7 +167,12 @@ def _leg_to(pose: Pose, t: float, t_meet: float, pattern: Where, limits: LegLimi
     px, py = _positions(pose, k1, l1, k2, speed, taus)
     rx, ry = pattern(t + taus)
     offset = np.mean(np.hypot(px - rx[None, :], py - ry[None, :]), axis=1)
-    cost = np.where(ok, late * limits.cruise + offset, np.inf)
+    cost = late * limits.cruise + offset
+    if heading_weight > 0.0:
+        want = math.atan2(float(ty[1] - ty[0]), float(tx[1] - tx[0]))
+        h_end = pose.heading + k1 * l1 + np.where(np.isfinite(k2), k2, 0.0) * arc
+        cost = cost + heading_weight * np.abs(np.mod(h_end - want + math.pi, 2 * math.pi) - math.pi)
+    cost = np.where(ok, cost, np.inf)
     i = int(np.argmin(cost))
     if not math.isfinite(float(cost[i])):  # pragma: no cover - a long enough turn always fits
         raise PlanningError("no flyable leg reaches the pattern")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import csv
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 
 from convoy_mav.tracks.geotrack import GeoTrack, check_fix
 
@@ -19,6 +19,31 @@ _COLUMN_NAMES = {
     "lng": "lon",
     "longitude": "lon",
 }
+
+
+def _data_rows(
+    lines: Iterable[str], name: str, need: tuple[str, ...]
+) -> Iterator[tuple[int, list[str], tuple[int, int, int]]]:
+    """Each data row as (line, cells, (time, lat, lon) columns), past comments and a header.
+
+    Without a header the columns are ``need`` in order (a missing time is -1).
+    """
+    columns = (0, 1, 2) if need[0] == "time" else (-1, 0, 1)
+    seen_row = False
+    for lineno, row in enumerate(csv.reader(lines), start=1):
+        cells = [c.strip() for c in row]
+        if not any(cells) or cells[0].startswith("#"):
+            continue
+        if not seen_row:
+            seen_row = True
+            if not _is_number(cells[0]):
+                columns = _header_columns(cells, name, lineno, need)
+                continue
+        if len(cells) <= max(columns):
+            raise ValueError(
+                f"{name}:{lineno}: expected columns {','.join(need)}, got {len(cells)} field(s)"
+            )
+        yield lineno, cells, columns
 
 
 def parse_csv_points(lines: Iterable[str], name: str) -> tuple[list[float], list[float]]:
@@ -83,21 +108,7 @@ def parse_csv_track(lines: Iterable[str], name: str) -> GeoTrack:
     times: list[float] = []
     lats: list[float] = []
     lons: list[float] = []
-    columns = (0, 1, 2)
-    seen_row = False
-    for lineno, row in enumerate(csv.reader(lines), start=1):
-        cells = [c.strip() for c in row]
-        if not any(cells) or cells[0].startswith("#"):
-            continue
-        if not seen_row:
-            seen_row = True
-            if not _is_number(cells[0]):
-                columns = _header_columns(cells, name, lineno)
-                continue
-        if len(cells) <= max(columns):
-            raise ValueError(
-                f"{name}:{lineno}: expected columns time,lat,lon, got {len(cells)} field(s)"
-            )
+    for lineno, cells, columns in _data_rows(lines, name, ("time", "lat", "lon")):
         try:
             t, lat, lon = (float(cells[i]) for i in columns)
         except ValueError:

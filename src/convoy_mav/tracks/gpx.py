@@ -28,18 +28,22 @@ def parse_gpx_points(data: bytes | str, name: str) -> tuple[list[float], list[fl
     Raises:
         ValueError: As :func:`parse_gpx_track`, but a point needs no ``<time>``.
     """
-    chosen = _gpx_points(data, name)
     lats: list[float] = []
     lons: list[float] = []
-    for p in chosen:
-        where = f"{name}:{p.line}"
-        what = f"{p.kind} #{p.number}"
-        lat = _gpx_coordinate(where, what, "lat", p.lat)
-        lon = _gpx_coordinate(where, what, "lon", p.lon)
-        check_fix(where, lat, lon)
+    for p in _gpx_points(data, name):
+        lat, lon = _latlon(p, name)
         lats.append(lat)
         lons.append(lon)
     return lats, lons
+
+
+def _latlon(p: _GpxPoint, name: str) -> tuple[float, float]:
+    """A point's checked coordinates (``file:line:`` in the error)."""
+    where, what = f"{name}:{p.line}", f"{p.kind} #{p.number}"
+    lat = _gpx_coordinate(where, what, "lat", p.lat)
+    lon = _gpx_coordinate(where, what, "lon", p.lon)
+    check_fix(where, lat, lon)
+    return lat, lon
 
 
 def parse_gpx_track(data: bytes | str, name: str) -> GeoTrack:
@@ -64,11 +68,8 @@ def parse_gpx_track(data: bytes | str, name: str) -> GeoTrack:
     lats: list[float] = []
     lons: list[float] = []
     for p in chosen:
-        where = f"{name}:{p.line}"
-        what = f"{p.kind} #{p.number}"
-        lat = _gpx_coordinate(where, what, "lat", p.lat)
-        lon = _gpx_coordinate(where, what, "lon", p.lon)
-        check_fix(where, lat, lon)
+        lat, lon = _latlon(p, name)
+        where, what = f"{name}:{p.line}", f"{p.kind} #{p.number}"
         if p.time is None:
             raise ValueError(
                 f"{where}: {what} has no <time>: replaying a track needs when the convoy "
