@@ -44,6 +44,7 @@ def test_a_road_is_protected_as_predicted(
     start = report["protect_start_s"]
     assert start is not None and start < 240.0
     truth = report["truth_coverage_fraction"]
-    assert truth >= 0.95
+    # (the first 260-380 s of protection; the README's table has the whole roads)
+    assert truth >= 0.90
     assert report["predicted_coverage"] == pytest.approx(truth, abs=0.015)
     assert report["coverage_fraction"] == pytest.approx(truth, abs=0.015)
