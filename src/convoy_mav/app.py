@@ -26,7 +26,7 @@ import math
 import sys
 import time
 from collections import Counter
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -35,7 +35,7 @@ from pymavlink.dialects.v20 import common as mavlink
 from convoy_mav.clock import MissionClock
 from convoy_mav.config import MissionConfig
 from convoy_mav.convoy import ConvoyTracker
-from convoy_mav.errors import ConfigError
+from convoy_mav.errors import ConfigError, PlanningError
 from convoy_mav.gcpolicy import collect_on_schedule, flight_gc
 from convoy_mav.geo import GeoPoint, LocalFrame
 from convoy_mav.history import History
@@ -238,6 +238,7 @@ class ConvoyService:
         else:
             self.mission = Mission(request, uav_ids, down=self._down, thresholds=thresholds)
         self._planner_why = why
+        self._new_route: Road | None = None  # from MQTT, for the next mission step
         self._planner_note = f"planner: {self.planner} ({why})"
         # What the streamer and the monitor read: swapped after each mission step.
         self.view = MissionView()
@@ -376,6 +377,7 @@ class ConvoyService:
                         cfg.mqtt.prefix,
                         on_convoy=self._on_mqtt_convoy,
                         on_command=self.command,
+                        on_route=self.set_route,
                     )
                 )
             for uav in cfg.uav_list:
@@ -582,6 +584,9 @@ class ConvoyService:
         """The only code that touches the Mission (runs in a worker thread)."""
         mission = self.mission
         events: list[Any] = []
+        road, self._new_route = self._new_route, None
+        if road is not None and isinstance(mission, RoadMission):
+            mission.model.set_route(road)
         if est is not None:
             events += mission.on_convoy(est)
         for sysid in lost:
@@ -824,6 +829,24 @@ class ConvoyService:
             route_start_s=self._route_t0,
             planner=self._planner_report(),
         )
+
+    def set_route(self, points: Sequence[tuple[float, float]]) -> None:
+        """A new route for the convoy, (lat, lon) in order (MQTT ``convoy/route``).
+
+        Taken in at the next mission step (the mission lives in its worker thread);
+        the paper's planner has no use for one, which is said once.
+        """
+        if not isinstance(self.mission, RoadMission):
+            self._note(f"route of {len(points)} points ignored: the paper's planner flies")
+            return
+        ned = [self.frame.to_ned(GeoPoint(lat, lon)) for lat, lon in points]
+        try:
+            road = Road.from_points([p[1] for p in ned], [p[0] for p in ned])
+        except PlanningError as exc:
+            self._note(f"route of {len(points)} points refused: {exc}")
+            return
+        self._new_route = road
+        self._note(f"convoy route received: {len(points)} points, {road.length:.0f} m")
 
     @property
     def route(self) -> Road | None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import json
 import math
+import re
 from typing import Any
 
 import pytest
@@ -323,3 +324,49 @@ def test_vehicle_payload_says_whether_and_why_not_a_uav_counts() -> None:
     )
     assert grounded["counted"] is False and grounded["why_not_counted"] == "on ground"
     json.dumps(grounded, allow_nan=False)
+
+
+def test_a_route_comes_as_points_or_geojson() -> None:
+    want = [(47.1, 8.1), (47.2, 8.2)]
+    assert topics.parse_convoy_route('{"points": [[47.1, 8.1], [47.2, 8.2]]}') == want
+    assert (
+        topics.parse_convoy_route(
+            b'{"points": [{"lat": 47.1, "lon": 8.1}, {"lat": 47.2, "lon": 8.2}]}'
+        )
+        == want
+    )
+    geojson = '{"type": "LineString", "coordinates": [[8.1, 47.1], [8.2, 47.2]]}'
+    assert topics.parse_convoy_route(geojson) == want  # (GeoJSON is lon, lat)
+    for bad, needle in [
+        ("[1, 2]", "JSON object"),
+        ('{"points": [[47.1, 8.1]]}', "2.."),
+        ('{"points": [[47.1, 8.1], [95.0, 8.2]]}', "out of range"),
+        ('{"points": [[47.1, 8.1], [NaN, 8.2]]}', "not finite"),
+        ('{"points": [[47.1, 8.1], "x"]}', "must be [lat, lon]"),
+        ("not json", "not JSON"),
+    ]:
+        with pytest.raises(topics.BadPayload, match=re.escape(needle)):
+            topics.parse_convoy_route(bad)
+    with pytest.raises(topics.BadPayload, match="exceeds"):
+        topics.parse_convoy_route(b" " * (topics.MAX_ROUTE_BYTES + 1))
+
+
+async def test_a_route_over_mqtt_reaches_the_road_planner() -> None:
+    """Retained or not, a valid route is handed on; a bad one is counted, never raised."""
+    from convoy_mav.app import ConvoyService
+    from convoy_mav.config import parse_config
+    from convoy_mav.publish.mqtt import MqttPublisher
+
+    doc: dict[str, Any] = {"mission": {"sensor_radius_m": 100.0, "planner": "road"}}
+    doc["uav"] = [{"connection": "udpin:127.0.0.1:14540", "sysid": 1}]
+    service = ConvoyService(parse_config(doc))
+    publisher = MqttPublisher("127.0.0.1", 1883, "convoy", on_route=service.set_route)
+    o = service.config.origin
+    route = {"points": [[o.lat, o.lon], [o.lat + 0.01, o.lon], [o.lat + 0.01, o.lon + 0.01]]}
+    publisher.dispatch("convoy/convoy/route", json.dumps(route), retain=True)
+    publisher.dispatch("convoy/convoy/route", "{}")
+    assert publisher.counters["routes_received"] == 1 and publisher.counters["bad_input"] == 1
+    assert service.route is None  # taken in at the next mission step, in its thread
+    service._mission_step(0.0, None, [], [], {})
+    assert service.route is not None and service.route.length == pytest.approx(1860, rel=0.05)
+    assert any("convoy route received: 3 points" in e for e in service.events)

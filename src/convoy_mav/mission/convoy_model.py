@@ -76,6 +76,15 @@ class ConvoyModel:
         speed = est.speed if self.left_route else self._along
         return RoadMotion(est.t, speed, not self.left_route)
 
+    def set_route(self, route: Road) -> None:
+        """A new route (the convoy is found on it afresh at the next estimate)."""
+        self.route = route
+        self._off_since = None
+        self.left_route = False
+        est, self._est = self._est, None
+        if est is not None:
+            self.observe(est)
+
     def observe(self, est: ConvoyEstimate) -> None:
         """Fold in a fresh estimate (stale ones say nothing new: skip them)."""
         if est.stale or not all(map(math.isfinite, (est.north, est.east, est.vn, est.ve))):

@@ -14,7 +14,8 @@ not setpoints"):
   reset after each successful connection). While connected it runs two
   named children in a TaskGroup: ``.send`` drains the pending slots,
   ``.receive`` dispatches incoming messages.
-- Subscriptions (``<prefix>/convoy/position``, ``<prefix>/command``) are made
+- Subscriptions (``<prefix>/convoy/position``, ``<prefix>/command``,
+  ``<prefix>/convoy/route``) are made
   again after every (re)connect: with a clean session the broker forgets them.
 - Incoming payloads are validated by :mod:`convoy_mav.publish.topics`;
   bad ones are counted (``bad_input``) and logged with the reason; a callback
@@ -67,6 +68,7 @@ _COUNTERS = (
     "subscribe_refused",
     "disconnects",
     "convoy_received",
+    "routes_received",
     "commands_received",
     "bad_input",
     "ignored_retained",
@@ -102,6 +104,8 @@ class MqttPublisher:
         on_convoy: Called with each valid convoy fix (see
             :func:`topics.parse_convoy_position` for the dict's keys).
         on_command: Called with ``"pause"`` or ``"resume"``.
+        on_route: Called with each valid route, its (lat, lon) points in order
+            (:func:`topics.parse_convoy_route`; retained routes are used).
         reconnect_initial: First back-off delay after a failed or lost connection, s.
         reconnect_max: Upper bound of the doubling back-off, s.
         keepalive: MQTT keep-alive, s: how soon a silent (not closed) broker
@@ -122,6 +126,7 @@ class MqttPublisher:
         *,
         client_id: str | None = None,
         on_convoy: Callable[[dict[str, Any]], None] | None = None,
+        on_route: Callable[[list[tuple[float, float]]], None] | None = None,
         on_command: Callable[[str], None] | None = None,
         reconnect_initial: float = 0.5,
         reconnect_max: float = 10.0,
@@ -146,6 +151,7 @@ class MqttPublisher:
         self.client_id = client_id
         self.on_convoy = on_convoy
         self.on_command = on_command
+        self.on_route = on_route
         self.reconnect_initial = float(reconnect_initial)
         self.reconnect_max = float(reconnect_max)
         self.keepalive = int(keepalive)
@@ -162,6 +168,7 @@ class MqttPublisher:
         self._closing = False
         self._convoy_topic = topics.topic(prefix, topics.CONVOY_POSITION)
         self._command_topic = topics.topic(prefix, topics.COMMAND)
+        self._route_topic = topics.topic(prefix, topics.CONVOY_ROUTE)
 
     # ------------------------------------------------------------------ public API
 
@@ -305,7 +312,7 @@ class MqttPublisher:
 
     async def _serve(self, client: aiomqtt.Client) -> None:
         """One live connection: subscribe, then send and receive until it fails."""
-        wanted = [self._convoy_topic, self._command_topic]
+        wanted = [self._convoy_topic, self._command_topic, self._route_topic]
         granted: list[int | ReasonCode] = list(await client.subscribe([(t, 0) for t in wanted]))
         if self._closing:  # closed while connecting (and the cancel got lost: see _stop)
             return
@@ -374,7 +381,10 @@ class MqttPublisher:
 
         Public so a replay or a test can feed messages without a broker. Never raises.
         """
-        if topic not in (self._convoy_topic, self._command_topic):
+        if topic not in (self._convoy_topic, self._command_topic, self._route_topic):
+            return
+        if topic == self._route_topic:  # (retained too: the route is standing information)
+            self._dispatch_route(payload)
             return
         if retain:
             self.counters["ignored_retained"] += 1
@@ -398,6 +408,19 @@ class MqttPublisher:
             n = self.counters["bad_input"]
             if n <= 10 or n % 100 == 0:  # a spamming client must not flood the log
                 log.warning("mqtt: rejected message on %s (%d so far): %s", topic, n, exc)
+
+    def _dispatch_route(self, payload: bytes | str) -> None:
+        try:
+            route = topics.parse_convoy_route(payload)
+        except topics.BadPayload as exc:
+            self.counters["bad_input"] += 1
+            self.last_bad_input = f"{self._route_topic}: {exc}"
+            log.warning("mqtt: rejected route on %s: %s", self._route_topic, exc)
+            return
+        self.counters["routes_received"] += 1
+        log.info("mqtt: convoy route of %d points", len(route))
+        if self.on_route is not None:
+            self._call(self._route_topic, self.on_route, route)
 
     def _call(self, topic: str, callback: Callable[[_T], None], value: _T) -> None:
         """Run a user callback; its failure is the callback's problem, not the task's."""

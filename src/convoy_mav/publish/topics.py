@@ -25,6 +25,7 @@ Markdown so they can go into the README as they are):
 | `<prefix>/alarm` | out | no | one event (gap opened, UAV lost, stale convoy...) |
 | `<prefix>/convoy/position` | in | ignored | an external convoy fix |
 | `<prefix>/command` | in | ignored | an operator command: pause / resume |
+| `<prefix>/convoy/route` | in | used | the road the convoy will drive (road planner) |
 
 Every outgoing payload is a JSON object carrying `t` (mission seconds: the
 autopilots' clock; null while it is not known yet) and `ts` (wall time, ISO 8601
@@ -146,7 +147,10 @@ STATUS: Final = "status"
 COVERAGE: Final = "coverage"
 ALARM: Final = "alarm"
 CONVOY_POSITION: Final = "convoy/position"
+CONVOY_ROUTE: Final = "convoy/route"
 COMMAND: Final = "command"
+MAX_ROUTE_BYTES: Final = 1 << 20  # 1 MiB: some 25 000 points, a day's drive at 1 Hz
+MAX_ROUTE_POINTS: Final = 100_000
 COMMANDS: Final = ("pause", "resume")
 MAX_INPUT_BYTES: Final = 4096  # a convoy fix is ~60 bytes; anything huge is not one
 SEVERITIES: Final = ("info", "warning", "critical")
@@ -475,6 +479,52 @@ def parse_convoy_position(payload: bytes | str) -> dict[str, Any]:
         if isinstance(source, bool) or not isinstance(source, str | int):
             raise BadPayload(f"field 'source' must be a string or integer, got {source!r}")
         out["source"] = source
+    return out
+
+
+def parse_convoy_route(payload: bytes | str) -> list[tuple[float, float]]:
+    """Validate ``<prefix>/convoy/route``: the road the convoy will drive, in order.
+
+    Accepted forms: ``{"points": [[lat, lon], ...]}``, ``{"points": [{"lat": .., "lon":
+    ..}, ...]}`` or a GeoJSON ``{"type": "LineString", "coordinates": [[lon, lat], ...]}``
+    (GeoJSON's order). Retained messages are used: a route published before the
+    service started is the route.
+
+    Returns:
+        The (lat, lon) points.
+
+    Raises:
+        BadPayload: Malformed JSON, under two points, a non-finite or out-of-range
+            coordinate, or a payload over ``MAX_ROUTE_BYTES``.
+    """
+    if len(payload) > MAX_ROUTE_BYTES:
+        raise BadPayload(f"route of {len(payload)} bytes exceeds {MAX_ROUTE_BYTES}")
+    try:
+        obj = json.loads(payload)
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise BadPayload(f"not JSON: {exc}") from None
+    if not isinstance(obj, dict):
+        raise BadPayload(f"a route must be a JSON object, got {type(obj).__name__}")
+    if obj.get("type") == "LineString":
+        raw, lon_first = obj.get("coordinates"), True
+    else:
+        raw, lon_first = obj.get("points"), False
+    if not isinstance(raw, list) or not 2 <= len(raw) <= MAX_ROUTE_POINTS:
+        raise BadPayload(
+            f"a route needs 'points' (or GeoJSON 'coordinates'): 2..{MAX_ROUTE_POINTS}"
+        )
+    out = []
+    for i, p in enumerate(raw):
+        if isinstance(p, dict):
+            lat, lon = _number(p, "lat"), _number(p, "lon")
+        elif isinstance(p, list) and len(p) >= 2:
+            a, b = _number({"0": p[0]}, "0"), _number({"1": p[1]}, "1")
+            lat, lon = (b, a) if lon_first else (a, b)
+        else:
+            raise BadPayload(f"route point {i} must be [lat, lon] or {{lat, lon}}, got {p!r}")
+        if not (-90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0):
+            raise BadPayload(f"route point {i} out of range: lat {lat}, lon {lon}")
+        out.append((lat, lon))
     return out
 
 
