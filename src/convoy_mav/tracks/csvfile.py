@@ -57,23 +57,9 @@ def parse_csv_points(lines: Iterable[str], name: str) -> tuple[list[float], list
     """
     lats: list[float] = []
     lons: list[float] = []
-    columns = (0, 1)
-    seen_row = False
-    for lineno, row in enumerate(csv.reader(lines), start=1):
-        cells = [c.strip() for c in row]
-        if not any(cells) or cells[0].startswith("#"):
-            continue
-        if not seen_row:
-            seen_row = True
-            if not _is_number(cells[0]):
-                columns = _header_columns(cells, name, lineno, need=("lat", "lon"))[1:]
-                continue
-        if len(cells) <= max(columns):
-            raise ValueError(
-                f"{name}:{lineno}: expected columns lat,lon, got {len(cells)} field(s)"
-            )
+    for lineno, cells, columns in _data_rows(lines, name, ("lat", "lon")):
         try:
-            lat, lon = (float(cells[i]) for i in columns)
+            lat, lon = (float(cells[i]) for i in columns[1:])
         except ValueError:
             raise ValueError(f"{name}:{lineno}: lat and lon must be numbers") from None
         if not (math.isfinite(lat) and math.isfinite(lon)):
