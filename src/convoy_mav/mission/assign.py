@@ -1,4 +1,4 @@
-"""Which UAV takes which slot: the assignment both planners share (pure)."""
+"""Who flies and which slot: the roster and the assignment both planners share (pure)."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import itertools
 import math
 from collections.abc import Mapping, Sequence
 
-__all__ = ["best_assignment"]
+__all__ = ["Roster", "best_assignment"]
 
 #: Exhaustive assignment up to this many candidate permutations; greedy beyond.
 EXHAUSTIVE_LIMIT = 5040
@@ -36,3 +36,49 @@ def best_assignment(
             chosen[u] = i
             used.add(i)
     return tuple(chosen[u] for u in uavs)
+
+
+class Roster:
+    """The live and lost UAVs of a mission, and when protection began.
+
+    Raises:
+        ValueError: If ``uav_ids`` is empty or has duplicates.
+    """
+
+    def __init__(self, uav_ids: Sequence[int]) -> None:
+        if not uav_ids or len(set(uav_ids)) != len(uav_ids):
+            raise ValueError(f"uav_ids must be non-empty and unique, got {list(uav_ids)!r}")
+        self._live: list[int] = list(uav_ids)
+        self._lost: list[int] = []
+        self._protect_start: float | None = None
+
+    @property
+    def live_uavs(self) -> tuple[int, ...]:
+        """UAVs still in the mission, in configuration order (returned ones last)."""
+        return tuple(self._live)
+
+    @property
+    def lost_uavs(self) -> tuple[int, ...]:
+        """UAVs taken out by ``on_lost``."""
+        return tuple(self._lost)
+
+    @property
+    def protect_start(self) -> float | None:
+        """First mission time at which every live UAV was protecting."""
+        return self._protect_start
+
+    def _take_out(self, uav: int) -> bool:
+        """Move a live UAV to the lost; False if it was not live."""
+        if uav not in self._live:
+            return False
+        self._live.remove(uav)
+        self._lost.append(uav)
+        return True
+
+    def _take_back(self, uav: int) -> bool:
+        """Move a lost UAV back to the live; False if it was not lost."""
+        if uav not in self._lost:
+            return False
+        self._lost.remove(uav)
+        self._live.append(uav)
+        return True

@@ -26,7 +26,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 
 from convoy_mav.errors import PlanningError
-from convoy_mav.mission.assign import best_assignment
+from convoy_mav.mission.assign import Roster, best_assignment
 from convoy_mav.mission.events import (
     MissionAlarm,
     MissionEvent,
@@ -54,7 +54,7 @@ class _Assignment:
         return self.join.arrival + plan_t0
 
 
-class Mission:
+class Mission(Roster):
     """Plan, assignments and phases of the UAVs protecting one convoy.
 
     Args:
@@ -90,8 +90,7 @@ class Mission:
         down: Callable[[int], float],
         thresholds: ReplanThresholds | None = None,
     ) -> None:
-        if not uav_ids or len(set(uav_ids)) != len(uav_ids):
-            raise ValueError(f"uav_ids must be non-empty and unique, got {list(uav_ids)!r}")
+        super().__init__(uav_ids)
         self.request = replace(request, convoy_speed=0.0, convoy_heading=0.0, uavs=None)
         self.thresholds = thresholds or ReplanThresholds()
         tol = self.thresholds.position_tol
@@ -99,13 +98,10 @@ class Mission:
             self.thresholds, tol if tol is not None else 0.25 * request.sensor_radius
         )
         self._down = down
-        self._live: list[int] = list(uav_ids)
-        self._lost: list[int] = []
         self._plan: Plan | None = None
         self._motion: ConvoyMotion | None = None
         self._assigned: dict[int, _Assignment] = {}
         self._announced: set[int] = set()
-        self._protect_start: float | None = None
         self.replans = 0
 
     # ------------------------------------------------------------------ state
@@ -137,16 +133,6 @@ class Mission:
         return None if self._plan is None else self._plan.predicted_coverage
 
     @property
-    def live_uavs(self) -> tuple[int, ...]:
-        """UAVs still in the mission, in configuration order."""
-        return tuple(self._live)
-
-    @property
-    def lost_uavs(self) -> tuple[int, ...]:
-        """UAVs removed by ``on_lost``."""
-        return tuple(self._lost)
-
-    @property
     def awaiting_join(self) -> tuple[int, ...]:
         """Live UAVs with no join yet (call ``join`` for them once a plan exists)."""
         return tuple(u for u in self._live if u not in self._assigned)
@@ -160,11 +146,6 @@ class Mission:
         if self._plan is None or not self._live or self.awaiting_join:
             return None
         return max(self._assigned[u].arrival(self.plan_t0) for u in self._live)
-
-    @property
-    def protect_start(self) -> float | None:
-        """First mission time at which every live UAV was in ``protect``."""
-        return self._protect_start
 
     def assignment(self, uav: int) -> int | None:
         """Plan vehicle index the UAV flies, None if it has none."""
@@ -300,10 +281,8 @@ class Mission:
         ``t``); its ``Replanned.predicted_coverage`` is what the remaining
         UAVs can still give.
         """
-        if uav not in self._live:
+        if not self._take_out(uav):
             return []
-        self._live.remove(uav)
-        self._lost.append(uav)
         self._assigned.pop(uav, None)
         self._announced.discard(uav)
         if self._motion is None:
@@ -316,10 +295,8 @@ class Mission:
         The others re-phase to the new even spacing at once; the returned UAV is
         pending until it is joined (``join``/``join_many`` from its actual pose).
         """
-        if uav not in self._lost:
+        if not self._take_back(uav):
             return []
-        self._lost.remove(uav)
-        self._live.append(uav)
         if self._motion is None:
             return []
         return self.tick(t) + self._replan(self._motion.advanced(t), "uav_returned", t)

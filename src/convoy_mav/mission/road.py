@@ -42,7 +42,7 @@ import numpy as np
 import numpy.typing as npt
 
 from convoy_mav.errors import PlanningError
-from convoy_mav.mission.assign import best_assignment
+from convoy_mav.mission.assign import Roster, best_assignment
 from convoy_mav.mission.convoy_model import ConvoyModel, RoadMotion
 from convoy_mav.mission.events import MissionEvent, Phase, PhaseChanged, Replanned, phase_at
 from convoy_mav.planning.dubins import Pose, Segment, Turn
@@ -165,7 +165,7 @@ class _Forecast:
         return [float(tm) for tm in times if tm > after]
 
 
-class RoadMission:
+class RoadMission(Roster):
     """Plans and phases of the UAVs protecting a convoy on a road.
 
     Args:
@@ -188,20 +188,16 @@ class RoadMission:
         route: Road | None = None,
         settings: RoadSettings | None = None,
     ) -> None:
-        if not uav_ids or len(set(uav_ids)) != len(uav_ids):
-            raise ValueError(f"uav_ids must be non-empty and unique, got {list(uav_ids)!r}")
+        super().__init__(uav_ids)
         self.request = request
         self.settings = settings or RoadSettings()
         self.model = ConvoyModel(route)
         self._down = down
-        self._live: list[int] = list(uav_ids)
-        self._lost: list[int] = []
         self._slots: dict[int, int] = {}  # uav -> slot index in 0..N-1
         self._trajectories: dict[int, Trajectory] = {}
         self._starts: dict[int, Pose] = {}  # joined, not yet planned: where it was
         self._arrival: dict[int, float] = {}
         self._announced: set[int] = set()
-        self._protect_start: float | None = None
         self._clock: PatternClock | None = None
         self._planned_at: dict[int, float] = {}
         self._first_fix: float | None = None
@@ -262,24 +258,9 @@ class RoadMission:
         return self._covered_s / self._scored_s
 
     @property
-    def live_uavs(self) -> tuple[int, ...]:
-        """UAVs still in the mission."""
-        return tuple(self._live)
-
-    @property
-    def lost_uavs(self) -> tuple[int, ...]:
-        """UAVs removed by ``on_lost``."""
-        return tuple(self._lost)
-
-    @property
     def awaiting_join(self) -> tuple[int, ...]:
         """Live UAVs with no slot yet."""
         return tuple(u for u in self._live if u not in self._slots)
-
-    @property
-    def protect_start(self) -> float | None:
-        """First mission time at which every live UAV was protecting."""
-        return self._protect_start
 
     def arrival(self, uav: int) -> float | None:
         """Mission time of the UAV's first meeting on time (its protect phase), if planned."""
@@ -408,10 +389,8 @@ class RoadMission:
 
     def on_lost(self, uav: int, t: float) -> list[MissionEvent]:
         """Take ``uav`` out; the others re-spread over the slots left and re-plan."""
-        if uav not in self._live:
+        if not self._take_out(uav):
             return []
-        self._live.remove(uav)
-        self._lost.append(uav)
         for table in (self._slots, self._trajectories, self._arrival, self._starts):
             table.pop(uav, None)
         self._planned_at.pop(uav, None)
@@ -425,10 +404,8 @@ class RoadMission:
 
     def on_returned(self, uav: int, t: float) -> list[MissionEvent]:
         """Take a lost ``uav`` back as pending (join it from its pose)."""
-        if uav not in self._lost:
+        if not self._take_back(uav):
             return []
-        self._lost.remove(uav)
-        self._live.append(uav)
         if self._clock is None:
             return []
         return [*self.tick(t), self._replanned(t, "uav_returned")]
