@@ -239,6 +239,8 @@ class ConvoyService:
             self.mission = Mission(request, uav_ids, down=self._down, thresholds=thresholds)
         self._planner_why = why
         self._new_route: Road | None = None  # from MQTT, for the next mission step
+        # The mission step running in its worker thread, if one is.
+        self._mission_job: asyncio.Future[tuple[list[Any], MissionView]] | None = None
         self._planner_note = f"planner: {self.planner} ({why})"
         # What the streamer and the monitor read: swapped after each mission step.
         self.view = MissionView()
@@ -502,27 +504,42 @@ class ConvoyService:
             await self.clock.sleep_until(t + self._control_dt)
 
     async def _control_step(self, t: float) -> None:
-        """One tick: inputs gathered here, mission work in a thread, the rest here."""
+        """One tick: inputs gathered here, mission work in a thread, the rest here.
+
+        The mission's work (re-plans, joins: milliseconds to tens of them, a long
+        time at a high speedup) runs in a worker thread and is not waited for: the
+        tick hands it the inputs and goes on scoring coverage with the plan in
+        force; its result (events and a new frozen view) is taken in at the first
+        tick after it is done, and the next inputs are handed over then.
+        """
         if self.config.convoy.source == "route":
             self._scripted_convoy(t)
         est = self.tracker.estimate(t)
         self._last_est = est
-        view = self.view
-        lost = self._newly_lost(t, view)
-        flying = [s for s, v in self.vehicles.items() if v.status == VehicleStatus.FLYING]
-        returned = [s for s in flying if s in view.lost]  # lost, set up again: rejoin
-        ready = {
-            sysid: (tel.north, tel.east, tel.yaw)
-            for sysid in flying
-            if (tel := self.vehicles[sysid].telemetry) is not None
-            and view.phase(sysid, t) in ("pending", "lost")
-        }
-        # Replans and joins cost tens of ms: off the loop, so setpoints keep flowing.
-        events, self.view = await asyncio.to_thread(
-            self._mission_step, t, est, lost, returned, ready
-        )
-        for ev in events:
-            self._mission_event(ev)
+        job = self._mission_job
+        if job is not None and job.done():
+            self._mission_job = None
+            events, self.view = job.result()
+            for ev in events:
+                self._mission_event(ev)
+        if self._mission_job is None:
+            view = self.view
+            lost = self._newly_lost(t, view)
+            flying = [s for s, v in self.vehicles.items() if v.status == VehicleStatus.FLYING]
+            returned = [s for s in flying if s in view.lost]  # lost, set up again: rejoin
+            ready = {
+                sysid: (tel.north, tel.east, tel.yaw)
+                for sysid in flying
+                if (tel := self.vehicles[sysid].telemetry) is not None
+                and view.phase(sysid, t) in ("pending", "lost")
+            }
+            job = asyncio.ensure_future(
+                asyncio.to_thread(self._mission_step, t, est, lost, returned, ready)
+            )
+            # (a step still running when the mission ends is never taken in: its
+            # failure, if any, must not be reported as "never retrieved")
+            job.add_done_callback(lambda f: f.cancelled() or f.exception())
+            self._mission_job = job
         view = self.view
         if self.monitor.protect_start is None and view.protect_start is not None:
             self.monitor.start_protect(view.protect_start)
