@@ -102,7 +102,7 @@ class RoadSettings:
 
 @dataclass(frozen=True, slots=True)
 class RoadPlanInfo:
-    """What is in force: the pattern radius, its count and the convoy motion."""
+    """What is in force: the pattern radius, the live UAVs and the road's count."""
 
     pattern_radius: float
     uavs: int
@@ -207,9 +207,7 @@ class RoadMission(Roster):
         self._scored_s = 0.0
         self.replans = 0
         self.legs_late = 0
-        self.legs = 0
-        self.min_turn_radius = math.inf
-        self.speed_range = (math.inf, 0.0)
+        self.uav_replans = 0
         self._margins: dict[int, tuple[float, float, float]] = {}  # radius, slowest, fastest
         self._convoy_speeds: tuple[float, float] | None = None
 
@@ -258,6 +256,19 @@ class RoadMission(Roster):
         return self._covered_s / self._scored_s
 
     @property
+    def min_turn_radius(self) -> float:
+        """The tightest turn any UAV was commanded, metres (inf before any plan)."""
+        return min((m[0] for m in self._margins.values()), default=math.inf)
+
+    @property
+    def speed_range(self) -> tuple[float, float]:
+        """Slowest and fastest speed any UAV was commanded, m/s."""
+        margins = self._margins.values()
+        return min((m[1] for m in margins), default=math.inf), max(
+            (m[2] for m in margins), default=0.0
+        )
+
+    @property
     def awaiting_join(self) -> tuple[int, ...]:
         """Live UAVs with no slot yet."""
         return tuple(u for u in self._live if u not in self._slots)
@@ -282,13 +293,6 @@ class RoadMission(Roster):
         if traj is None:
             return None
         return setpoint_on(traj, t, plan_origin=(0.0, 0.0), plan_t0=0.0, down=self._down(uav))
-
-    def convoy_position(self, t: float) -> tuple[float, float] | None:
-        """Where the model expects the convoy (mission north, east) at ``t``."""
-        if self.model.estimate is None:
-            return None
-        x, y = self.model.position(t)
-        return y, x
 
     # --------------------------------------------------------------- inputs
 
@@ -516,15 +520,13 @@ class RoadMission(Roster):
 
     def _record(self, uav: int, segments: Sequence[Segment]) -> None:
         """Flyability margins of what is commanded, per UAV (for the report)."""
-        self.legs += 1
+        self.uav_replans += 1
         radius, lo, hi = self._margins.get(uav, (math.inf, math.inf, 0.0))
         for seg in segments:
             lo, hi = min(lo, seg.speed), max(hi, seg.speed)
             if seg.turn != Turn.STRAIGHT:
                 radius = min(radius, seg.radius)
         self._margins[uav] = (radius, lo, hi)
-        self.min_turn_radius = min(self.min_turn_radius, radius)
-        self.speed_range = (min(self.speed_range[0], lo), max(self.speed_range[1], hi))
 
     def report(self) -> dict[str, Any]:
         """What the report says of the road mission: the pattern, the road, the margins."""
@@ -538,7 +540,7 @@ class RoadMission(Roster):
             "route_max_curvature_per_m": None if route is None else route.max_curvature(),
             "convoy_left_route": self.model.counters["left_route"],
             "convoy_speed_range_mps": None if speeds is None else [round(v, 2) for v in speeds],
-            "legs_planned": self.legs,
+            "uav_replans": self.uav_replans,
             "legs_late": self.legs_late,
             "flyability": {
                 str(u): {

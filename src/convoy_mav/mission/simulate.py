@@ -40,7 +40,7 @@ class RoadRun:
     longest_gap_s: float
     min_turn_radius: float
     speed_range: tuple[float, float]
-    legs: int
+    uav_replans: int
     legs_late: int
 
 
@@ -128,6 +128,6 @@ def fly_road(
         best,
         mission.min_turn_radius,
         mission.speed_range,
-        mission.legs,
+        mission.uav_replans,
         mission.legs_late,
     )
