@@ -263,9 +263,8 @@ class ConvoyService:
         path = config.convoy.route_file
         assert path is not None
         try:
-            frame = LocalFrame(config.origin)
-            ned = [frame.to_ned(GeoPoint(a, b)) for a, b in zip(*load_route(path), strict=True)]
-            return Road.from_points([p[1] for p in ned], [p[0] for p in ned])
+            lats, lons = load_route(path)
+            return Road.from_geo(zip(lats, lons, strict=True), LocalFrame(config.origin))
         except (OSError, ValueError) as exc:
             raise ConfigError("convoy.route", path, f"cannot be used as a route ({exc})") from exc
 
@@ -851,14 +850,13 @@ class ConvoyService:
         """A new route for the convoy, (lat, lon) in order (MQTT ``convoy/route``).
 
         Taken in at the next mission step (the mission lives in its worker thread);
-        the paper's planner has no use for one, which is said once.
+        the paper's planner has no use for one, which the log says.
         """
         if not isinstance(self.mission, RoadMission):
             self._note(f"route of {len(points)} points ignored: the paper's planner flies")
             return
-        ned = [self.frame.to_ned(GeoPoint(lat, lon)) for lat, lon in points]
         try:
-            road = Road.from_points([p[1] for p in ned], [p[0] for p in ned])
+            road = Road.from_geo(points, self.frame)
         except PlanningError as exc:
             self._note(f"route of {len(points)} points refused: {exc}")
             return

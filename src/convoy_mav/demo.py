@@ -89,8 +89,7 @@ class Scenario:
         if self.track is None:
             return None
         origin = GeoPoint(self.track.lats[0], self.track.lons[0])
-        norths, easts = self.track.in_frame(LocalFrame(origin))
-        return Road.from_points(easts, norths)
+        return Road.from_geo(zip(self.track.lats, self.track.lons, strict=True), LocalFrame(origin))
 
     def plan_request(self, uavs: int | None = None) -> PlanRequest:
         """The planner's view (the convoy at its cruise speed)."""

@@ -16,12 +16,14 @@ Design rules:
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
 
 from convoy_mav.errors import PlanningError
+from convoy_mav.geo import GeoPoint, LocalFrame
 
 __all__ = ["Road", "RoadPoint"]
 
@@ -120,6 +122,16 @@ class Road:
         heading = np.unwrap(np.arctan2(np.gradient(ry), np.gradient(rx)))
         curvature = _smooth(np.gradient(heading, step), 2.0) if len(s) > 2 else np.zeros(2)
         return cls(s, rx, ry, heading, curvature)
+
+    @classmethod
+    def from_geo(cls, points: Iterable[tuple[float, float]], frame: LocalFrame) -> Road:
+        """The road through WGS-84 ``(lat, lon)`` points, in ``frame`` (x east, y north).
+
+        Raises:
+            PlanningError: As :meth:`from_points`.
+        """
+        ned = [frame.to_ned(GeoPoint(lat, lon)) for lat, lon in points]
+        return cls.from_points([p[1] for p in ned], [p[0] for p in ned])
 
     @classmethod
     def straight(cls, x: float, y: float, heading: float, length: float = 100.0) -> Road:
