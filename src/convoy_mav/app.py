@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import functools
 import logging
 import math
 import sys
@@ -32,7 +33,7 @@ from typing import Any
 
 from pymavlink.dialects.v20 import common as mavlink
 
-from convoy_mav.clock import MissionClock
+from convoy_mav.clock import MissionClock, Observed
 from convoy_mav.config import MissionConfig
 from convoy_mav.convoy import ConvoyTracker
 from convoy_mav.errors import ConfigError, PlanningError
@@ -70,6 +71,9 @@ log = logging.getLogger(__name__)
 _GIL_SWITCH_S = 0.001  # s: how long the mission worker may hold the GIL at a time
 _GROUND_STREAM_RETRY = 5.0  # mission s between stream requests to a silent ground vehicle
 _GROUND_POSITION_HZ = 10  # GLOBAL_POSITION_INT rate asked of ground vehicles
+_MAX_SPEED_FACTOR = 2.5  # a UAV fix implying more than this x its airspeed is not its own
+_MAX_SPEED_FLOOR = 30.0  # m/s: ... nor more than this, whatever the airspeed (wind, a dive)
+_FIX_WINDOW_S = (30.0, 2.0)  # mission s an external fix may be stamped before / after now
 _OWN_FAILSAFE_S = 10.0  # mission s after a link is back in which a hold is our stream's doing
 
 
@@ -108,6 +112,8 @@ class ServiceReport:
     vehicle_extra: dict[int, dict[str, Any]] = field(default_factory=dict)
     route_start_s: float | None = None
     planner: dict[str, Any] = field(default_factory=dict)
+    rejected: dict[str, int] = field(default_factory=dict)
+    tlog: str | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """The report JSON (keys documented in the README)."""
@@ -133,6 +139,9 @@ class ServiceReport:
             "replans": self.replans,
             "alarms": self.alarms,
             "events": self.events,
+            # Inputs dropped as implausible or malformed, by kind (per UAV under vehicles).
+            "rejected": self.rejected,
+            "tlog": self.tlog,
             "vehicles": [
                 {
                     "sysid": uav.sysid,
@@ -221,6 +230,12 @@ class ConvoyService:
         self.vehicles: dict[int, Vehicle] = {}
         self._ground_ids = {v.sysid for v in config.convoy.vehicles}
         self._ground_heard: dict[int, float] = {}
+        self._ground_rejected = 0  # ground fixes dropped: a clock ahead of its own
+        self._fixes_rejected = 0  # external fixes dropped: stamped far from mission time
+        self._tlog_path: str | None = None
+        self._foreign_sysid: dict[int, int] = {}  # frames of another sysid, per link owner
+        self._foreign_claims: dict[int, int] = {}  # ... claiming another vehicle's sysid
+        self._foreign_seen: dict[int, int] = {}  # strangers at a link: last alarmed totals
         self._altitudes = {
             uav.sysid: uav.aircraft.altitude_m + i * config.altitude_step_m
             for i, uav in enumerate(config.uav_list)
@@ -249,6 +264,7 @@ class ConvoyService:
         self.events: list[str] = []
         self.paused = False
         self._stopping = False
+        self._stopped = False  # every UAV told how to end: the retained status says so
         self._vehicle_alarms: set[str] = set()  # "uav_lost:3": active per-vehicle alarms
         self._last_est: ConvoyEstimate | None = None
         self._route_t0: float | None = None  # mission time the scripted convoy set off
@@ -270,14 +286,25 @@ class ConvoyService:
 
     # ------------------------------------------------------------------ inputs
 
-    def _route(self, msg: Any) -> None:
-        """Every decoded message from every link lands here (must stay cheap)."""
+    def _route(self, owner: int, msg: Any) -> None:
+        """Every decoded message from every link lands here (must stay cheap).
+
+        A link is one vehicle's (``owner``): a frame on it with another system id
+        (another UAV's, spoofed; a GCS's) is dropped and counted, never delivered.
+        """
         sysid = msg.get_srcSystem()
+        if sysid != owner:
+            self._foreign_sysid[owner] = self._foreign_sysid.get(owner, 0) + 1
+            if sysid in self.vehicles or sysid in self._ground_ids:  # a spoof, not a GCS
+                self._foreign_claims[owner] = self._foreign_claims.get(owner, 0) + 1
+            return
         vehicle = self.vehicles.get(sysid)
         if vehicle is not None:
             vehicle.handle(msg)
         elif sysid in self._ground_ids and msg.get_type() == "GLOBAL_POSITION_INT":
-            self.clock.observe(msg.time_boot_ms, sysid)
+            if self.clock.observe(msg.time_boot_ms, sysid) is Observed.REJECTED:
+                self._ground_rejected += 1
+                return
             if not self.clock.synced:
                 return
             t = self.clock.to_mission(msg.time_boot_ms, sysid)
@@ -295,8 +322,21 @@ class ConvoyService:
             self.convoy_fix(north, east, fix.get("t"))
 
     def convoy_fix(self, north: float, east: float, t: float | None = None) -> bool:
-        """An external convoy fix (MQTT, replay) in the mission frame."""
-        return self.tracker.update(self.clock.now() if t is None else t, north, east, "external")
+        """An external convoy fix (MQTT, replay) in the mission frame.
+
+        A fix stamped outside ``_FIX_WINDOW_S`` of mission time now is dropped and
+        counted: it would move the estimate, and every plan, to another time.
+        """
+        now = self.clock.now()
+        if t is not None and not now - _FIX_WINDOW_S[0] <= t <= now + _FIX_WINDOW_S[1]:
+            self._fixes_rejected += 1
+            if self._fixes_rejected == 1 or self._fixes_rejected % 100 == 0:
+                log.warning(
+                    "convoy fix at t=%.6g dropped: mission time is %.1f (%d dropped)",
+                    t, now, self._fixes_rejected,
+                )  # fmt: skip
+            return False
+        return self.tracker.update(now if t is None else t, north, east, "external")
 
     def command(self, command: str) -> None:
         """Operator command: ``pause`` (every UAV loiters) or ``resume``."""
@@ -331,10 +371,28 @@ class ConvoyService:
             # The vehicle reports the mode change before it marks itself HOLDING:
             # resume on the next turn of the loop, once it has.
             asyncio.get_running_loop().call_soon(vehicle.resume)
+        if event.kind is EventKind.REJECTED:
+            self._alarm(Alarm(event.t, "telemetry_rejected", True, event.message), event.sysid)
         if event.kind in (EventKind.LOST, EventKind.FAILED, EventKind.RECOVERED):
             active = event.kind != EventKind.RECOVERED
             kind = "uav_lost" if event.kind == EventKind.RECOVERED else f"uav_{event.kind}"
             self._alarm(Alarm(event.t, kind, active, event.message), event.sysid)
+
+    def _check_links(self, t: float) -> None:
+        """Alarm on strangers at a UAV's link: a second peer refused, or frames that
+        claim another vehicle's system id (a GCS's own heartbeats are only counted)."""
+        for sysid, vehicle in self.vehicles.items():
+            link = vehicle.link
+            peers = link.counters["foreign_peer"] if isinstance(link, MavLink) else 0
+            total = peers + self._foreign_claims.get(sysid, 0)
+            if total > self._foreign_seen.get(sysid, 0):
+                self._foreign_seen[sysid] = total
+                self._alarm(
+                    Alarm(t, "link_stranger", True, f"UAV {sysid}: {peers} datagrams of a "
+                          f"foreign peer refused, {self._foreign_claims.get(sysid, 0)} frames "
+                          f"claiming another vehicle's id dropped"),
+                    sysid,
+                )  # fmt: skip
 
     def _note(self, text: str, *, logged: bool = False) -> None:
         """An event for the report (and the log, unless already logged)."""
@@ -370,6 +428,7 @@ class ConvoyService:
             recorder = None
             if cfg.tlog:
                 recorder = await stack.enter_async_context(TlogRecorder(cfg.tlog))
+                self._tlog_path = recorder.path  # (a new name if the file existed)
             if cfg.mqtt is not None and self.publisher is None:
                 self.publisher = await stack.enter_async_context(
                     MqttPublisher(
@@ -383,7 +442,13 @@ class ConvoyService:
                 )
             for uav in cfg.uav_list:
                 link = await stack.enter_async_context(
-                    MavLink(uav.connection, self._route, recorder=recorder, name=f"uav{uav.sysid}")
+                    MavLink(
+                        uav.connection,
+                        functools.partial(self._route, uav.sysid),
+                        recorder=recorder,
+                        name=f"uav{uav.sysid}",
+                        peer=uav.peer,
+                    )
                 )
                 self.vehicles[uav.sysid] = Vehicle(
                     uav.sysid,
@@ -395,10 +460,17 @@ class ConvoyService:
                     setup_timeout=cfg.setup_timeout_s,
                     lost_after=cfg.lost_after_s,
                     altitude=self._altitudes[uav.sysid],
+                    max_speed=max(_MAX_SPEED_FACTOR * uav.aircraft.airspeed_mps, _MAX_SPEED_FLOOR),
                 )
             ground_links = [
                 await stack.enter_async_context(
-                    MavLink(g.connection, self._route, recorder=recorder, name=f"ground{g.sysid}")
+                    MavLink(
+                        g.connection,
+                        functools.partial(self._route, g.sysid),
+                        recorder=recorder,
+                        name=f"ground{g.sysid}",
+                        peer=g.peer,
+                    )
                 )
                 for g in cfg.convoy.vehicles
             ]
@@ -431,7 +503,16 @@ class ConvoyService:
     async def _supervise(self, stop: asyncio.Event, duration: float | None) -> None:
         """Wait for the end, make every UAV loiter, then end the task group."""
         if duration is not None:
-            await self.clock.wait_synced()
+            # (a stop while no autopilot has answered yet ends the run too)
+            synced = asyncio.create_task(self.clock.wait_synced(), name="convoy.sync-wait")
+            stopped = asyncio.create_task(stop.wait(), name="convoy.stop-wait")
+            try:
+                await asyncio.wait({synced, stopped}, return_when=asyncio.FIRST_COMPLETED)
+            finally:
+                synced.cancel()
+                stopped.cancel()
+            if stop.is_set():
+                duration = 0.0
             end = self.clock.now() + duration
             stopper = asyncio.create_task(stop.wait(), name="convoy.stop-wait")
             timer = asyncio.create_task(self._until(end), name="convoy.timer")
@@ -450,7 +531,8 @@ class ConvoyService:
         await asyncio.gather(
             *(v.finish(action) for v in self.vehicles.values()), return_exceptions=True
         )
-        self._publish_state(self.clock.now())  # the retained status says "stopping", holding
+        self._stopped = True
+        self._publish_state(self.clock.now())  # the retained status says "stopped"
         raise _Stop
 
     async def _ground_streams(self, links: list[MavLink]) -> None:
@@ -500,6 +582,7 @@ class ConvoyService:
             if t >= next_progress:
                 next_progress = t + self._progress_every
                 self._progress(t)
+                self._check_links(t)
             await self.clock.sleep_until(t + self._control_dt)
 
     async def _control_step(self, t: float) -> None:
@@ -792,6 +875,8 @@ class ConvoyService:
 
     def _phase(self, snap: MonitorSnapshot) -> str:
         flying = any(v.status == VehicleStatus.FLYING for v in self.vehicles.values())
+        if self._stopped:
+            return "stopped"
         if self._stopping:
             return "stopping"
         if self.paused:
@@ -844,6 +929,14 @@ class ConvoyService:
             vehicle_extra={s: self._vehicle_report(s, v, end_t) for s, v in self.vehicles.items()},
             route_start_s=self._route_t0,
             planner=self._planner_report(),
+            rejected={
+                "clock_stamps": self.clock.rejected,
+                "clock_jumps_reanchored": self.clock.jumps,
+                "ground_fixes": self._ground_rejected,
+                "external_fixes_out_of_time": self._fixes_rejected,
+                **{f"convoy_{k}": n for k, n in self.tracker.counters.items() if k != "accepted"},
+            },
+            tlog=self._tlog_path,
         )
 
     def set_route(self, points: Sequence[tuple[float, float]]) -> None:
@@ -895,6 +988,15 @@ class ConvoyService:
                 why: round(s, 1) for why, s in sorted(self._not_counted_s.get(sysid, {}).items())
             },
             "messages_per_s": round(v.received / heard, 2) if heard else None,
+            # Frames dropped as implausible: a time_boot_ms ahead of anything its clock
+            # can have run, a position farther than the airframe can have flown.
+            "rejected": {
+                **{k: v.counters[k] for k in ("clock_jump", "position_jump")},
+                "foreign_peer": v.link.counters["foreign_peer"]
+                if isinstance(v.link, MavLink)
+                else 0,
+                "other_sysid": self._foreign_sysid.get(sysid, 0),
+            },
             # Setpoint stream health: the longest wait between two setpoints sent (mission
             # s), and its 99th percentile over the last 2048: the mission's planning runs
             # off the flight loop and must never hold the stream.

@@ -49,6 +49,7 @@ from convoy_mav.tracks.roads import road_kind
 __all__ = ["main"]
 
 EXIT_USAGE = 2
+EXIT_OUTPUT = 1  # the flight ran; an output could not be written (the others were)
 
 T = TypeVar("T")
 
@@ -383,29 +384,41 @@ def _stop_on_signals(stop: asyncio.Event) -> None:
 
 def _write_outputs(
     args: argparse.Namespace, report: dict[str, Any], service: ConvoyService | None
-) -> None:
+) -> int:
+    """Report, then plot: each written whatever became of the other. Exit status."""
+    status = 0
     if args.report:
-        with open(args.report, "w") as fh:
-            json.dump(report, fh, indent=2)
-        print(f"report written to {args.report}")
+        try:
+            with open(args.report, "w") as fh:
+                json.dump(report, fh, indent=2)
+            print(f"report written to {args.report}")
+        except OSError as exc:
+            print(f"convoy-mav: error: report {args.report}: {exc}", file=sys.stderr)
+            status = EXIT_OUTPUT
     if args.plot and service is not None:
-        route = service.route
-        plot_mission(
-            service.history,
-            args.plot,
-            sensor_radius=service.config.sensor_radius_m,
-            road=None if route is None else (route.y.tolist(), route.x.tolist()),
-            title=f"convoy-mav: {report.get('scenario', 'mission')}"
-            + (f" of {os.path.basename(report['track'])}" if report.get("track") else "")
-            + ", "
-            f"{report['uav_count']} UAVs, coverage "
-            + (
-                "-"
-                if report["coverage_fraction"] is None
-                else f"{100 * report['coverage_fraction']:.2f} %"
-            ),
-        )
-        print(f"plot written to {args.plot}")
+        try:
+            _plot(args, report, service)
+        except Exception as exc:  # (matplotlib raises many kinds: the report is safe)
+            print(f"convoy-mav: error: plot {args.plot}: {exc}", file=sys.stderr)
+            status = EXIT_OUTPUT
+    return status
+
+
+def _plot(args: argparse.Namespace, report: dict[str, Any], service: ConvoyService) -> None:
+    route = service.route
+    coverage = report["coverage_fraction"]
+    track = report.get("track")
+    plot_mission(
+        service.history,
+        args.plot,
+        sensor_radius=service.config.sensor_radius_m,
+        road=None if route is None else (route.y.tolist(), route.x.tolist()),
+        title=f"convoy-mav: {report.get('scenario', 'mission')}"
+        + (f" of {os.path.basename(track)}" if track else "")
+        + f", {report['uav_count']} UAVs, coverage "
+        + ("-" if coverage is None else f"{100 * coverage:.2f} %"),
+    )
+    print(f"plot written to {args.plot}")
 
 
 def _pct(x: float | None) -> str:
@@ -434,6 +447,8 @@ def _summary(report: dict[str, Any]) -> None:
 
 
 async def _cmd_run(args: argparse.Namespace) -> int:
+    _check_duration(args.duration)
+    _check_outputs(args)
     cfg = load_config(args.config)
     if args.tlog:
         cfg = replace(cfg, tlog=args.tlog)
@@ -444,15 +459,48 @@ async def _cmd_run(args: argparse.Namespace) -> int:
     service = ConvoyService(cfg, on_progress=None if args.quiet else _print_progress)
     report = (await service.run(duration=args.duration, stop=stop)).to_dict()
     _summary(report)
-    _write_outputs(args, report, service)
-    return 0
+    return _write_outputs(args, report, service)
+
+
+MAX_SPEEDUP = 1000.0
+"""Fastest the mock runs: past it a step of its kinematics is longer than a setpoint period."""
+MAX_DURATION_S = 7 * 86_400.0
+"""Longest flight a command takes: a week of mission time."""
+
+
+def _check_duration(duration: float | None) -> None:
+    if duration is not None and not (math.isfinite(duration) and 0 < duration <= MAX_DURATION_S):
+        raise ConfigError("--duration", duration, f"must be > 0 and <= {MAX_DURATION_S:g} s")
+
+
+_PLOT_FORMATS = frozenset({".png", ".pdf", ".svg", ".jpg", ".jpeg"})
+
+
+def _check_outputs(args: argparse.Namespace) -> None:
+    """Every output path can be written, checked before the flight, not after it."""
+    for flag in ("report", "plot", "tlog"):
+        path = getattr(args, flag, None)
+        if not path:
+            continue
+        parent = os.path.dirname(os.path.abspath(path))
+        if os.path.isdir(path):
+            raise ConfigError(f"--{flag}", path, "is a directory")
+        if not os.path.isdir(parent):
+            raise ConfigError(f"--{flag}", path, f"its folder {parent} does not exist")
+        if not os.access(parent, os.W_OK) or (
+            os.path.exists(path) and flag != "tlog" and not os.access(path, os.W_OK)
+        ):
+            raise ConfigError(f"--{flag}", path, "cannot be written (permissions)")
+        if flag == "plot" and os.path.splitext(path)[1].lower() not in _PLOT_FORMATS:
+            formats = ", ".join(sorted(_PLOT_FORMATS))
+            raise ConfigError(f"--{flag}", path, f"must end in one of {formats}")
 
 
 def _check_mock_flight_options(args: argparse.Namespace) -> None:
-    if args.duration is not None and not (math.isfinite(args.duration) and args.duration > 0):
-        raise ConfigError("--duration", args.duration, "must be > 0")
-    if not (math.isfinite(args.speedup) and args.speedup > 0):
-        raise ConfigError("--speedup", args.speedup, "must be > 0")
+    _check_duration(args.duration)
+    if not (math.isfinite(args.speedup) and 0 < args.speedup <= MAX_SPEEDUP):
+        raise ConfigError("--speedup", args.speedup, f"must be > 0 and <= {MAX_SPEEDUP:g}")
+    _check_outputs(args)
     if args.uavs is not None and not 1 <= args.uavs <= MAX_MOCK_UAVS:
         raise ConfigError("--uavs", args.uavs, f"must be 1..{MAX_MOCK_UAVS}")
 
@@ -525,8 +573,7 @@ async def _fly_mock(args: argparse.Namespace, scenario: Scenario, duration: floa
     )
     report = result.to_dict()
     _summary(report)
-    _write_outputs(args, report, services[0] if services else None)
-    return 0
+    return _write_outputs(args, report, services[0] if services else None)
 
 
 def _log_level(args: argparse.Namespace) -> int:

@@ -53,6 +53,15 @@ Design rules:
       ``_step_threshold`` in the same direction and agree with each other (a
       congested queue makes delays that vary). The line is then rebuilt from
       those packets at the last measured rate, and ``steps`` counts it.
+    * One vehicle's clock never moves mission time by more than a bounded step.
+      Once the rate is measured, a ``time_boot_ms`` further ahead of that
+      vehicle's last one than its clock can have run (twice the rate over the
+      wall time between them, plus the jitter allowance ``_AHEAD_SLACK_*``) is
+      *rejected* (``observe`` says so; the caller drops the frame) and counted
+      in ``rejected``: one spoofed or corrupt stamp cannot throw the mission
+      clock ahead. A clock that really jumped ahead persists: after
+      ``_REBOOT_CONFIRM`` agreeing packets in a row it is re-anchored like a
+      reboot (its unwrapped time continues), so mission time does not jump.
     * ``now()`` never goes backwards once synchronised, except at a confirmed
       step, where it follows the autopilot (``sleep_until`` returns early so
       deadline loops re-plan). Before any observation it is 0.0 and
@@ -68,8 +77,9 @@ import time
 from collections import deque
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
+from enum import IntEnum
 
-__all__ = ["MissionClock"]
+__all__ = ["MissionClock", "Observed"]
 
 _REBOOT_JUMP = 1.0
 """s: a ``time_boot_ms`` this much behind the last one is a reboot, not reordering."""
@@ -99,6 +109,18 @@ _MAX_SLEEP_CHUNK = 0.25
 """Wall s: ``sleep_until`` re-reads the estimate at least this often."""
 _GUESS_SLEEP_CHUNK = 0.01
 """Wall s: the same while the rate is not measured yet."""
+_AHEAD_SLACK_S = 2.0
+"""Mission s a stamp may run ahead of its clock's bound (``time_boot_ms`` rounding, resets)."""
+_AHEAD_SLACK_WALL = 0.5
+"""Wall s of arrival jitter, times the rate, a stamp may run ahead (late packet, prompt one)."""
+
+
+class Observed(IntEnum):
+    """What one ``time_boot_ms`` observation was (falsy: nothing to act on)."""
+
+    ACCEPTED = 0
+    REBOOTED = 1  # confirmed a reboot: the vehicle's clock restarted
+    REJECTED = 2  # ahead of anything its clock can have run: drop the frame
 
 
 @dataclass(slots=True)
@@ -118,6 +140,9 @@ class _Track:
     offset_wall: float = -math.inf  # wall time the offset was last computed
     pending: float | None = None  # boot time of a possible reboot, awaiting confirmation
     pending_count: int = 0
+    ahead: float | None = None  # boot time of a possible jump ahead, awaiting confirmation
+    ahead_count: int = 0
+    ahead_wall: float = -math.inf
     reanchored_wall: float = -math.inf  # wall time of its last reboot
 
     @property
@@ -147,6 +172,8 @@ class MissionClock:
         steps: Steps of the reference's clock followed (a simulator pausing),
             resyncs after a fleet-wide silence included.
         resyncs: Times mission time was taken anew after every vehicle was silent.
+        rejected: Stamps rejected for running ahead of their clock, all vehicles.
+        jumps: Vehicle clocks re-anchored after a confirmed jump ahead.
     """
 
     def __init__(
@@ -191,6 +218,8 @@ class MissionClock:
         self.handovers = 0
         self.steps = 0
         self.resyncs = 0
+        self.rejected = 0
+        self.jumps = 0
 
     # ------------------------------------------------------------------ queries
     @property
@@ -238,30 +267,47 @@ class MissionClock:
         return boot_ms * 1e-3 + track.epoch + self._offset(sysid, track)
 
     # ------------------------------------------------------------- observation
-    def observe(self, boot_ms: float, sysid: int) -> bool:
+    def observe(self, boot_ms: float, sysid: int) -> Observed:
         """One message from ``sysid`` stamped ``boot_ms`` arrived just now.
 
         Cheap: called for every message with a ``time_boot_ms`` field.
 
         Returns:
-            True if this message confirmed a reboot of ``sysid`` (its clock
-            restarted; a packet reordered on the way is not one).
+            ``REBOOTED`` if this message confirmed a reboot of ``sysid`` (its
+            clock restarted; a packet reordered on the way is not one),
+            ``REJECTED`` if its stamp is further ahead than ``sysid``'s clock
+            can have run (the caller drops the message), else ``ACCEPTED``.
         """
         wall = self._wall()
         boot = boot_ms * 1e-3
+        if not math.isfinite(boot):
+            self.rejected += 1
+            return Observed.REJECTED
+        track = self._tracks.get(sysid)
+        jumped = False
+        if track is not None and boot > track.last_boot + self._ahead_limit(wall - track.last_wall):
+            if not self._jump_confirmed(track, boot, wall):
+                self.rejected += 1
+                return Observed.REJECTED
+            jumped = True
+        elif track is not None:
+            track.ahead = None
         if self._rate * (wall - self._heard_wall) > self._handover_after and self._ref is not None:
             self._resync_due = True
             self._silence_wall = self._heard_wall
         self._heard_wall = wall
-        rebooted = False
-        track = self._tracks.get(sysid)
+        rebooted = Observed.ACCEPTED
         if track is None:
             track = self._new_track(sysid, boot, wall)
+        elif jumped:
+            self._reanchor(track, boot, wall)
+            self.reboots -= 1  # (counted as a jump, not a reboot)
+            self.jumps += 1
         elif boot < track.last_boot - _REBOOT_JUMP:
             if not self._reboot_confirmed(track, boot):
-                return False
+                return Observed.ACCEPTED
             self._reanchor(track, boot, wall)
-            rebooted = True
+            rebooted = Observed.REBOOTED
         else:
             track.pending = None
         track.last_boot = max(track.last_boot, boot)
@@ -302,6 +348,33 @@ class MissionClock:
         else:
             track.offset = self._line(wall) - boot
         return track
+
+    def _ahead_limit(self, wall_elapsed: float) -> float:
+        """Mission s a stamp may advance in ``wall_elapsed`` (inf until the rate is measured)."""
+        self._refit()
+        if not self._rate_trusted:
+            return math.inf
+        rate = self._rate
+        return 2.0 * rate * max(wall_elapsed, 0.0) + rate * _AHEAD_SLACK_WALL + _AHEAD_SLACK_S
+
+    def _jump_confirmed(self, track: _Track, boot: float, wall: float) -> bool:
+        """A jump ahead is the clock's own once ``_REBOOT_CONFIRM`` packets in a row agree.
+
+        A spoofed or corrupt stamp among the vehicle's own is isolated (the next
+        genuine packet clears it); a clock that really moved stays on its new timeline.
+        """
+        last = track.ahead
+        if last is not None and (
+            last - _REBOOT_JUMP <= boot <= last + self._ahead_limit(wall - track.ahead_wall)
+        ):
+            track.ahead_count += 1
+        else:
+            track.ahead_count = 1
+        track.ahead, track.ahead_wall = boot, wall
+        if track.ahead_count < _REBOOT_CONFIRM:
+            return False
+        track.ahead = None
+        return True
 
     @staticmethod
     def _reboot_confirmed(track: _Track, boot: float) -> bool:

@@ -119,6 +119,7 @@ class UavConfig:
     connection: str
     sysid: int
     aircraft: AircraftConfig = AircraftConfig()
+    peer: tuple[str, int] | None = None  # udpin: the only sender heard (None: the first)
 
 
 @dataclass(frozen=True, slots=True)
@@ -127,6 +128,7 @@ class ConvoyVehicleConfig:
 
     connection: str
     sysid: int
+    peer: tuple[str, int] | None = None  # udpin: the only sender heard (None: the first)
 
 
 ConvoySource = Literal["route", "mavlink", "mqtt"]
@@ -234,6 +236,20 @@ def _table(
     return _check_keys(value, name, allowed)
 
 
+MAX_SPEED_MPS = 150.0
+"""Fastest airspeed or convoy speed a config may give, m/s."""
+MAX_DISTANCE_M = 100_000.0
+"""Largest radius or offset a config may give, metres."""
+MAX_ALTITUDE_M = 10_000.0
+"""Highest altitude a config may give, metres."""
+MAX_SETPOINT_HZ = 100.0
+"""Fastest setpoint stream: above it, frames only fill the radio."""
+MAX_WAIT_S = 86_400.0
+"""Longest time-out or hold a config may give, mission seconds."""
+MIN_LOST_AFTER_S = 0.2
+"""A UAV silent for less is not lost: a few telemetry periods."""
+
+
 def _number(
     table: Mapping[str, Any],
     section: str,
@@ -242,7 +258,10 @@ def _number(
     *,
     positive: bool = False,
     non_negative: bool = False,
+    at_least: float | None = None,
+    at_most: float | None = None,
 ) -> float:
+    """A number setting; bounded, so that no value costs more than a mission can use."""
     name = f"{section}.{key}"
     if key not in table:
         if default is None:
@@ -258,7 +277,27 @@ def _number(
         raise ConfigError(name, value, "must be > 0")
     if non_negative and value < 0.0:
         raise ConfigError(name, value, "must be >= 0")
+    if at_least is not None and value < at_least:
+        raise ConfigError(name, value, f"must be >= {at_least:g}")
+    if at_most is not None and value > at_most:
+        raise ConfigError(name, value, f"must be <= {at_most:g}")
     return value
+
+
+def _peer(entry: Mapping[str, Any], name: str) -> tuple[str, int] | None:
+    """``peer = "host:port"``: the one address a ``udpin`` link hears (pinned)."""
+    if "peer" not in entry:
+        return None
+    value = entry["peer"]
+    if not isinstance(value, str) or value.count(":") < 1:
+        raise ConfigError(f"{name}.peer", value, 'must be "host:port"')
+    if not str(entry.get("connection", "")).startswith("udpin:"):
+        raise ConfigError(f"{name}.peer", value, "applies to udpin connections only")
+    host, _, port = value.rpartition(":")
+    host = host.strip("[]")
+    if not host or not port.isdigit() or not 1 <= int(port) <= 65535:
+        raise ConfigError(f"{name}.peer", value, 'must be "host:port" with a port in 1..65535')
+    return host, int(port)
 
 
 def _integer(table: Mapping[str, Any], name: str, key: str, lo: int, hi: int) -> int:
@@ -270,9 +309,15 @@ def _integer(table: Mapping[str, Any], name: str, key: str, lo: int, hi: int) ->
 
 def _aircraft(table: Mapping[str, Any], name: str, base: AircraftConfig) -> AircraftConfig:
     return AircraftConfig(
-        airspeed_mps=_number(table, name, "airspeed_mps", base.airspeed_mps, positive=True),
-        turn_radius_m=_number(table, name, "turn_radius_m", base.turn_radius_m, positive=True),
-        altitude_m=_number(table, name, "altitude_m", base.altitude_m, positive=True),
+        airspeed_mps=_number(
+            table, name, "airspeed_mps", base.airspeed_mps, positive=True, at_most=MAX_SPEED_MPS
+        ),
+        turn_radius_m=_number(
+            table, name, "turn_radius_m", base.turn_radius_m, positive=True, at_most=MAX_DISTANCE_M
+        ),
+        altitude_m=_number(
+            table, name, "altitude_m", base.altitude_m, positive=True, at_most=MAX_ALTITUDE_M
+        ),
     )
 
 
@@ -293,7 +338,11 @@ def _origin(mission: Mapping[str, Any]) -> GeoPoint:
         raise ConfigError("mission.origin.lat", lat, "must be within -90..90 degrees")
     if not -180.0 <= lon <= 180.0:
         raise ConfigError("mission.origin.lon", lon, "must be within -180..180 degrees")
-    return GeoPoint(lat, lon, _number(table, "mission.origin", "alt", 0.0))
+    return GeoPoint(
+        lat,
+        lon,
+        _number(table, "mission.origin", "alt", 0.0, at_least=-500.0, at_most=MAX_ALTITUDE_M),
+    )
 
 
 def _uavs(data: Mapping[str, Any], base: AircraftConfig) -> tuple[UavConfig, ...]:
@@ -302,7 +351,8 @@ def _uavs(data: Mapping[str, Any], base: AircraftConfig) -> tuple[UavConfig, ...
     for i, entry in enumerate(_array_of_tables(data, "uav", "uav")):
         name = f"uav[{i}]"
         unknown = sorted(
-            set(entry) - {"connection", "sysid", "airspeed_mps", "turn_radius_m", "altitude_m"}
+            set(entry)
+            - {"connection", "sysid", "peer", "airspeed_mps", "turn_radius_m", "altitude_m"}
         )
         if unknown:
             raise ConfigError(f"{name}.{unknown[0]}", entry[unknown[0]], "unknown key")
@@ -317,6 +367,7 @@ def _uavs(data: Mapping[str, Any], base: AircraftConfig) -> tuple[UavConfig, ...
                 connection=validate_connection(entry["connection"], f"{name}.connection"),
                 sysid=sysid,
                 aircraft=_aircraft(entry, name, base),
+                peer=_peer(entry, name),
             )
         )
     return tuple(out)
@@ -338,11 +389,12 @@ def _convoy(data: Mapping[str, Any]) -> ConvoyConfig:
     vehicles = []
     for i, entry in enumerate(_array_of_tables(table, "vehicle", "convoy.vehicle")):
         name = f"convoy.vehicle[{i}]"
-        _check_keys(entry, name, {"connection", "sysid"})
+        _check_keys(entry, name, {"connection", "sysid", "peer"})
         vehicles.append(
             ConvoyVehicleConfig(
                 connection=validate_connection(entry.get("connection"), f"{name}.connection"),
                 sysid=_integer(entry, name, "sysid", 1, 254),
+                peer=_peer(entry, name),
             )
         )
     if source == "mavlink" and not vehicles:
@@ -350,12 +402,20 @@ def _convoy(data: Mapping[str, Any]) -> ConvoyConfig:
             "convoy.vehicle", [], "source 'mavlink' needs at least one [[convoy.vehicle]]"
         )
     return ConvoyConfig(
-        speed_mps=_number(table, "convoy", "speed_mps", 0.0, non_negative=True),
+        speed_mps=_number(
+            table, "convoy", "speed_mps", 0.0, non_negative=True, at_most=MAX_SPEED_MPS
+        ),
         heading_deg=_number(table, "convoy", "heading_deg", 0.0),
         source=source,
-        start_north_m=_number(start, "convoy.start", "north", 0.0),
-        start_east_m=_number(start, "convoy.start", "east", 0.0),
-        stale_after_s=_number(table, "convoy", "stale_after_s", 3.0, positive=True),
+        start_north_m=_number(
+            start, "convoy.start", "north", 0.0, at_least=-MAX_DISTANCE_M, at_most=MAX_DISTANCE_M
+        ),
+        start_east_m=_number(
+            start, "convoy.start", "east", 0.0, at_least=-MAX_DISTANCE_M, at_most=MAX_DISTANCE_M
+        ),
+        stale_after_s=_number(
+            table, "convoy", "stale_after_s", 3.0, positive=True, at_most=MAX_WAIT_S
+        ),
         vehicles=tuple(vehicles),
         route_file=route,
     )
@@ -422,17 +482,29 @@ def parse_config(data: Mapping[str, Any]) -> MissionConfig:
     if tlog is not None and (not isinstance(tlog, str) or not tlog):
         raise ConfigError("record.tlog", tlog, "must be a file path")
     cfg = MissionConfig(
-        sensor_radius_m=_number(mission, "mission", "sensor_radius_m", None, positive=True),
+        sensor_radius_m=_number(
+            mission, "mission", "sensor_radius_m", None, positive=True, at_most=MAX_DISTANCE_M
+        ),
         aircraft=aircraft,
         convoy=_convoy(data),
         uav_count=uav_count,
         uav_list=_uavs(data, aircraft),
         origin=_origin(mission),
-        setpoint_rate_hz=_number(mission, "mission", "setpoint_rate_hz", 20.0, positive=True),
-        altitude_step_m=_number(mission, "mission", "altitude_step_m", 5.0, non_negative=True),
-        setup_timeout_s=_number(mission, "mission", "setup_timeout_s", 120.0, positive=True),
-        lost_after_s=_number(mission, "mission", "lost_after_s", 3.0, positive=True),
-        altitude_band_m=_number(mission, "mission", "altitude_band_m", 15.0, positive=True),
+        setpoint_rate_hz=_number(
+            mission, "mission", "setpoint_rate_hz", 20.0, at_least=1.0, at_most=MAX_SETPOINT_HZ
+        ),
+        altitude_step_m=_number(
+            mission, "mission", "altitude_step_m", 5.0, non_negative=True, at_most=1000.0
+        ),
+        setup_timeout_s=_number(
+            mission, "mission", "setup_timeout_s", 120.0, at_least=1.0, at_most=MAX_WAIT_S
+        ),
+        lost_after_s=_number(
+            mission, "mission", "lost_after_s", 3.0, at_least=MIN_LOST_AFTER_S, at_most=MAX_WAIT_S
+        ),
+        altitude_band_m=_number(
+            mission, "mission", "altitude_band_m", 15.0, positive=True, at_most=1000.0
+        ),
         end=_end_action(mission),
         planner=_planner(mission),
         mqtt=_mqtt(data),
@@ -465,6 +537,10 @@ def load_config(path: str | Path) -> MissionConfig:
         raise ConfigError("config", str(path), f"cannot be read ({exc.strerror})") from exc
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError("config", str(path), f"is not valid TOML ({exc})") from exc
+    except UnicodeDecodeError as exc:
+        raise ConfigError(
+            "config", str(path), f"is not UTF-8 text (byte {exc.start}: {exc.reason})"
+        ) from exc
     cfg = parse_config(data)
     route = cfg.convoy.route_file
     if route is not None and not Path(route).is_absolute():  # relative to the config file

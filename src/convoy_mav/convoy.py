@@ -25,6 +25,7 @@ import math
 from collections import Counter, deque
 from dataclasses import dataclass, replace
 
+from convoy_mav.plausible import JumpGate
 from convoy_mav.types import ConvoyEstimate
 
 __all__ = ["ConvoyTracker", "Source"]
@@ -48,13 +49,23 @@ class ConvoyTracker:
         window: Length of the least-squares velocity window, seconds.
         min_span: The velocity is re-estimated only once the window's samples
             span at least this long (until then the last velocity is held).
+        max_speed: Fastest a ground vehicle drives, m/s: a source's fix farther
+            from its last than this allows is dropped (``plausible.JumpGate``).
 
     Attributes:
-        counters: ``accepted``, ``non_finite``, ``out_of_order``,
-            ``source_dropped`` (a source left the centroid), ``source_added``.
+        counters: ``accepted``, ``non_finite``, ``out_of_order``, ``jump``
+            (farther than the convoy can drive), ``source_dropped`` (a source left
+            the centroid), ``source_added``.
     """
 
-    def __init__(self, *, stale_after: float = 3.0, window: float = 10.0, min_span: float = 1.0):
+    def __init__(
+        self,
+        *,
+        stale_after: float = 3.0,
+        window: float = 10.0,
+        min_span: float = 1.0,
+        max_speed: float = 70.0,
+    ):
         for name, value in (("stale_after", stale_after), ("window", window)):
             if not (math.isfinite(value) and value > 0.0):
                 raise ValueError(f"{name} must be positive and finite, got {value!r}")
@@ -64,6 +75,8 @@ class ConvoyTracker:
         self.window = window
         self.min_span = min_span
         self.counters: Counter[str] = Counter()
+        self.max_speed = max_speed
+        self._gates: dict[Source, JumpGate] = {}
         self._fixes: dict[Source, _Fix] = {}
         self._active: frozenset[Source] = frozenset()
         self._samples: deque[tuple[float, float, float]] = deque()
@@ -90,6 +103,12 @@ class ConvoyTracker:
         too_old = self._last is not None and t < self._last.t - self.stale_after
         if too_old or (previous is not None and t < previous.t):
             self.counters["out_of_order"] += 1
+            return False
+        gate = self._gates.get(source)
+        if gate is None:
+            gate = self._gates[source] = JumpGate(self.max_speed)
+        if not gate.admit(t, north, east):
+            self.counters["jump"] += 1
             return False
         self._fixes[source] = _Fix(t, north, east)
         self.counters["accepted"] += 1

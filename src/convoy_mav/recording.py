@@ -18,12 +18,17 @@ Design rules:
       stops the task and does a final flush, so nothing recorded is lost.
     * A slow or full disk never stalls flight: past ``max_buffer_bytes`` new
       records are dropped and counted; write errors are logged once and counted.
+    * An earlier flight's tlog is never overwritten: if the path exists, the
+      recording goes to the first free ``<stem>-<n>.tlog`` beside it (``path``
+      says which, and the log), so a run that fails to start, or a second run
+      with the same ``--tlog``, loses nothing.
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
+import errno
 import logging
 import os
 import struct
@@ -125,9 +130,12 @@ class TlogRecorder:
         if self._file is not None or self._closed:
             raise RuntimeError("a TlogRecorder can be entered only once")
         try:
-            self._file = await asyncio.to_thread(_open_for_writing, self.path)
+            self._file, path = await asyncio.to_thread(_open_new, self.path)
         except OSError as e:
             raise ConfigError("tlog", self.path, f"cannot write: {e.strerror or e}") from e
+        if path != self.path:
+            log.warning("tlog %s exists (an earlier flight): recording to %s", self.path, path)
+            self.path = path
         self._task = asyncio.create_task(self._flush_loop(), name=f"tlog[{self.path}].flush")
         return self
 
@@ -187,8 +195,21 @@ class TlogRecorder:
             await self.flush()
 
 
-def _open_for_writing(path: str) -> BinaryIO:
-    return open(path, "wb")
+def _open_new(path: str) -> tuple[BinaryIO, str]:
+    """A new file at ``path``, or at the first free ``<stem>-<n><ext>`` beside it.
+
+    (A device or a pipe at ``path`` is written to as it is: it holds no earlier flight.)
+    """
+    if os.path.exists(path) and not os.path.isfile(path):
+        return open(path, "ab"), path
+    stem, ext = os.path.splitext(path)
+    for n in range(1000):
+        candidate = path if n == 0 else f"{stem}-{n}{ext}"
+        try:
+            return open(candidate, "xb"), candidate
+        except FileExistsError:
+            continue
+    raise FileExistsError(errno.EEXIST, "1000 tlogs of that name already exist", path)
 
 
 def _write_all(f: BinaryIO, chunks: list[bytes]) -> None:

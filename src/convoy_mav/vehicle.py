@@ -56,7 +56,7 @@ from typing import Any, Protocol
 
 from pymavlink.dialects.v20 import common as mavlink
 
-from convoy_mav.clock import MissionClock
+from convoy_mav.clock import MissionClock, Observed
 from convoy_mav.errors import AutopilotError
 from convoy_mav.geo import GeoPoint, LocalFrame
 from convoy_mav.mavlink.autopilots import (
@@ -69,6 +69,7 @@ from convoy_mav.mavlink.autopilots import (
     autopilot_for,
     firmware_name,
 )
+from convoy_mav.plausible import JumpGate
 from convoy_mav.types import Setpoint, Telemetry, VehicleStatus
 
 __all__ = ["EventKind", "LinkLike", "Vehicle", "VehicleEvent"]
@@ -101,6 +102,9 @@ _PARAM_TOL = 0.05  # a PARAM_VALUE this close to what was set confirms it
 _HOME_WAIT = 60.0  # mission s after the fix that set-up waits for HOME_POSITION at most
 _STREAM_RETRY = 5.0  # mission s between stream requests while no position arrives
 _FED_LOOK = 0.5  # mission s between looks at a fed stream (PX4's COM_OF_LOSS_T: 1 s)
+_JUMP_SLACK_M = 50.0  # m a fix may land past max_speed x the time since the last (GPS glitches)
+_JUMP_CONFIRM = 5  # agreeing fixes in a row that make a jump the vehicle's own (an estimator reset)
+_REJECT_WARN_EVERY = 10.0  # mission s between two warnings of rejected frames of one kind
 _LOST_MARGIN = 1e-3  # mission s past lost_after the watchdog looks (silence must exceed it)
 
 
@@ -123,6 +127,7 @@ class EventKind(StrEnum):
     LOST = "lost"  # silent for lost_after
     RECOVERED = "recovered"  # heard again after LOST
     REBOOTED = "rebooted"  # time_boot_ms jumped back
+    REJECTED = "rejected"  # frames dropped: a clock or a position no airframe can reach
     MODE = "mode"  # the autopilot left the external mode on its own
     WARNING = "warning"  # anything else the operator should know
 
@@ -183,6 +188,8 @@ class Vehicle:
             default ``sysid``. A link is one vehicle, so system ids may repeat
             across links (PX4s leave the factory as sysid 1; a MAVLink network
             has at most 255), as long as uids do not.
+        max_speed: Fastest the UAV can move, m/s: a fix farther from the last than
+            this allows is dropped (``plausible.JumpGate``), counted and warned of.
 
     Attributes:
         status, firmware, telemetry, mode, armed, last_statustext: As named.
@@ -214,6 +221,7 @@ class Vehicle:
         gcs_sysid: int = 255,
         heartbeat: bool = True,
         uid: int | None = None,
+        max_speed: float = 150.0,
     ) -> None:
         self.sysid = sysid
         self.uid = sysid if uid is None else uid
@@ -234,6 +242,7 @@ class Vehicle:
         self.flight_stream_rates = dict(flight_stream_rates)
         self.gcs_sysid = gcs_sysid
         self._heartbeat = heartbeat
+        self.max_speed = max_speed
 
         self.status: VehicleStatus = _S.CONNECTING
         self.firmware: Autopilot | None = None
@@ -252,6 +261,8 @@ class Vehicle:
         self.first_heard_t: float | None = None
         self._statustext_t = -math.inf
         self._fix_t: float | None = None  # mission time a fix was first seen
+        self._gate = JumpGate(max_speed, slack_m=_JUMP_SLACK_M, confirm=_JUMP_CONFIRM)
+        self._warned_t: dict[str, float] = {}  # rejected-frame warnings, by kind
         self._heard_t = -math.inf
         self._acks: dict[int, tuple[int, int]] = {}  # command -> (result, seq)
         self._ack_seq = 0
@@ -353,8 +364,16 @@ class Vehicle:
             self.counters["ignored"] += 1
             return
         boot_ms = getattr(msg, "time_boot_ms", None)
-        if boot_ms is not None and msg.get_srcComponent() == self._compid:
-            self._observe_boot(boot_ms)  # (a camera or companion has a boot clock of its own)
+        # (a camera or companion has a boot clock of its own)
+        if (
+            boot_ms is not None
+            and msg.get_srcComponent() == self._compid
+            and self._observe_boot(boot_ms) is Observed.REJECTED
+        ):
+            self._reject(
+                "clock_jump", f"time_boot_ms {boot_ms} is ahead of its clock; frame dropped"
+            )
+            return
         now = self.clock.now()
         self._heard_t = now
         self.received += 1
@@ -378,8 +397,18 @@ class Vehicle:
             self._start.set()
         self._changed.set()
 
-    def _observe_boot(self, boot_ms: int) -> None:
-        if self.clock.observe(boot_ms, self.uid):  # (the clock tells a reboot from reordering)
+    def _reject(self, kind: str, text: str) -> None:
+        """Count a dropped frame; warn the operator (not more than every few seconds)."""
+        self.counters[kind] += 1
+        now = self.clock.now()
+        if now - self._warned_t.get(kind, -math.inf) >= _REJECT_WARN_EVERY:
+            self._warned_t[kind] = now
+            total = self.counters[kind]
+            self._emit(EventKind.REJECTED, f"{text} ({total} so far)", _M.MAV_SEVERITY_WARNING)
+
+    def _observe_boot(self, boot_ms: int) -> Observed:
+        seen = self.clock.observe(boot_ms, self.uid)  # (it tells a reboot from reordering)
+        if seen is Observed.REBOOTED:
             self.counters["reboots"] += 1
             self.home = None  # (set anew by the estimator)
             self._emit(EventKind.REBOOTED, "autopilot rebooted", _M.MAV_SEVERITY_WARNING)
@@ -389,6 +418,7 @@ class Vehicle:
             if not self._hold_requested and self.status in (_S.SETTING_UP, _S.FLYING, _S.HOLDING):
                 self._interrupt()
                 self._start.set()
+        return seen
 
     def handle_HEARTBEAT(self, msg: Message, now: float) -> None:
         """Recognise the firmware; track mode and armed state."""
@@ -462,6 +492,12 @@ class Vehicle:
             yaw = math.atan2(ve, vn)
         t = self.clock.to_mission(msg.time_boot_ms, self.uid)
         tel = Telemetry(self.uid, t, north, east, down, vn, ve, vd, yaw, lat, lon, alt)
+        if not self._gate.admit(t, north, east, down):  # (``plausible.JumpGate``)
+            self._reject(
+                "position_jump",
+                f"position {lat:.6f}, {lon:.6f} is farther than it can have flown; fix dropped",
+            )
+            return
         self.telemetry = tel
         if self._on_telemetry is not None:
             self._on_telemetry(tel)

@@ -150,7 +150,12 @@ async def test_udpout_with_nobody_listening_counts_refusals() -> None:
 # -- udpin: the service listening, a pymavlink peer calling in ---------------------------
 
 
-async def test_udpin_learns_the_peer_and_replies(mav_client: Callable[..., MavClient]) -> None:
+async def test_udpin_pins_the_first_peer_and_refuses_a_second(
+    mav_client: Callable[..., MavClient],
+) -> None:
+    """A second sender on a live link is refused unread, never adopted; once the
+    pinned peer has been silent ``repin_after``, a new one (a restarted autopilot) may
+    take its place."""
     replies = MavCodec(system=42, component=1)
     inbox = Inbox()
     links: list[MavLink] = []
@@ -164,7 +169,7 @@ async def test_udpin_learns_the_peer_and_replies(mav_client: Callable[..., MavCl
                 )
             )
 
-    async with MavLink("udpin:127.0.0.1:0", answer, codec=replies) as link:
+    async with MavLink("udpin:127.0.0.1:0", answer, codec=replies, repin_after=0.5) as link:
         links.append(link)
         local = link.local_address
         assert local is not None and local[1] > 0
@@ -179,18 +184,38 @@ async def test_udpin_learns_the_peer_and_replies(mav_client: Callable[..., MavCl
         assert link.peer is not None and link.peer[0] == "127.0.0.1"
         first_peer = link.peer
 
-        b = mav_client(local[1], source_system=201)  # a second sender: it wins
+        b = mav_client(local[1], source_system=201)  # a second sender, while a lives
+        for _ in range(5):
+            b.hello()
+            a.hello()
+            await asyncio.sleep(0.02)
+        await asyncio.sleep(0.05)
+        assert link.peer == first_peer and link.counters["peer_changed"] == 0
+        assert link.counters["foreign_peer"] == 5
+        assert not inbox.of("HEARTBEAT", sysid=201)  # never heard as the UAV
+        b.poll()
+        assert not b.of("HEARTBEAT")  # and never sent the UAV's replies
+
+        await asyncio.sleep(0.6)  # a falls silent past repin_after: b may take over
         b.hello()
         await b.wait_for("HEARTBEAT", lambda m: m.get_srcSystem() == 42)
         assert link.peer != first_peer and link.counters["peer_changed"] == 1
-        a.poll()
-        n_a = len(a.of("HEARTBEAT"))
-        a.poll()
-        b.hello()
-        await b.wait_for("HEARTBEAT", since=len(b.log))
-        await asyncio.sleep(0.05)
-        a.poll()
-        assert len(a.of("HEARTBEAT")) == n_a  # replies go to the latest sender only
+
+
+async def test_udpin_with_a_configured_peer_hears_only_it(
+    mav_client: Callable[..., MavClient],
+) -> None:
+    inbox = Inbox()
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+        probe.bind(("127.0.0.1", 0))
+        expected = probe.getsockname()[1]
+    async with MavLink("udpin:127.0.0.1:0", inbox, peer=("127.0.0.1", expected)) as link:
+        assert link.local_address is not None
+        stranger = mav_client(link.local_address[1], source_system=7)
+        stranger.hello()
+        await asyncio.sleep(0.1)
+        assert link.peer is None and link.counters["foreign_peer"] == 1
+        assert not inbox.of("HEARTBEAT")
 
 
 async def test_udpin_ignores_garbage_senders() -> None:

@@ -11,8 +11,9 @@ import asyncio
 import contextlib
 import json
 import math
+import sys
 import time
-from collections.abc import AsyncIterator, Callable
+from collections.abc import AsyncIterator, Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -76,7 +77,9 @@ async def subscriber(broker: Broker, pattern: str = f"{PREFIX}/#") -> AsyncItera
                 await task
 
 
-async def send(broker: Broker, items: list[tuple[str, str | bytes]], retain: bool = False) -> None:
+async def send(
+    broker: Broker, items: Sequence[tuple[str, str | bytes]], retain: bool = False
+) -> None:
     """Publish raw payloads from a separate client (an operator or a convoy tracker)."""
     async with aiomqtt.Client(broker.host, broker.port) as client:
         for subtopic, payload in items:
@@ -317,3 +320,56 @@ def test_bad_settings_are_config_errors() -> None:
         MqttPublisher("127.0.0.1", 0)
     with pytest.raises(ConfigError, match=r"mqtt\.reconnect_max"):
         MqttPublisher("127.0.0.1", 1883, reconnect_initial=2.0, reconnect_max=1.0)
+
+
+_VANISH = """
+import asyncio, os, sys
+from convoy_mav.publish import MqttPublisher
+
+async def main() -> None:
+    pub = MqttPublisher(sys.argv[1], int(sys.argv[2]), sys.argv[3])
+    async with pub:
+        await pub.wait_connected()
+        pub.publish("status", {"phase": "protecting"}, retain=True)
+        await asyncio.sleep(0.3)
+        print("connected", flush=True)
+        os._exit(9)  # a crash: no DISCONNECT, no final status
+
+asyncio.run(main())
+"""
+
+
+async def test_a_vanished_service_leaves_its_last_will(mqtt_broker: Broker) -> None:
+    """The broker marks a service that crashed offline (retained), not "protecting"."""
+    proc = await asyncio.create_subprocess_exec(
+        sys.executable, "-c", _VANISH, mqtt_broker.host, str(mqtt_broker.port), PREFIX,
+        stdout=asyncio.subprocess.PIPE,
+    )  # fmt: skip
+    async with asyncio.timeout(15):
+        out, _ = await proc.communicate()
+    assert b"connected" in out and proc.returncode == 9
+    async with subscriber(mqtt_broker, f"{PREFIX}/status") as got:  # (retained only)
+        await wait_for(lambda: len(got) == 1, what="retained status")
+    assert got == [(f"{PREFIX}/status", topics.offline_payload(), True)]
+
+
+async def test_flooding_and_absurd_inputs_cost_counted_drops(mqtt_broker: Broker) -> None:
+    fixes: list[dict[str, Any]] = []
+    async with publisher(mqtt_broker, on_convoy=fixes.append) as pub:
+        async with asyncio.timeout(3):
+            await pub.wait_connected()
+        absurd = [
+            '{"north": 1e308, "east": 0}',
+            '{"north": 0, "east": 0, "t": 1e12}',
+            '{"north": 0, "east": 0, "t": -5}',
+        ]
+        await send(mqtt_broker, [("convoy/position", p) for p in absurd])
+        await wait_for(lambda: pub.counters["bad_input"] == 3, what="absurd fixes refused")
+        flood = [("convoy/position", f'{{"north": {i}, "east": 0}}') for i in range(1000)]
+        await send(mqtt_broker, flood)
+        await wait_for(
+            lambda: len(fixes) + pub.counters["rate_limited"] == 1000, what="flood handled"
+        )
+    assert fixes == [] or all(abs(f["north"]) < 1000 for f in fixes)
+    assert pub.counters["rate_limited"] > 500  # a burst of 100, then 50 a second
+    assert len(fixes) >= 100

@@ -532,9 +532,13 @@ async def test_broker_killed_and_restarted_mid_mission(mqtt_broker: Broker) -> N
         result = await flight.finish()
         # The last retained status tells a late subscriber the service stopped.
         async with asyncio.timeout(5.0):
-            while sub.last("status")["phase"] != "stopping":
+            while sub.last("status")["phase"] != "stopped":
                 await asyncio.sleep(0.01)
         assert sub.last("status")["uavs"].get("holding") == len(sysids)
+        async with subscribed(mqtt_broker) as late, asyncio.timeout(5.0):
+            while not [r for r in late.got if r.subtopic == "status" and r.retain]:
+                await asyncio.sleep(0.01)
+        assert [r for r in late.got if r.subtopic == "status"][-1].payload["phase"] == "stopped"
 
     # Setpoints never stopped, as the autopilots received them: none reported a
     # setpoint loss or showed another mode than OFFBOARD while it was watched.

@@ -8,7 +8,7 @@ from collections.abc import Mapping
 
 import pytest
 
-from convoy_mav.clock import MissionClock
+from convoy_mav.clock import MissionClock, Observed
 
 
 class FakeWall:
@@ -173,7 +173,7 @@ def test_reboot_reanchors_without_a_jump(speedup: float) -> None:
     for _ in range(5):
         wall.value += 0.05
         told.append(clock.observe(rebooted.boot_ms(wall.value), 1))
-    assert told.count(True) == 1  # once, when confirmed (not on the first packet alone)
+    assert told.count(Observed.REBOOTED) == 1  # once, when confirmed (not on the first alone)
     assert not told[0]
     feed(clock, wall, {1: rebooted}, 1.75)
     assert clock.reboots == 1
@@ -387,3 +387,53 @@ def test_mission_time_waits_out_a_silence_past_its_cap() -> None:
     feed(clock, wall, {2: aps[2]}, 0.5)  # vehicle 2 first: resynced onto the clocks
     feed(clock, wall, aps, 0.5)
     assert clock.now() == pytest.approx(aps[1].mission(), abs=0.2)
+
+
+@pytest.mark.parametrize("speedup", [1.0, 40.0])
+@pytest.mark.parametrize("sysid", [1, 2])  # the reference, and another vehicle
+def test_a_stamp_far_ahead_is_rejected_and_moves_nothing(speedup: float, sysid: int) -> None:
+    """One spoofed ``time_boot_ms`` (496 s -> 4066 s) neither throws mission time ahead
+    nor, when the vehicle's own stamps resume, passes for a reboot."""
+    wall = FakeWall()
+    clock = MissionClock(wall)
+    aps = {1: Autopilot(wall, speedup, boot_offset=496.0), 2: Autopilot(wall, speedup, 90.0)}
+    feed(clock, wall, aps, 2.0)
+    before = clock.now()
+    wall.value += 0.01
+    assert clock.observe(4_066_000, sysid) is Observed.REJECTED
+    assert clock.observe(float("nan"), sysid) is Observed.REJECTED
+    assert clock.now() == pytest.approx(before + 0.01 * speedup, abs=0.01 * speedup + 0.01)
+    feed(clock, wall, aps, 2.0)
+    assert clock.rejected == 2
+    assert clock.reboots == clock.jumps == clock.steps == 0
+    assert clock.now() == pytest.approx(aps[1].mission(), abs=0.02 * speedup + 0.01)
+    assert clock.to_mission(aps[2].boot_ms(), 2) == pytest.approx(clock.now(), abs=0.05 * speedup)
+
+
+def test_stamps_a_little_ahead_are_jitter_not_jumps() -> None:
+    """A packet held up on the way, then a prompt one: the stamps step ahead of the
+    wall time between their arrivals, within the jitter allowance."""
+    wall = FakeWall()
+    clock = MissionClock(wall)
+    ap = Autopilot(wall, 40.0)
+    feed(clock, wall, {1: ap}, 2.0, jitter=0.2)
+    assert clock.rejected == 0
+
+
+def test_a_clock_that_really_jumped_ahead_is_reanchored_without_a_jump() -> None:
+    wall = FakeWall()
+    clock = MissionClock(wall)
+    aps = {1: Autopilot(wall, 10.0, boot_offset=50.0), 2: Autopilot(wall, 10.0, 20.0)}
+    feed(clock, wall, aps, 2.0)
+    before = clock.now()
+    aps[2].offset += 3600.0  # vehicle 2's clock now reads an hour ahead, and stays there
+    seen = []
+    for _ in range(5):
+        wall.value += 0.02
+        seen.append(clock.observe(aps[2].boot_ms(), 2))
+    assert seen[:4] == [Observed.REJECTED] * 4
+    assert seen[4] is Observed.ACCEPTED
+    assert clock.jumps == 1 and clock.reboots == 0
+    feed(clock, wall, aps, 1.0)
+    assert clock.now() == pytest.approx(before + 11.0, abs=0.2)
+    assert clock.to_mission(aps[2].boot_ms(), 2) == pytest.approx(clock.now(), abs=0.2)

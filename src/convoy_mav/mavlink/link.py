@@ -7,11 +7,14 @@ Data flow (each arrow is one function)::
     MavLink.send(msg) -> MavCodec.pack -> transport (never awaited) + recorder
 
 Schemes (see :mod:`convoy_mav.mavlink.connection`):
-    ``udpout``  a connected UDP socket from an ephemeral port to host:port; a GCS
-                HEARTBEAT goes out at open so the far end learns our address.
+    ``udpout``  a connected UDP socket from an ephemeral port to host:port (the
+                kernel drops datagrams from anyone else); a GCS HEARTBEAT goes
+                out at open so the far end learns our address.
                 ICMP "port unreachable" shows up as ``refused`` in the counters.
-    ``udpin``   bind host:port; the peer is learnt from the first datagram that
-                holds a MAVLink frame (latest sender wins) and replies go there.
+    ``udpin``   bind host:port; the peer is the configured ``peer``, else the first
+                sender of a datagram that holds a MAVLink frame, pinned: another
+                sender is refused unread (``foreign_peer``) unless the pinned one
+                has been silent ``repin_after`` wall s (a restarted autopilot).
     ``tcp``     a background task connects, and reconnects after a loss with
                 exponential back-off (reset once a connection delivers a message).
     ``tcpin``   a server accepting one peer at a time: a new connection replaces
@@ -35,7 +38,9 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import math
 import socket
+import time
 from collections import Counter
 from collections.abc import Callable
 from types import TracebackType
@@ -58,6 +63,19 @@ log = logging.getLogger(__name__)
 Address = tuple[str, int]
 
 _CLOSE_WAIT = 1.0  # s to wait for transports to release their sockets on exit
+_FOREIGN_WARN = 16  # foreign peers named in the log, per link (then only counted)
+
+
+def _fmt_peer(peer: Address | None) -> str:
+    return "nobody" if peer is None else f"{peer[0]}:{peer[1]}"
+
+
+def _same_peer(a: Address, b: Address) -> bool:
+    """Same address and port (``localhost`` and the loopback addresses are one host)."""
+    if a[1] != b[1]:
+        return False
+    loopback = {"localhost", "127.0.0.1", "::1", "::ffff:127.0.0.1"}
+    return a[0] == b[0] or (a[0] in loopback and b[0] in loopback)
 
 
 def gcs_heartbeat() -> Message:
@@ -84,6 +102,13 @@ class MavLink:
         connect_timeout: ``tcp``: give up one connection attempt after this (s).
         hello: Send a GCS HEARTBEAT as soon as a ``udpout``/``tcp`` link is up,
             so a vehicle that replies to known peers only starts talking.
+        peer: ``udpin``: the only address accepted (``host``, ``port``); None: the
+            first peer whose datagram decodes is pinned.
+        repin_after: ``udpin`` without ``peer``: wall s the pinned peer must have been
+            silent before another may take its place (an autopilot restarted on a
+            new port). Until then a second peer's datagrams are dropped unread and
+            counted (``foreign_peer``): nobody else on the network becomes the
+            address the UAV's commands go to, or is heard as the UAV.
 
     Attributes:
         counters: Link-level counters (see :meth:`link_counters` for all of them).
@@ -102,6 +127,8 @@ class MavLink:
         reconnect_max: float = 5.0,
         connect_timeout: float = 5.0,
         hello: bool = True,
+        peer: Address | None = None,
+        repin_after: float = 5.0,
     ) -> None:
         if isinstance(spec, str):
             spec = ConnectionSpec.parse(spec)
@@ -123,6 +150,10 @@ class MavLink:
         self._server: asyncio.AbstractServer | None = None
         self._task: asyncio.Task[None] | None = None
         self._peer: Address | None = None
+        self._pinned = peer
+        self._repin_after = repin_after
+        self._peer_heard = -math.inf  # monotonic s the pinned peer last sent a frame
+        self._foreign_warned: set[Address] = set()
         self._paused = False
         self._state = "new"  # new -> open -> closed
         self._sending = False
@@ -165,7 +196,8 @@ class MavLink:
         Link: ``sent``, ``bytes_out``, ``bytes_in``, ``datagrams_in``,
         ``send_no_peer``, ``send_dropped`` (transport full), ``refused`` (nothing
         listening), ``socket_error``, ``callback_error``, ``connects``,
-        ``disconnects``, ``connect_failed``, ``peer_changed``, ``peer_replaced``.
+        ``disconnects``, ``connect_failed``, ``peer_changed``, ``peer_replaced``,
+        ``foreign_peer`` (``udpin``: datagrams of a peer other than the pinned one).
         Codec: ``messages``, ``packed``, ``bad_crc``, ``bad_data``, ``unknown_id``,
         ``truncated``, ``seq_lost``, ``mavlink1``.
         """
@@ -325,17 +357,37 @@ class MavLink:
         c = self.counters
         c["datagrams_in"] += 1
         c["bytes_in"] += len(data)
+        inward = self._spec.scheme == "udpin"
+        peer = (str(addr[0]), int(addr[1])) if inward else None
+        if peer is not None and peer != self._peer and not self._may_pin(peer):
+            c["foreign_peer"] += 1  # (dropped unread: a flood costs no decoding)
+            if peer not in self._foreign_warned and len(self._foreign_warned) < _FOREIGN_WARN:
+                self._foreign_warned.add(peer)
+                log.warning(
+                    "%s: datagrams from %s:%d refused: the link is pinned to %s",
+                    self.name, *peer, _fmt_peer(self._pinned or self._peer),
+                )  # fmt: skip
+            return
         msgs = self.codec.feed_datagram(data, keep_unknown=True)
         if not msgs:
             return
-        if self._spec.scheme == "udpin":
-            peer = (str(addr[0]), int(addr[1]))
+        if peer is not None:
             if peer != self._peer:
                 if self._peer is not None:
                     c["peer_changed"] += 1
-                log.info("%s: peer is now %s:%d", self.name, *peer)
+                    log.warning("%s: peer %s silent; %s:%d took its place", self.name,
+                                _fmt_peer(self._peer), *peer)  # fmt: skip
+                else:
+                    log.info("%s: peer is now %s:%d", self.name, *peer)
                 self._peer = peer
+            self._peer_heard = time.monotonic()
         self._deliver(msgs)
+
+    def _may_pin(self, peer: Address) -> bool:
+        """May ``peer`` become (or be) the link's peer? (Only frames that decode pin it.)"""
+        if self._pinned is not None:
+            return _same_peer(peer, self._pinned)
+        return self._peer is None or time.monotonic() - self._peer_heard > self._repin_after
 
     def _deliver(self, msgs: list[Message]) -> None:
         if self._net_warned:

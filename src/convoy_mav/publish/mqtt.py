@@ -30,7 +30,14 @@ Counters (``collections.Counter``): ``published``, ``dropped_while_disconnected`
 ``reconnects`` (successful connections after the first), ``connect_failures``,
 ``subscribe_refused`` (SUBACK failure, e.g. a broker ACL),
 ``disconnects``, ``convoy_received``, ``commands_received``, ``bad_input``,
-``ignored_retained``, ``callback_errors``.
+``ignored_retained``, ``callback_errors``, ``rate_limited`` (an inbound
+message past its topic's rate: dropped before it is parsed).
+- Inbound messages are rate-limited per topic (a token bucket on the wall
+  clock: ``_INBOUND_RATES``), so a flooding client costs counted drops, not
+  the flight loop's time.
+- The connection carries a last will: if the service vanishes (a crash, a
+  kill, a lost network) the broker publishes ``topics.offline_payload`` on
+  ``<prefix>/status``, retained, so no stale "protecting" outlives it.
 """
 
 from __future__ import annotations
@@ -38,7 +45,9 @@ from __future__ import annotations
 import asyncio
 import collections
 import contextlib
+import json
 import logging
+import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from types import TracebackType
@@ -73,7 +82,29 @@ _COUNTERS = (
     "bad_input",
     "ignored_retained",
     "callback_errors",
+    "rate_limited",
 )
+
+_INBOUND_RATES = {"convoy": (50.0, 100.0), "command": (5.0, 10.0), "route": (1.0, 5.0)}
+"""Inbound messages per wall second, and burst, accepted per topic kind."""
+
+
+class _Bucket:
+    """A token bucket: ``rate`` a second, up to ``burst`` at once (wall clock)."""
+
+    def __init__(self, rate: float, burst: float, clock: Callable[[], float]) -> None:
+        self.rate, self.burst, self._clock = rate, burst, clock
+        self.tokens = burst
+        self.t = clock()
+
+    def take(self) -> bool:
+        now = self._clock()
+        self.tokens = min(self.burst, self.tokens + (now - self.t) * self.rate)
+        self.t = now
+        if self.tokens < 1.0:
+            return False
+        self.tokens -= 1.0
+        return True
 
 
 @dataclass(frozen=True, slots=True)
@@ -158,6 +189,7 @@ class MqttPublisher:
         self.timeout = float(timeout)
         self.max_pending = int(max_pending)
         self.counters: collections.Counter[str] = collections.Counter(dict.fromkeys(_COUNTERS, 0))
+        self._buckets = {k: _Bucket(r, b, time.monotonic) for k, (r, b) in _INBOUND_RATES.items()}
         self.last_error: str | None = None
         self.last_bad_input: str | None = None
         self._pending: dict[str, _Pending] = {}
@@ -275,6 +307,12 @@ class MqttPublisher:
                     identifier=self.client_id,
                     keepalive=self.keepalive,
                     timeout=self.timeout,
+                    will=aiomqtt.Will(
+                        topics.topic(self.prefix, topics.STATUS),
+                        json.dumps(topics.offline_payload()),
+                        qos=1,
+                        retain=True,
+                    ),
                 ) as client:
                     delay = self.reconnect_initial
                     await self._serve(client)
@@ -381,7 +419,15 @@ class MqttPublisher:
 
         Public so a replay or a test can feed messages without a broker. Never raises.
         """
-        if topic not in (self._convoy_topic, self._command_topic, self._route_topic):
+        kinds = {self._convoy_topic: "convoy", self._command_topic: "command"}
+        kind = kinds.get(topic, "route" if topic == self._route_topic else None)
+        if kind is None:
+            return
+        if not self._buckets[kind].take():
+            self.counters["rate_limited"] += 1
+            n = self.counters["rate_limited"]
+            if n == 1 or n % 1000 == 0:
+                log.warning("mqtt: inbound on %s over the rate limit (%d dropped)", topic, n)
             return
         if topic == self._route_topic:  # (retained too: the route is standing information)
             self._dispatch_route(payload)

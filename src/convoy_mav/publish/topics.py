@@ -38,7 +38,7 @@ topic: while the broker is away, older values are dropped, not queued.
 | field | type | meaning |
 |---|---|---|
 | `t`, `ts` | number/null, string | mission time, wall time |
-| `phase` | string | service phase, e.g. `starting`, `joining`, `protecting`, `paused`, `stopping` |
+| `phase` | string | `starting` `joining` `protecting` `paused` `stopping` `stopped` `offline` |
 | `paused` | bool | an operator pause is in force (all UAVs loiter) |
 | `uptime_s` | number | wall seconds since the service started |
 | `uavs` | object | `total`, plus a count per vehicle `state` (see vehicle below) |
@@ -133,6 +133,7 @@ __all__ = [
     "coverage_payload",
     "encode",
     "iso_timestamp",
+    "offline_payload",
     "parse_command",
     "parse_convoy_position",
     "status_payload",
@@ -152,6 +153,8 @@ COMMAND: Final = "command"
 MAX_ROUTE_BYTES: Final = 1 << 20  # 1 MiB: some 25 000 points, a day's drive at 1 Hz
 MAX_ROUTE_POINTS: Final = 100_000
 COMMANDS: Final = ("pause", "resume")
+MAX_LOCAL_M: Final = 1_000_000.0  # |north|, |east| of a fix: the mission frame spans 1000 km
+MAX_MISSION_S: Final = 10_000_000.0  # a fix's mission time: some 115 days
 MAX_INPUT_BYTES: Final = 4096  # a convoy fix is ~60 bytes; anything huge is not one
 SEVERITIES: Final = ("info", "warning", "critical")
 
@@ -255,6 +258,14 @@ def _header(t: float | None, wall: float) -> dict[str, Any]:
 
 
 # --------------------------------------------------------------------------- builders
+
+
+def offline_payload() -> dict[str, Any]:
+    """``<prefix>/status`` as the broker publishes it when the service vanished (last will).
+
+    No time fields: the broker sends it when it notices, long after it was written.
+    """
+    return {"phase": "offline", "paused": False, "alarms": ["service_offline"]}
 
 
 def status_payload(
@@ -451,7 +462,8 @@ def parse_convoy_position(payload: bytes | str) -> dict[str, Any]:
 
     Raises:
         BadPayload: Not JSON, not an object, missing/NaN/inf/non-number fields,
-            out-of-range latitude or longitude, or both/neither position forms.
+            out-of-range latitude, longitude, north/east or time, or both/neither
+            position forms.
     """
     obj = _load(payload)
     if not isinstance(obj, dict):
@@ -471,9 +483,16 @@ def parse_convoy_position(payload: bytes | str) -> dict[str, Any]:
             raise BadPayload(f"field 'lon' out of range [-180, 180]: {lon}")
         out["lat"], out["lon"] = lat, lon
     else:
-        out["north"], out["east"] = _number(obj, "north"), _number(obj, "east")
+        north, east = _number(obj, "north"), _number(obj, "east")
+        if not (abs(north) <= MAX_LOCAL_M and abs(east) <= MAX_LOCAL_M):
+            limit = f"|x| <= {MAX_LOCAL_M:.0f} m"
+            raise BadPayload(f"north/east out of range ({limit}): {north}, {east}")
+        out["north"], out["east"] = north, east
     if "t" in obj:
-        out["t"] = _number(obj, "t")
+        t = _number(obj, "t")
+        if not 0.0 <= t <= MAX_MISSION_S:
+            raise BadPayload(f"field 't' out of range [0, {MAX_MISSION_S:.0f}] s: {t}")
+        out["t"] = t
     if "source" in obj:
         source = obj["source"]
         if isinstance(source, bool) or not isinstance(source, str | int):
