@@ -234,6 +234,7 @@ class ConvoyService:
         self._fixes_rejected = 0  # external fixes dropped: stamped far from mission time
         self._tlog_path: str | None = None
         self._foreign_sysid: dict[int, int] = {}  # frames of another sysid, per link owner
+        self._taken: set[int] = set()  # UAVs a pilot or another GCS took (mode changed)
         self._foreign_claims: dict[int, int] = {}  # ... claiming another vehicle's sysid
         self._foreign_seen: dict[int, int] = {}  # strangers at a link: last alarmed totals
         self._altitudes = {
@@ -350,6 +351,10 @@ class ConvoyService:
             for v in self.vehicles.values():
                 v.resume()
             self._note("operator: resume")
+        elif command == "resume" and self._taken:
+            for sysid in sorted(self._taken):
+                self.vehicles[sysid].resume()
+            self._note(f"operator: resume UAVs {sorted(self._taken)} taken by another")
 
     def _on_vehicle_event(self, event: VehicleEvent) -> None:
         self._note(event.message, logged=True)  # (the vehicle has logged it at its level)
@@ -371,6 +376,14 @@ class ConvoyService:
             # The vehicle reports the mode change before it marks itself HOLDING:
             # resume on the next turn of the loop, once it has.
             asyncio.get_running_loop().call_soon(vehicle.resume)
+        elif event.kind == EventKind.MODE and not self.paused:
+            # A pilot or another ground station took the UAV: respected, alarmed, and
+            # the others re-phase around it until the operator resumes it.
+            self._taken.add(event.sysid)
+            self._alarm(
+                Alarm(event.t, "uav_taken", True, f"{event.message}; the others re-phase"),
+                event.sysid,
+            )
         if event.kind is EventKind.REJECTED:
             self._alarm(Alarm(event.t, "telemetry_rejected", True, event.message), event.sysid)
         if event.kind in (EventKind.LOST, EventKind.FAILED, EventKind.RECOVERED):
@@ -609,6 +622,9 @@ class ConvoyService:
             lost = self._newly_lost(t, view)
             flying = [s for s, v in self.vehicles.items() if v.status == VehicleStatus.FLYING]
             returned = [s for s in flying if s in view.lost]  # lost, set up again: rejoin
+            for sysid in self._taken & set(flying):  # resumed by the operator
+                self._taken.discard(sysid)
+                self._alarm(Alarm(t, "uav_taken", False, f"UAV {sysid} resumed"), sysid)
             ready = {
                 sysid: (tel.north, tel.east, tel.yaw)
                 for sysid in flying
@@ -651,7 +667,11 @@ class ConvoyService:
         lost = [
             sysid
             for sysid, v in self.vehicles.items()
-            if v.status in (VehicleStatus.LOST, VehicleStatus.FAILED) and sysid not in view.lost
+            if sysid not in view.lost
+            and (
+                v.status in (VehicleStatus.LOST, VehicleStatus.FAILED)
+                or (sysid in self._taken and v.status is VehicleStatus.HOLDING)
+            )
         ]
         live = [s for s in self.vehicles if s not in view.lost]
         silent = [s for s in live if self.vehicles[s].status is VehicleStatus.LOST]
