@@ -57,8 +57,11 @@ class Broker:
 
     host = "127.0.0.1"
 
-    def __init__(self, executable: str, workdir: Path, port: int | None = None) -> None:
+    def __init__(
+        self, executable: str, workdir: Path, port: int | None = None, security: str = ""
+    ) -> None:
         self.executable = executable
+        self.security = security  # config lines for the listener (TLS, passwords, ACL)
         self.workdir = workdir
         self.port = port if port is not None else _free_tcp_port()
         self.starts = 0
@@ -89,8 +92,8 @@ class Broker:
         conf = self.workdir / f"mosquitto-{self.port}.conf"
         conf.write_text(
             f"listener {self.port} {self.host}\n"
-            "allow_anonymous true\n"
-            "persistence false\n"
+            + (self.security or "allow_anonymous true\n")
+            + "persistence false\n"
             "log_dest stderr\n"
             "log_type error\nlog_type warning\nlog_type notice\nlog_type information\n"
         )

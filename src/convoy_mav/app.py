@@ -57,6 +57,7 @@ from convoy_mav.planning.export import compass_to_planner
 from convoy_mav.planning.road import Road
 from convoy_mav.publish import topics
 from convoy_mav.publish.mqtt import MqttPublisher
+from convoy_mav.publish.security import mqtt_security
 from convoy_mav.recording import TlogRecorder
 from convoy_mav.schedule import POSITION_AT_HORIZON_S, position_at
 from convoy_mav.streaming import SetpointStreamer
@@ -443,6 +444,7 @@ class ConvoyService:
                 recorder = await stack.enter_async_context(TlogRecorder(cfg.tlog))
                 self._tlog_path = recorder.path  # (a new name if the file existed)
             if cfg.mqtt is not None and self.publisher is None:
+                secure = mqtt_security(cfg.mqtt)
                 self.publisher = await stack.enter_async_context(
                     MqttPublisher(
                         cfg.mqtt.host,
@@ -451,6 +453,9 @@ class ConvoyService:
                         on_convoy=self._on_mqtt_convoy,
                         on_command=self.command,
                         on_route=self.set_route,
+                        username=secure.username,
+                        password=secure.password,
+                        tls_context=secure.tls_context,
                     )
                 )
             for uav in cfg.uav_list:

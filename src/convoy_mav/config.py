@@ -157,6 +157,13 @@ class MqttConfig:
     host: str = "127.0.0.1"
     port: int = 1883
     prefix: str = "convoy"
+    tls: bool = False  # TLS with the system trust store (or ``ca_file``)
+    ca_file: str | None = None  # CA that signed the broker's certificate (implies TLS)
+    cert_file: str | None = None  # client certificate (with ``key_file``)
+    key_file: str | None = None
+    username: str | None = None
+    password_env: str | None = None  # name of the environment variable holding it
+    password_file: str | None = None  # a file holding it (first line)
 
 
 @dataclass(frozen=True, slots=True)
@@ -424,7 +431,12 @@ def _convoy(data: Mapping[str, Any]) -> ConvoyConfig:
 def _mqtt(data: Mapping[str, Any]) -> MqttConfig | None:
     if "mqtt" not in data:
         return None
-    table = _table(data, "mqtt", {"host", "port", "prefix"})
+    if "password" in data["mqtt"]:  # (never echoed: it is a secret in a config file)
+        raise ConfigError(
+            "mqtt.password", "***", "must not be in a config file: give password_env or "
+            "password_file",
+        )  # fmt: skip
+    table = _table(data, "mqtt", {"host", "port", "prefix", *_MQTT_SECURITY})
     host = table.get("host", "127.0.0.1")
     if not isinstance(host, str) or not host:
         raise ConfigError("mqtt.host", host, "must be a host name or address")
@@ -432,7 +444,27 @@ def _mqtt(data: Mapping[str, Any]) -> MqttConfig | None:
     if not isinstance(prefix, str) or not prefix or any(c in prefix for c in "#+"):
         raise ConfigError("mqtt.prefix", prefix, "must be a topic prefix without wildcards")
     port = _integer(table, "mqtt", "port", 1, 65535) if "port" in table else 1883
-    return MqttConfig(host=host, port=port, prefix=prefix.strip("/"))
+    tls = table.get("tls", False)
+    if not isinstance(tls, bool):
+        raise ConfigError("mqtt.tls", tls, "must be true or false")
+    text = {}
+    for key in ("ca_file", "cert_file", "key_file", "username", "password_env", "password_file"):
+        value = table.get(key)
+        if value is not None and (not isinstance(value, str) or not value):
+            raise ConfigError(f"mqtt.{key}", value, "must be a non-empty string")
+        text[key] = value
+    if (text["cert_file"] is None) != (text["key_file"] is None):
+        raise ConfigError("mqtt.cert_file", text["cert_file"], "needs key_file, and the reverse")
+    if text["password_env"] and text["password_file"]:
+        raise ConfigError("mqtt.password_env", text["password_env"], "or password_file, not both")
+    if (text["password_env"] or text["password_file"]) and not text["username"]:
+        raise ConfigError("mqtt.username", None, "is required with a password")
+    return MqttConfig(host=host, port=port, prefix=prefix.strip("/"), tls=tls, **text)
+
+
+_MQTT_SECURITY = (
+    "tls", "ca_file", "cert_file", "key_file", "username", "password_env", "password_file"
+)  # fmt: skip
 
 
 def _end_action(mission: Mapping[str, Any]) -> EndAction:
@@ -545,4 +577,19 @@ def load_config(path: str | Path) -> MissionConfig:
     route = cfg.convoy.route_file
     if route is not None and not Path(route).is_absolute():  # relative to the config file
         cfg = replace(cfg, convoy=replace(cfg.convoy, route_file=str(Path(path).parent / route)))
+    if cfg.mqtt is not None:  # (so are the MQTT security files)
+        m = cfg.mqtt
+        base = Path(path).parent
+
+        def near(name: str | None) -> str | None:
+            return name if name is None or Path(name).is_absolute() else str(base / name)
+
+        mqtt = replace(
+            m,
+            ca_file=near(m.ca_file),
+            cert_file=near(m.cert_file),
+            key_file=near(m.key_file),
+            password_file=near(m.password_file),
+        )
+        cfg = replace(cfg, mqtt=mqtt)
     return cfg

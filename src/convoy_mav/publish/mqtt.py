@@ -47,6 +47,7 @@ import collections
 import contextlib
 import json
 import logging
+import ssl
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -144,6 +145,9 @@ class MqttPublisher:
         timeout: Longest wait for one broker operation (connect, subscribe,
             publish hand-off), s; past it the connection is dropped and retried.
         max_pending: Most distinct subtopics held while waiting for the broker.
+        username: Broker user name, if the broker asks for one.
+        password: Its password (from ``publish.security``: never in a config file).
+        tls_context: Encrypt the connection with this context (None: plain TCP).
 
     Raises:
         ConfigError: For a bad prefix, port or back-off setting.
@@ -164,6 +168,9 @@ class MqttPublisher:
         keepalive: int = 10,
         timeout: float = 5.0,
         max_pending: int = 10_000,
+        username: str | None = None,
+        password: str | None = None,
+        tls_context: ssl.SSLContext | None = None,
     ) -> None:
         topics.validate_prefix(prefix)
         if not isinstance(port, int) or not 0 < port < 65536:
@@ -188,6 +195,7 @@ class MqttPublisher:
         self.keepalive = int(keepalive)
         self.timeout = float(timeout)
         self.max_pending = int(max_pending)
+        self._username, self._password, self._tls = username, password, tls_context
         self.counters: collections.Counter[str] = collections.Counter(dict.fromkeys(_COUNTERS, 0))
         self._buckets = {k: _Bucket(r, b, time.monotonic) for k, (r, b) in _INBOUND_RATES.items()}
         self.last_error: str | None = None
@@ -305,6 +313,9 @@ class MqttPublisher:
                     self.host,
                     self.port,
                     identifier=self.client_id,
+                    username=self._username,
+                    password=self._password,
+                    tls_context=self._tls,
                     keepalive=self.keepalive,
                     timeout=self.timeout,
                     will=aiomqtt.Will(
