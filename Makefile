@@ -49,12 +49,12 @@ bench: $(STAMP)
 
 # convoy-mav (uvloop, asyncio) and MAVSDK-Python flying 10..1000 PX4 planes at 20 Hz (~30 min).
 bench-fleet: $(STAMP)
-	mkdir -p out && rm -f out/mission.tlog  # (a --tlog that exists is kept: a new file is written beside it)
+	mkdir -p out
 	$(BIN)/python benchmarks/bench_fleet.py 10 100 500 1000 --seconds 15 --json out/bench_fleet.json
 
 # The 1000-UAV target, five runs on each event loop, interleaved; medians (about 4 min).
 bench-fleet-1000: $(STAMP)
-	mkdir -p out && rm -f out/mission.tlog  # (a --tlog that exists is kept: a new file is written beside it)
+	mkdir -p out
 	$(BIN)/python benchmarks/bench_fleet.py 1000 --clients convoy-mav convoy-mav-asyncio \
 		--seconds 15 --repeat 5 --json out/bench_fleet_1000.json
 
