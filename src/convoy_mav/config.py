@@ -6,17 +6,18 @@ one-line message and exit status 2.  Unknown keys are errors too: a typo must
 not silently fall back to a default.
 
 Schema (lengths metres, speeds m/s, headings compass degrees, times mission
-seconds)::
+seconds; every number bounded: speeds <= 150 m/s, lengths <= 100 km, altitudes <= 10 km,
+times <= a day)::
 
     [mission]
     sensor_radius_m = 100.0       # r: radius of the disk the camera sees (required)
     uavs = 5                      # planned UAV count; default: the [[uav]] entries,
                                   # or the paper's minimum when there are none
     origin = { lat = 47.397742, lon = 8.545594, alt = 488.0 }   # mission frame origin
-    setpoint_rate_hz = 20.0       # setpoint stream, per UAV, in mission time
+    setpoint_rate_hz = 20.0       # setpoint stream, per UAV, in mission time (1..100)
     altitude_step_m = 5.0         # UAV i flies altitude_m + i * step (vertical separation)
     setup_timeout_s = 120.0       # give up setting a UAV up after this long
-    lost_after_s = 3.0            # a UAV silent this long is declared lost
+    lost_after_s = 3.0            # a UAV silent this long is declared lost (>= 0.2)
     altitude_band_m = 15.0        # a UAV counts for coverage only within this of its altitude
     end = "loiter"                # at the end: "loiter" where it is, "rtl" home, "land" there
                                   #   (an ArduPlane cannot land by command: it returns home)
@@ -33,6 +34,8 @@ seconds)::
     [[uav]]                       # one per autopilot
     connection = "udpin:0.0.0.0:14540"   # pymavlink / MAVSDK style connection string
     sysid = 1
+    peer = "127.0.0.1:14580"      # optional, udpin: the only sender heard (default: the
+                                  #   first one, pinned while it talks)
     # airspeed_mps / turn_radius_m / altitude_m override [aircraft]
 
     [convoy]
@@ -52,6 +55,13 @@ seconds)::
     host = "127.0.0.1"
     port = 1883
     prefix = "convoy"
+    tls = true                    # optional: TLS with the system trust store, or
+    ca_file = "ca.crt"            #   the broker's CA (files relative to this file);
+    cert_file = "client.crt"      #   a client certificate and its key
+    key_file = "client.key"
+    username = "service"
+    password_env = "CONVOY_MQTT_PASSWORD"   # or password_file = "mqtt.pw" (first line);
+                                  #   never the password itself in this file
 
     [record]
     tlog = "mission.tlog"         # optional MAVLink recording
