@@ -105,6 +105,8 @@ class VehicleSpec:
         compid: MAVLink component id of the autopilot.
         streams_on_boot: Stream telemetry before a GCS asks; None: the personality's
             habit (PX4 yes, ArduPilot no: HEARTBEAT only until requested).
+        signing_key: MAVLink 2 signing key (32 bytes): it signs what it sends and
+            accepts only signed frames (None: unsigned until a SETUP_SIGNING).
 
     Raises:
         ValueError: A field is out of range; the message names it.
@@ -120,10 +122,13 @@ class VehicleSpec:
     setpoint_timeout_s: float = 1.0
     compid: int = 1
     streams_on_boot: bool | None = None
+    signing_key: bytes | None = None
 
     def __post_init__(self) -> None:
         if not 1 <= self.sysid <= 255:
             raise ValueError(f"sysid must be in 1..255, got {self.sysid!r}")
+        if self.signing_key is not None and len(self.signing_key) != 32:
+            raise ValueError(f"signing_key must be 32 bytes, got {len(self.signing_key)}")
         if not 1 <= self.compid <= 255:
             raise ValueError(f"compid must be in 1..255, got {self.compid!r}")
         if self.kind not in ("aircraft", "ground"):

@@ -59,6 +59,7 @@ Schema (every key optional)::
 
 from __future__ import annotations
 
+import hashlib
 import math
 import os
 import tomllib
@@ -122,6 +123,7 @@ _AIRCRAFT_KEYS = {
     "wind",
     "warmup",
     "setpoint_timeout",
+    "signing_key",
 }
 _VEHICLE_KEYS = _AIRCRAFT_KEYS | {"sysid", "home", "home_ned"}
 _GROUND_KEYS = {
@@ -496,7 +498,21 @@ def _aircraft_spec(
         home=home,
         warmup_s=num("warmup", 3.0, positive=False),
         setpoint_timeout_s=num("setpoint_timeout", 1.0),
+        signing_key=_signing_key(_pick("signing_key", entry, defaults)),
     )
+
+
+def _signing_key(table: _Table) -> bytes | None:
+    """``signing_key``: 64 hex digits, or a passphrase (its SHA-256, as MAVProxy's)."""
+    if "signing_key" not in table.data:
+        return None
+    text = table.get("signing_key")
+    if not isinstance(text, str) or not text.strip():
+        raise ConfigError(table.key("signing_key"), "***", "must be hex digits or a passphrase")
+    text = text.strip()
+    if len(text) == 64 and all(c in "0123456789abcdefABCDEF" for c in text):
+        return bytes.fromhex(text)
+    return hashlib.sha256(text.encode("utf-8")).digest()
 
 
 def _personality(table: _Table, name: str, default: str) -> Personality:

@@ -33,6 +33,7 @@ import dataclasses
 import logging
 import math
 import random
+import time
 from collections import Counter
 from collections.abc import Mapping, Sequence
 from contextlib import AsyncExitStack
@@ -141,6 +142,11 @@ class _Outbox:
         self.frames.append(bytes(buf))
 
 
+def _signing_now() -> int:
+    """MAVLink signing time now: 10 us units since 2015-01-01 UTC."""
+    return int((time.time() - 1_420_070_400.0) * 100_000)
+
+
 class VehicleLink(asyncio.DatagramProtocol):
     """One vehicle's socket: peers, codec, faults and counters.
 
@@ -156,6 +162,9 @@ class VehicleLink(asyncio.DatagramProtocol):
         self.transport: asyncio.DatagramTransport | None = None
         self.peers: dict[Address, Any] = {}  # address -> pymavlink parser
         self.outbox = _Outbox()
+        self.signing_key = vehicle.spec.signing_key  # MAVLink 2 signing (SETUP_SIGNING sets it)
+        self.streams: dict[tuple[int, int, int], int] = {}  # signed streams' last timestamps
+        self._sign_ts = 0  # a SETUP_SIGNING's initial timestamp
         self.encoder = self._new_encoder()
         self.counters: Counter[str] = Counter()
         self.alive = True
@@ -165,7 +174,21 @@ class VehicleLink(asyncio.DatagramProtocol):
 
     def _new_encoder(self) -> Any:
         spec = self.vehicle.spec
-        return mavlink.MAVLink(self.outbox, srcSystem=spec.sysid, srcComponent=spec.compid)
+        encoder = mavlink.MAVLink(self.outbox, srcSystem=spec.sysid, srcComponent=spec.compid)
+        if self.signing_key is not None:
+            signing = encoder.signing
+            signing.secret_key, signing.sign_outgoing = self.signing_key, True
+            signing.timestamp = max(_signing_now(), self._sign_ts + 1)
+        return encoder
+
+    def _set_signing(self, key: bytes | None, timestamp: int) -> None:
+        """SETUP_SIGNING: a new key (all zeros: signing off); every peer parses anew."""
+        self.signing_key = key
+        self.streams = {}
+        self._sign_ts = timestamp
+        self.encoder = self._new_encoder()
+        self.peers = {addr: self._new_parser() for addr in self.peers}
+        self.counters["signing_setup"] += 1
 
     # -- asyncio callbacks -------------------------------------------------------------
 
@@ -219,15 +242,25 @@ class VehicleLink(asyncio.DatagramProtocol):
         spec = self.vehicle.spec
         parser = mavlink.MAVLink(None, srcSystem=spec.sysid, srcComponent=spec.compid)
         parser.robust_parsing = True
+        if self.signing_key is not None:
+            parser.signing.secret_key = self.signing_key
+            parser.signing.stream_timestamps = self.streams  # (one table: replays via any peer)
+            parser.signing.timestamp = self.encoder.signing.timestamp
         return parser
 
     def _dispatch(self, msg: Any, now: float) -> None:
         if isinstance(msg, mavlink.MAVLink_bad_data):
             reason = str(msg.reason)
-            if "CRC" in reason:
+            if "signature" in reason:
+                self.counters["bad_signature"] += 1  # (unsigned ones too)
+            elif "CRC" in reason:
                 self.counters["bad_crc"] += 1
             else:
                 self.counters["malformed"] += 1
+            return
+        if msg.get_type() == "SETUP_SIGNING" and msg.target_system == self.sysid:
+            key = bytes(msg.secret_key)
+            self._set_signing(None if not any(key) else key, int(msg.initial_timestamp))
             return
         if isinstance(msg, mavlink.MAVLink_unknown):
             self.counters["unknown_id"] += 1

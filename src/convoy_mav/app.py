@@ -34,7 +34,7 @@ from typing import Any
 from pymavlink.dialects.v20 import common as mavlink
 
 from convoy_mav.clock import MissionClock, Observed
-from convoy_mav.config import MissionConfig
+from convoy_mav.config import MissionConfig, UavConfig
 from convoy_mav.convoy import ConvoyTracker
 from convoy_mav.errors import ConfigError, PlanningError
 from convoy_mav.gcpolicy import collect_on_schedule, flight_gc
@@ -42,6 +42,8 @@ from convoy_mav.geo import GeoPoint, LocalFrame
 from convoy_mav.history import History
 from convoy_mav.mavlink import MavLink
 from convoy_mav.mavlink.autopilots.base import set_message_interval
+from convoy_mav.mavlink.codec import MavCodec
+from convoy_mav.mavlink.signing import Signing, load_key
 from convoy_mav.mission import (
     Mission,
     MissionAlarm,
@@ -161,6 +163,30 @@ class ServiceReport:
                 for uav in self.config.uav_list
             ],
         }
+
+
+def _link_rejections(link: object) -> dict[str, int]:
+    """What a UAV's link refused: a foreign peer's datagrams, unsigned or forged frames."""
+    if not isinstance(link, MavLink):
+        return {"foreign_peer": 0, "unsigned": 0, "bad_signature": 0}
+    codec = link.codec.counters
+    return {
+        "foreign_peer": link.counters["foreign_peer"],
+        "unsigned": codec["unsigned"],
+        "bad_signature": codec["bad_signature"],
+    }
+
+
+def _signing(uav: UavConfig) -> Signing | None:
+    """The link's MAVLink 2 signing, if the UAV has a key; its timestamps kept by the key."""
+    if not uav.signed:
+        return None
+    name = f"uav[{uav.sysid}].signing_key_" + ("file" if uav.signing_key_file else "env")
+    key = load_key(name, file=uav.signing_key_file, env=uav.signing_key_env)
+    state = uav.signing_state or (
+        f"{uav.signing_key_file}.state.json" if uav.signing_key_file else None
+    )
+    return Signing.from_files(key, uav.sysid & 0xFF, state)
 
 
 def _firmware_family(vehicle: Vehicle) -> str | None:
@@ -396,17 +422,17 @@ class ConvoyService:
         """Alarm on strangers at a UAV's link: a second peer refused, or frames that
         claim another vehicle's system id (a GCS's own heartbeats are only counted)."""
         for sysid, vehicle in self.vehicles.items():
-            link = vehicle.link
-            peers = link.counters["foreign_peer"] if isinstance(link, MavLink) else 0
-            total = peers + self._foreign_claims.get(sysid, 0)
+            refused = _link_rejections(vehicle.link)
+            claims = self._foreign_claims.get(sysid, 0)
+            total = sum(refused.values()) + claims
             if total > self._foreign_seen.get(sysid, 0):
                 self._foreign_seen[sysid] = total
-                self._alarm(
-                    Alarm(t, "link_stranger", True, f"UAV {sysid}: {peers} datagrams of a "
-                          f"foreign peer refused, {self._foreign_claims.get(sysid, 0)} frames "
-                          f"claiming another vehicle's id dropped"),
-                    sysid,
-                )  # fmt: skip
+                text = (
+                    f"UAV {sysid}: refused {refused['foreign_peer']} datagrams of a foreign "
+                    f"peer, {refused['unsigned']} unsigned and {refused['bad_signature']} badly "
+                    f"signed frames, {claims} frames claiming another vehicle's id"
+                )
+                self._alarm(Alarm(t, "link_stranger", True, text), sysid)
 
     def _note(self, text: str, *, logged: bool = False) -> None:
         """An event for the report (and the log, unless already logged)."""
@@ -459,10 +485,14 @@ class ConvoyService:
                     )
                 )
             for uav in cfg.uav_list:
+                signing = _signing(uav)
+                if signing is not None:
+                    stack.callback(signing.save)  # (after the link closed: its last stamps)
                 link = await stack.enter_async_context(
                     MavLink(
                         uav.connection,
                         functools.partial(self._route, uav.sysid),
+                        codec=MavCodec(signing=signing),
                         recorder=recorder,
                         name=f"uav{uav.sysid}",
                         peer=uav.peer,
@@ -1017,9 +1047,7 @@ class ConvoyService:
             # can have run, a position farther than the airframe can have flown.
             "rejected": {
                 **{k: v.counters[k] for k in ("clock_jump", "position_jump")},
-                "foreign_peer": v.link.counters["foreign_peer"]
-                if isinstance(v.link, MavLink)
-                else 0,
+                **_link_rejections(v.link),
                 "other_sysid": self._foreign_sysid.get(sysid, 0),
             },
             # Setpoint stream health: the longest wait between two setpoints sent (mission

@@ -28,6 +28,7 @@ from convoy_mav.config import (
     ConvoyConfig,
     MissionConfig,
     load_config,
+    validate_connection,
 )
 from convoy_mav.demo import (
     SCENARIOS,
@@ -38,10 +39,12 @@ from convoy_mav.demo import (
     run_demo,
 )
 from convoy_mav.errors import ConfigError, ConvoyError
+from convoy_mav.mavlink.signing import load_key
 from convoy_mav.oplog import operator_log
 from convoy_mav.planning import Pose, make_plan, optimal_path_from_entry
 from convoy_mav.planning.export import entry_to_dict, plan_to_dict
 from convoy_mav.plot import plot_mission
+from convoy_mav.provision import provision_signing
 from convoy_mav.tracks import FORMATS, load_track
 from convoy_mav.tracks.roads import KINDS as ROAD_KINDS
 from convoy_mav.tracks.roads import road_kind
@@ -108,6 +111,19 @@ def _build_parser() -> argparse.ArgumentParser:
     run.add_argument("--plot", metavar="FILE.png", help="draw tracks and coverage here")
     run.add_argument("--tlog", metavar="FILE.tlog", help="record every MAVLink message")
     _add_verbosity(run)
+
+    setup = sub.add_parser(
+        "sign-setup",
+        help="provision an autopilot with a MAVLink 2 signing key (SETUP_SIGNING)",
+        description="Send the key to one autopilot (SETUP_SIGNING, in the clear: use a link "
+        "nobody else hears; ArduPilot takes it over USB only), then check that it signs. "
+        "Give the same key file to its [[uav]] signing_key_file.",
+    )
+    setup.add_argument("--connection", required=True, metavar="CONN",
+                       help="e.g. udpout:127.0.0.1:14550 or tcp:127.0.0.1:5760")  # fmt: skip
+    setup.add_argument("--sysid", type=int, default=1, metavar="N", help="its system id")
+    setup.add_argument("--signing-key-file", required=True, metavar="FILE",
+                       help="64 hex digits, or a passphrase (its SHA-256)")  # fmt: skip
 
     demo = sub.add_parser(
         "demo",
@@ -183,6 +199,11 @@ def _add_mock_flight_options(
     parser.add_argument(
         "--frame", choices=["plane", "copter"], default="plane",
         help="the mock's airframes (default plane)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--signing-key-file", metavar="FILE",
+        help="MAVLink 2 signing: the mock's aircraft and the service sign with this key "
+        "(64 hex digits, or a passphrase: its SHA-256, as MAVProxy's signing setup)",
     )  # fmt: skip
     parser.add_argument("--report", metavar="FILE.json", help="write the mission report here")
     parser.add_argument("--plot", metavar="FILE.png", help="draw tracks and coverage here")
@@ -496,6 +517,15 @@ def _check_outputs(args: argparse.Namespace) -> None:
             raise ConfigError(f"--{flag}", path, f"must end in one of {formats}")
 
 
+async def _cmd_sign_setup(args: argparse.Namespace) -> int:
+    if not 1 <= args.sysid <= 255:
+        raise ConfigError("--sysid", args.sysid, "must be a MAVLink system id in 1..255")
+    validate_connection(args.connection, "--connection")
+    key = load_key("--signing-key-file", file=args.signing_key_file)
+    print(await provision_signing(args.connection, args.sysid, key))
+    return 0
+
+
 def _check_mock_flight_options(args: argparse.Namespace) -> None:
     _check_duration(args.duration)
     if not (math.isfinite(args.speedup) and 0 < args.speedup <= MAX_SPEEDUP):
@@ -570,6 +600,7 @@ async def _fly_mock(args: argparse.Namespace, scenario: Scenario, duration: floa
         history=services,
         configure=None if mission is None else lambda cfg: rehearsed_config(cfg, mission),
         route_known=getattr(args, "route_known", False),
+        signing_key_file=args.signing_key_file,
     )
     report = result.to_dict()
     _summary(report)
@@ -601,6 +632,8 @@ def _dispatch(args: argparse.Namespace) -> int:
             return int(eventloop.run(_cmd_demo(args)))
         if args.command == "replay":
             return int(eventloop.run(_cmd_replay(args)))
+        if args.command == "sign-setup":
+            return int(eventloop.run(_cmd_sign_setup(args)))
     except ConvoyError as exc:
         print(f"convoy-mav: error: {exc}", file=sys.stderr)
         return EXIT_USAGE

@@ -130,6 +130,14 @@ class UavConfig:
     sysid: int
     aircraft: AircraftConfig = AircraftConfig()
     peer: tuple[str, int] | None = None  # udpin: the only sender heard (None: the first)
+    signing_key_file: str | None = None  # MAVLink 2 signing key: a file (hex or passphrase)
+    signing_key_env: str | None = None  # ... or an environment variable
+    signing_state: str | None = None  # timestamps kept across restarts (default: by the key)
+
+    @property
+    def signed(self) -> bool:
+        """True when this UAV's link signs and accepts only signed frames."""
+        return self.signing_key_file is not None or self.signing_key_env is not None
 
 
 @dataclass(frozen=True, slots=True)
@@ -301,6 +309,23 @@ def _number(
     return value
 
 
+def _signing(entry: Mapping[str, Any], name: str) -> dict[str, str | None]:
+    """``signing_key_file`` or ``signing_key_env`` (one), and ``signing_state``."""
+    out: dict[str, str | None] = {}
+    for key in ("signing_key_file", "signing_key_env", "signing_state"):
+        value = entry.get(key)
+        if value is not None and (not isinstance(value, str) or not value):
+            raise ConfigError(f"{name}.{key}", value, "must be a non-empty string")
+        out[key] = value
+    if out["signing_key_file"] and out["signing_key_env"]:
+        raise ConfigError(
+            f"{name}.signing_key_env", out["signing_key_env"], "or a key file, not both"
+        )
+    if out["signing_state"] and not (out["signing_key_file"] or out["signing_key_env"]):
+        raise ConfigError(f"{name}.signing_state", out["signing_state"], "needs a signing key")
+    return out
+
+
 def _peer(entry: Mapping[str, Any], name: str) -> tuple[str, int] | None:
     """``peer = "host:port"``: the one address a ``udpin`` link hears (pinned)."""
     if "peer" not in entry:
@@ -370,6 +395,7 @@ def _uavs(data: Mapping[str, Any], base: AircraftConfig) -> tuple[UavConfig, ...
         unknown = sorted(
             set(entry)
             - {"connection", "sysid", "peer", "airspeed_mps", "turn_radius_m", "altitude_m"}
+            - {"signing_key_file", "signing_key_env", "signing_state"}
         )
         if unknown:
             raise ConfigError(f"{name}.{unknown[0]}", entry[unknown[0]], "unknown key")
@@ -385,6 +411,7 @@ def _uavs(data: Mapping[str, Any], base: AircraftConfig) -> tuple[UavConfig, ...
                 sysid=sysid,
                 aircraft=_aircraft(entry, name, base),
                 peer=_peer(entry, name),
+                **_signing(entry, name),
             )
         )
     return tuple(out)
@@ -566,6 +593,11 @@ def parse_config(data: Mapping[str, Any]) -> MissionConfig:
     return cfg
 
 
+def _near(config: str | Path, name: str | None) -> str | None:
+    """A path from a config file, relative to the file's folder."""
+    return name if name is None or Path(name).is_absolute() else str(Path(config).parent / name)
+
+
 def load_config(path: str | Path) -> MissionConfig:
     """Read and validate a mission TOML file.
 
@@ -584,22 +616,25 @@ def load_config(path: str | Path) -> MissionConfig:
             "config", str(path), f"is not UTF-8 text (byte {exc.start}: {exc.reason})"
         ) from exc
     cfg = parse_config(data)
-    route = cfg.convoy.route_file
-    if route is not None and not Path(route).is_absolute():  # relative to the config file
-        cfg = replace(cfg, convoy=replace(cfg.convoy, route_file=str(Path(path).parent / route)))
-    if cfg.mqtt is not None:  # (so are the MQTT security files)
+    # Files named in the config are relative to it.
+    cfg = replace(cfg, convoy=replace(cfg.convoy, route_file=_near(path, cfg.convoy.route_file)))
+    if cfg.mqtt is not None:
         m = cfg.mqtt
-        base = Path(path).parent
-
-        def near(name: str | None) -> str | None:
-            return name if name is None or Path(name).is_absolute() else str(base / name)
-
         mqtt = replace(
             m,
-            ca_file=near(m.ca_file),
-            cert_file=near(m.cert_file),
-            key_file=near(m.key_file),
-            password_file=near(m.password_file),
+            ca_file=_near(path, m.ca_file),
+            cert_file=_near(path, m.cert_file),
+            key_file=_near(path, m.key_file),
+            password_file=_near(path, m.password_file),
         )
         cfg = replace(cfg, mqtt=mqtt)
+    uavs = tuple(
+        replace(
+            u,
+            signing_key_file=_near(path, u.signing_key_file),
+            signing_state=_near(path, u.signing_state),
+        )
+        for u in cfg.uav_list
+    )
+    cfg = replace(cfg, uav_list=uavs)
     return cfg

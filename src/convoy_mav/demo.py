@@ -37,6 +37,7 @@ from convoy_mav.config import (
 from convoy_mav.coverage import CoverageStats
 from convoy_mav.errors import PlanningError
 from convoy_mav.geo import GeoPoint, LocalFrame
+from convoy_mav.mavlink.signing import load_key
 from convoy_mav.mission.choose import road_fleet
 from convoy_mav.planning import PlanRequest, make_plan
 from convoy_mav.planning.export import compass_to_planner
@@ -240,8 +241,13 @@ def mock_mapping(
     frame: str = "plane",
     ground: int = 2,
     faults: dict[str, Any] | None = None,
+    signing_key: str | None = None,
 ) -> dict[str, Any]:
-    """The sitl_mock configuration (as a mapping) for a scenario."""
+    """The sitl_mock configuration (as a mapping) for a scenario.
+
+    ``signing_key`` (hex or a passphrase): every aircraft signs with it and accepts
+    only frames signed with it.
+    """
     mapping: dict[str, Any] = {
         "speedup": speedup,
         "base_port": 0,
@@ -255,6 +261,8 @@ def mock_mapping(
         },
         "ground": {"count": ground, "spacing": 20.0, **scenario.ground_route(duration)},
     }
+    if signing_key is not None:
+        mapping["aircraft"]["signing_key"] = signing_key
     if scenario.track is not None:  # the world (and mission) origin at the first fix
         mapping["origin"] = [scenario.track.lats[0], scenario.track.lons[0]]
     if faults:
@@ -262,15 +270,28 @@ def mock_mapping(
     return mapping
 
 
-def mission_for(scenario: Scenario, fleet: Any, *, tlog: str | None = None) -> MissionConfig:
-    """The service's mission config pointing at a running ``MockFleet``'s endpoints."""
+def _key_text(path: str) -> str:
+    """The key file's text, for the mock (which reads it as the service does)."""
+    load_key("--signing-key-file", file=path)  # (the errors the service would give)
+    with open(path, encoding="utf-8") as fh:
+        return fh.readline().strip()
+
+
+def mission_for(
+    scenario: Scenario, fleet: Any, *, tlog: str | None = None, signing_key_file: str | None = None
+) -> MissionConfig:
+    """The service's mission config pointing at a running ``MockFleet``'s endpoints
+    (each UAV's link signed with the key in ``signing_key_file``, if given)."""
     craft = AircraftConfig(scenario.airspeed_mps, scenario.turn_radius_m, scenario.altitude_m)
     aircraft = [e for e in fleet.endpoints if e.kind == "aircraft"]
     ground = [e for e in fleet.endpoints if e.kind == "ground"]
     return MissionConfig(
         sensor_radius_m=scenario.sensor_radius_m,
         aircraft=craft,
-        uav_list=tuple(UavConfig(e.connect, e.sysid, craft) for e in aircraft),
+        uav_list=tuple(
+            UavConfig(e.connect, e.sysid, craft, signing_key_file=signing_key_file)
+            for e in aircraft
+        ),
         convoy=ConvoyConfig(
             source="mavlink",
             vehicles=tuple(ConvoyVehicleConfig(e.connect, e.sysid) for e in ground),
@@ -296,6 +317,7 @@ async def run_demo(
     history: list[ConvoyService] | None = None,
     during: Callable[[MockFleet, ConvoyService], Coroutine[Any, Any, None]] | None = None,
     route_known: bool = False,
+    signing_key_file: str | None = None,
 ) -> DemoResult:
     """Start the mock, fly ``duration`` mission seconds, score from ground truth.
 
@@ -316,6 +338,8 @@ async def run_demo(
             cancelled when the flight ends.
         route_known: Replay: the service is given the track's path (not its
             timing) as the convoy's route.
+        signing_key_file: MAVLink 2 signing: the mock's aircraft and the service's
+            links sign with the key in this file (hex or a passphrase).
     """
     count = uavs or scenario.fleet()
     faults = {"kill": [f"{kill[0]}@{kill[1]}"]} if kill else None
@@ -328,10 +352,11 @@ async def run_demo(
             personality=personality,
             frame=frame,
             faults=faults,
+            signing_key=None if signing_key_file is None else _key_text(signing_key_file),
         )
     )
     async with MockFleet(mock, record_truth=True) as fleet:
-        cfg = mission_for(scenario, fleet, tlog=tlog)
+        cfg = mission_for(scenario, fleet, tlog=tlog, signing_key_file=signing_key_file)
         if uavs is not None:
             cfg = replace(cfg, uav_count=uavs)
         if configure is not None:

@@ -17,6 +17,10 @@ Design rules:
     * A UDP datagram holds whole frames, so bytes left over at its end are a
       truncated frame, not the start of the next datagram: they are dropped.
       A TCP stream keeps them until the rest arrives.
+    * With a :class:`~convoy_mav.mavlink.signing.Signing` every frame we pack is
+      signed, and a received frame that is unsigned, badly signed or older than
+      its stream's last (a replay) is dropped and counted (``unsigned``,
+      ``bad_signature``). pymavlink checks the signatures.
 
 Counters (:attr:`MavCodec.counters`):
     ``messages``  decoded messages of known type (MAVLink 1 ones also in ``mavlink1``)
@@ -26,6 +30,8 @@ Counters (:attr:`MavCodec.counters`):
     ``unknown_id`` well-formed frames of ids outside the dialect
     ``truncated`` datagrams that ended inside a frame
     ``seq_lost``  frames presumed lost: forward gaps (< 128) in a source's sequence
+    ``unsigned``  frames without a signature on a signed link (dropped)
+    ``bad_signature`` frames whose signature or timestamp failed (dropped)
 """
 
 from __future__ import annotations
@@ -35,6 +41,8 @@ from collections import Counter
 from typing import Any
 
 from pymavlink.dialects.v20 import common as mavlink
+
+from convoy_mav.mavlink.signing import Signing, timestamp_now
 
 __all__ = ["MAVLINK1_MARKER", "MAVLINK2_MARKER", "MavCodec", "Message"]
 
@@ -59,19 +67,32 @@ class MavCodec:
     Args:
         system: Our MAVLink system id (255: a ground station, by convention).
         component: Our component id (190: MAV_COMP_ID_MISSIONPLANNER, as GCSs use).
+        signing: Sign what we send and accept only signed frames (None: MAVLink 2
+            unsigned, as most links fly).
 
     Raises:
         ValueError: An id outside 0..255.
     """
 
-    def __init__(self, system: int = 255, component: int = 190) -> None:
+    def __init__(
+        self, system: int = 255, component: int = 190, *, signing: Signing | None = None
+    ) -> None:
         for name, value in (("system", system), ("component", component)):
             if not 0 <= value <= 255:
                 raise ValueError(f"MAVLink {name} id must be in 0..255, got {value}")
         self.system = system
         self.component = component
         self.counters: Counter[str] = Counter()
+        self.signing = signing
         self._tx = mavlink.MAVLink(None, srcSystem=system, srcComponent=component)
+        self._frames = _FRAME_DECODER  # (unsigned: stateless, shared by every codec)
+        if signing is not None:
+            state = signing.state
+            state.timestamp = max(state.timestamp + 1, timestamp_now())
+            tx = self._tx.signing
+            tx.secret_key, tx.link_id, tx.timestamp = signing.key, signing.link_id, state.timestamp
+            tx.sign_outgoing = True
+            self._frames = self._signed_parser()
         self._rx = self._new_parser()
         self._last_seq: dict[int, int] = {}  # sysid << 8 | compid -> last seq
 
@@ -106,6 +127,8 @@ class MavCodec:
             raise ValueError(f"cannot encode {_type_of(msg)}: {e}") from e
         self._tx.seq = (self._tx.seq + 1) & 0xFF
         self.counters["packed"] += 1
+        if self.signing is not None:
+            self.signing.state.timestamp = self._tx.signing.timestamp
         return frame
 
     # -- in ------------------------------------------------------------------------------
@@ -151,9 +174,9 @@ class MavCodec:
         if _frame_size(data) == len(data):
             out: list[Message] = []
             try:
-                msg = _FRAME_DECODER.decode(bytearray(data))
-            except Exception as e:  # pymavlink.MAVError: bad CRC, bad payload
-                self.counters["bad_crc" if "CRC" in str(e) else "bad_data"] += 1
+                msg = self._frames.decode(bytearray(data))
+            except Exception as e:  # pymavlink.MAVError: bad CRC, bad payload, signature
+                self.counters[_failure(str(e), data)] += 1
                 return out
             self._sort(msg, out, keep_unknown)
             return out
@@ -172,15 +195,26 @@ class MavCodec:
     # -- internals -----------------------------------------------------------------------
 
     def _new_parser(self) -> Any:
-        parser = mavlink.MAVLink(None, srcSystem=self.system, srcComponent=self.component)
+        parser = self._signed_parser() if self.signing is not None else mavlink.MAVLink(None)
+        parser.srcSystem, parser.srcComponent = self.system, self.component
         parser.robust_parsing = True
+        return parser
+
+    def _signed_parser(self) -> Any:
+        """A decoder that checks signatures against our key and the streams' timestamps."""
+        assert self.signing is not None
+        parser = mavlink.MAVLink(None)
+        rx = parser.signing
+        rx.secret_key = self.signing.key
+        rx.stream_timestamps = self.signing.state.streams  # (shared: updated as frames pass)
+        rx.timestamp = self.signing.state.timestamp  # a new stream may be 1 min behind it
         return parser
 
     def _sort(self, msg: Message, out: list[Message], keep_unknown: bool) -> None:
         """Count one parser result and keep it if it is a message."""
         counters = self.counters
         if isinstance(msg, mavlink.MAVLink_bad_data):
-            counters["bad_crc" if "CRC" in str(msg.reason) else "bad_data"] += 1
+            counters[_failure(str(msg.reason), bytes(msg.data))] += 1
             return
         if isinstance(msg, mavlink.MAVLink_unknown):
             counters["unknown_id"] += 1
@@ -213,6 +247,14 @@ def _frame_size(data: bytes) -> int:
     if data[0] == MAVLINK1_MARKER:
         return 8 + data[1]
     return 0
+
+
+def _failure(reason: str, frame: bytes) -> str:
+    """The counter a frame pymavlink refused goes to."""
+    if "signature" in reason:
+        signed = len(frame) > 2 and frame[0] == MAVLINK2_MARKER and frame[2] & 1
+        return "bad_signature" if signed else "unsigned"
+    return "bad_crc" if "CRC" in reason else "bad_data"
 
 
 def _type_of(msg: object) -> str:
