@@ -36,6 +36,10 @@ times <= a day)::
     sysid = 1
     peer = "127.0.0.1:14580"      # optional, udpin: the only sender heard (default: the
                                   #   first one, pinned while it talks)
+    signing_key_file = "fleet.key"   # optional MAVLink 2 signing: 64 hex digits or a
+                                  #   passphrase (or signing_key_env = "VAR"); the
+                                  #   timestamps are kept in <key>.state.json (or
+                                  #   signing_state = "FILE")
     # airspeed_mps / turn_radius_m / altitude_m override [aircraft]
 
     [convoy]
