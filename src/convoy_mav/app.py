@@ -37,6 +37,7 @@ from convoy_mav.clock import MissionClock, Observed
 from convoy_mav.config import MissionConfig, UavConfig
 from convoy_mav.convoy import ConvoyTracker
 from convoy_mav.errors import ConfigError, PlanningError
+from convoy_mav.fence import fence_from
 from convoy_mav.gcpolicy import collect_on_schedule, flight_gc
 from convoy_mav.geo import GeoPoint, LocalFrame
 from convoy_mav.history import History
@@ -62,6 +63,7 @@ from convoy_mav.publish.mqtt import MqttPublisher
 from convoy_mav.publish.security import mqtt_security
 from convoy_mav.recording import TlogRecorder
 from convoy_mav.schedule import POSITION_AT_HORIZON_S, position_at
+from convoy_mav.separation import conflicts
 from convoy_mav.streaming import SetpointStreamer
 from convoy_mav.tracks import load_route
 from convoy_mav.types import ConvoyEstimate, Setpoint, Telemetry, VehicleStatus
@@ -78,6 +80,9 @@ _MAX_SPEED_FACTOR = 2.5  # a UAV fix implying more than this x its airspeed is n
 _MAX_SPEED_FLOOR = 30.0  # m/s: ... nor more than this, whatever the airspeed (wind, a dive)
 _FIX_WINDOW_S = (30.0, 2.0)  # mission s an external fix may be stamped before / after now
 _OWN_FAILSAFE_S = 10.0  # mission s after a link is back in which a hold is our stream's doing
+_FENCE_LOOK_STEPS = 60  # a new plan's paths are checked against the fence this many steps
+_FENCE_LOOK_DT = 2.0  # mission s apart (two minutes ahead)
+_PROGRESS_ALARM_S = 10.0  # mission s between two alarms of clamped setpoints
 
 
 @dataclass(frozen=True, slots=True)
@@ -117,6 +122,7 @@ class ServiceReport:
     planner: dict[str, Any] = field(default_factory=dict)
     rejected: dict[str, int] = field(default_factory=dict)
     tlog: str | None = None
+    safety: dict[str, Any] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         """The report JSON (keys documented in the README)."""
@@ -145,6 +151,8 @@ class ServiceReport:
             # Inputs dropped as implausible or malformed, by kind (per UAV under vehicles).
             "rejected": self.rejected,
             "tlog": self.tlog,
+            # Fence clamps per UAV, separation conflicts (see the README's Safety section).
+            "safety": self.safety,
             "vehicles": [
                 {
                     "sysid": uav.sysid,
@@ -245,6 +253,15 @@ class ConvoyService:
             rate_hint=rate_hint, silence_cap=max(10.0, 3.0 * config.lost_after_s)
         )
         self.tracker = ConvoyTracker(stale_after=config.convoy.stale_after_s, window=4.0)
+        self.fence = fence_from(config.safety, self.frame)
+        self._fence_clamps: dict[int, int] = {}  # setpoints moved inside the fence, per UAV
+        self._fence_seen = 0  # clamps already alarmed
+        self._convoy_out = False  # the convoy is outside the fence
+        self._conflicts: set[tuple[int, int]] = set()  # pairs below the separation minima
+        self._conflict_count = 0
+        self._closest_m: float | None = None  # least horizontal separation in a conflict
+        self._fence_alarm_t = -math.inf
+        self._fence_clear_until: dict[int, tuple[float, float]] = {}  # (from, to) mission s
         self.history = History(interval=history_interval)
         self.monitor = Monitor(config.sensor_radius_m)
         self.publisher = publisher
@@ -418,6 +435,65 @@ class ConvoyService:
             kind = "uav_lost" if event.kind == EventKind.RECOVERED else f"uav_{event.kind}"
             self._alarm(Alarm(event.t, kind, active, event.message), event.sysid)
 
+    def _check_plan_fence(self, t: float, view: MissionView) -> None:
+        """A plan whose paths leave the fence in the next two minutes is alarmed, naming the
+        UAV and the point, once per UAV (the streamer keeps every setpoint inside anyway)."""
+        fence = self.fence
+        if fence is None:
+            return
+        for sysid in self.vehicles:
+            if f"fence_plan:{sysid}" in self._vehicle_alarms:
+                continue  # (raised once, until the UAV's alarms clear)
+            for k in range(_FENCE_LOOK_STEPS):
+                sp = view.setpoint(sysid, t + k * _FENCE_LOOK_DT)
+                if sp is not None and not fence.allows(sp):
+                    p = self.frame.to_geo(sp.north, sp.east, sp.down)
+                    self._alarm(
+                        Alarm(t, "fence_plan", True, f"UAV {sysid}'s plan leaves the fence at "
+                              f"{p.lat:.6f}, {p.lon:.6f}, {-sp.down:.0f} m (t={sp.t:.0f} s): "
+                              "flown clamped inside it"),
+                        sysid,
+                    )  # fmt: skip
+                    break
+
+    def _check_safety(self, t: float, est: ConvoyEstimate | None) -> None:
+        """Fence (the convoy outside it, setpoints clamped) and separation alarms."""
+        fence = self.fence
+        if fence is not None:
+            clamps = sum(self._fence_clamps.values())
+            if clamps > self._fence_seen and t >= self._fence_alarm_t + _PROGRESS_ALARM_S:
+                self._fence_seen, self._fence_alarm_t = clamps, t
+                self._alarm(Alarm(t, "fence", True, f"{clamps} setpoints clamped inside the fence"))
+            if est is not None and not est.stale:
+                out = not fence.contains(est.north, est.east)
+                if out != self._convoy_out:
+                    self._convoy_out = out
+                    text = (
+                        "convoy left the fence: the UAVs fly its edge"
+                        if out
+                        else "convoy back inside the fence"
+                    )
+                    self._alarm(Alarm(t, "convoy_outside_fence", out, text))
+        safety = self.config.safety
+        positions = {
+            s: (tel.north, tel.east, tel.down)
+            for s, v in self.vehicles.items()
+            if (tel := v.telemetry) is not None and v.airborne
+        }
+        pairs = conflicts(positions, safety.min_separation_m, safety.min_vertical_separation_m)
+        now = {(c.a, c.b) for c in pairs}
+        for c in pairs:
+            self._closest_m = min(self._closest_m or math.inf, c.horizontal_m)
+            if (c.a, c.b) not in self._conflicts:
+                self._conflict_count += 1
+                self._alarm(
+                    Alarm(t, "separation", True, f"UAVs {c.a} and {c.b} {c.horizontal_m:.0f} m "
+                          f"apart, {c.vertical_m:.1f} m vertically"),
+                )  # fmt: skip
+        if self._conflicts and not now:
+            self._alarm(Alarm(t, "separation", False, "separation restored"))
+        self._conflicts = now
+
     def _check_links(self, t: float) -> None:
         """Alarm on strangers at a UAV's link: a second peer refused, or frames that
         claim another vehicle's system id (a GCS's own heartbeats are only counted)."""
@@ -448,7 +524,31 @@ class ConvoyService:
     def _setpoint(self, sysid: int, t: float) -> Setpoint | None:
         if self.paused:
             return None
-        return self.view.setpoint(sysid, t)
+        sp = self.view.setpoint(sysid, t)
+        fence = self.fence
+        if sp is None or fence is None:
+            return sp
+        until = self._fence_clear_until.get(sysid)
+        if (
+            until is not None
+            and until[0] <= t <= until[1]
+            and sp.radius <= 2.0 * self.config.plan_aircraft.turn_radius_m
+            and fence.altitude_allows(sp)
+        ):
+            return sp  # (well inside: it cannot have reached an edge since it was measured)
+        safe = fence.clamp(sp)  # (the last line of defence: never a setpoint outside)
+        if safe is sp:
+            # Setpoints move at most the plan's speed (+15 %, twice for margin), and a loiter
+            # centre lies within an arc's radius (at most 2R) of its point: until the edge
+            # is that far, the next setpoints need no look at the fence's edges.
+            craft = self.config.plan_aircraft
+            room = fence.clearance(sp.north, sp.east) - 4.0 * craft.turn_radius_m - fence.margin_m
+            speed = 2.0 * craft.airspeed_mps
+            if room > 0.0:
+                self._fence_clear_until[sysid] = (t, t + room / speed)
+        if safe is not sp:
+            self._fence_clamps[sysid] = self._fence_clamps.get(sysid, 0) + 1
+        return safe
 
     # ------------------------------------------------------------------- loop
 
@@ -631,6 +731,7 @@ class ConvoyService:
                 next_progress = t + self._progress_every
                 self._progress(t)
                 self._check_links(t)
+                self._check_plan_fence(t, self.view)
             await self.clock.sleep_until(t + self._control_dt)
 
     async def _control_step(self, t: float) -> None:
@@ -679,6 +780,7 @@ class ConvoyService:
             self.monitor.predicted_coverage = view.predicted_coverage or 1.0
             self._note(f"protect phase begins at t={view.protect_start:.1f}")
         self._check_airframes(t)
+        self._check_safety(t, est)
         telemetry = self._counted_telemetry(t)
         for alarm in self.monitor.update(t, est, telemetry):
             self._alarm(alarm)
@@ -992,6 +1094,14 @@ class ConvoyService:
                 **{f"convoy_{k}": n for k, n in self.tracker.counters.items() if k != "accepted"},
             },
             tlog=self._tlog_path,
+            safety={
+                "fence": self.fence is not None,
+                "fence_clamps": dict(sorted(self._fence_clamps.items())),
+                "separation_conflicts": self._conflict_count,
+                "closest_in_conflict_m": None
+                if self._closest_m is None
+                else round(self._closest_m, 1),
+            },
         )
 
     def set_route(self, points: Sequence[tuple[float, float]]) -> None:

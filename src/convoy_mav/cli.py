@@ -38,13 +38,16 @@ from convoy_mav.demo import (
     replay_scenario,
     run_demo,
 )
-from convoy_mav.errors import ConfigError, ConvoyError
+from convoy_mav.errors import ConfigError, ConvoyError, PlanningError
+from convoy_mav.fence import fence_from
+from convoy_mav.geo import LocalFrame
 from convoy_mav.mavlink.signing import load_key
 from convoy_mav.oplog import operator_log
-from convoy_mav.planning import Pose, make_plan, optimal_path_from_entry
+from convoy_mav.planning import Plan, Pose, make_plan, optimal_path_from_entry
 from convoy_mav.planning.export import entry_to_dict, plan_to_dict
 from convoy_mav.plot import plot_mission
 from convoy_mav.provision import provision_signing
+from convoy_mav.schedule import setpoint_at
 from convoy_mav.tracks import FORMATS, load_track
 from convoy_mav.tracks.roads import KINDS as ROAD_KINDS
 from convoy_mav.tracks.roads import road_kind
@@ -375,12 +378,33 @@ def _cmd_plan(args: argparse.Namespace) -> int:
             _print_entry_table(out)
         return 0
     plan = make_plan(mission.plan_request())
+    if args.config:
+        _check_fence(plan, load_config(args.config), mission)
     out = plan_to_dict(plan)
     if args.json:
         print(json.dumps(out))
     else:
         _print_plan_table(out)
     return 0
+
+
+def _check_fence(plan: Plan, base: MissionConfig, mission: MissionConfig) -> None:
+    """Refuse a plan whose paths leave the config's fence, naming the UAV and the point."""
+    frame = LocalFrame(base.origin)
+    fence = fence_from(base.safety, frame)
+    if fence is None:
+        return
+    origin = (mission.convoy.start_north_m, mission.convoy.start_east_m)
+    down = -base.plan_aircraft.altitude_m
+    for k, vehicle in enumerate(plan.vehicles):
+        for t in (vehicle.trajectory.period * i / 720.0 for i in range(720)):
+            sp = setpoint_at(plan, k, t, plan_origin=origin, plan_t0=0.0, down=down)
+            if not fence.allows(sp):
+                p = frame.to_geo(sp.north, sp.east, sp.down)
+                raise PlanningError(
+                    f"UAV {k + 1}'s path leaves the fence at {p.lat:.6f}, {p.lon:.6f}, "
+                    f"{-sp.down:.0f} m (t={t:.0f} s): move the fence or the convoy"
+                )
 
 
 def _print_progress(p: Progress) -> None:

@@ -73,6 +73,7 @@ times <= a day)::
 
 from __future__ import annotations
 
+import json
 import math
 import tomllib
 from collections.abc import Mapping, Sequence
@@ -188,6 +189,22 @@ class MqttConfig:
     password_file: str | None = None  # a file holding it (first line)
 
 
+LatLon = tuple[float, float]
+
+
+@dataclass(frozen=True, slots=True)
+class SafetyConfig:
+    """The operator's airspace and the UAVs' separation minima."""
+
+    fence: tuple[LatLon, ...] = ()  # inclusion polygon (empty: none)
+    exclusions: tuple[tuple[LatLon, ...], ...] = ()
+    min_alt_m: float | None = None  # above the mission origin
+    max_alt_m: float | None = None
+    fence_margin_m: float = 20.0
+    min_separation_m: float = 30.0  # horizontal ...
+    min_vertical_separation_m: float = 3.0  # ... and vertical: closer in both is a conflict
+
+
 @dataclass(frozen=True, slots=True)
 class MissionConfig:
     """A whole mission configuration."""
@@ -207,6 +224,7 @@ class MissionConfig:
     planner: Planner = "auto"
     mqtt: MqttConfig | None = None
     tlog: str | None = None
+    safety: SafetyConfig = SafetyConfig()
 
     @property
     def planned_uavs(self) -> int | None:
@@ -508,6 +526,106 @@ _MQTT_SECURITY = (
 )  # fmt: skip
 
 
+def _safety(data: Mapping[str, Any]) -> SafetyConfig:
+    table = _table(
+        data, "safety",
+        {"fence", "fence_file", "exclusions", "min_alt_m", "max_alt_m", "fence_margin_m",
+         "min_separation_m", "min_vertical_separation_m"},
+    )  # fmt: skip
+    if "fence" in table and "fence_file" in table:
+        raise ConfigError("safety.fence_file", table["fence_file"], "or safety.fence, not both")
+    fence: tuple[LatLon, ...] = ()
+    exclusions: tuple[tuple[LatLon, ...], ...] = ()
+    if "fence" in table:
+        fence = _ring(table["fence"], "safety.fence")
+    if "fence_file" in table:
+        fence, exclusions = _geojson_fence(table["fence_file"])
+    exclusions += tuple(
+        _ring(ring, f"safety.exclusions[{i}]")
+        for i, ring in enumerate(_list(table.get("exclusions", []), "safety.exclusions"))
+    )
+    lo = table.get("min_alt_m")
+    hi = table.get("max_alt_m")
+    min_alt = None if lo is None else _altitude(table, "min_alt_m")
+    max_alt = None if hi is None else _altitude(table, "max_alt_m")
+    if min_alt is not None and max_alt is not None and min_alt >= max_alt:
+        raise ConfigError("safety.min_alt_m", min_alt, f"must be below max_alt_m ({max_alt:g})")
+    return SafetyConfig(
+        fence=fence,
+        exclusions=exclusions,
+        min_alt_m=min_alt,
+        max_alt_m=max_alt,
+        fence_margin_m=_number(
+            table, "safety", "fence_margin_m", 20.0, non_negative=True, at_most=10_000.0
+        ),
+        min_separation_m=_number(
+            table, "safety", "min_separation_m", 30.0, positive=True, at_most=10_000.0
+        ),
+        min_vertical_separation_m=_number(
+            table, "safety", "min_vertical_separation_m", 3.0, positive=True, at_most=1000.0
+        ),
+    )
+
+
+def _altitude(table: Mapping[str, Any], key: str) -> float:
+    return _number(table, "safety", key, None, at_least=-500.0, at_most=MAX_ALTITUDE_M)
+
+
+def _list(value: object, key: str) -> list[Any]:
+    if not isinstance(value, list):
+        raise ConfigError(key, value, "must be a list")
+    return value
+
+
+def _ring(value: object, key: str) -> tuple[LatLon, ...]:
+    """A polygon as [[lat, lon], ...]: at least 3 vertices, in range."""
+    points = _list(value, key)
+    out: list[LatLon] = []
+    for i, p in enumerate(points):
+        ok = isinstance(p, list | tuple) and len(p) == 2
+        if not ok or not all(isinstance(c, int | float) and math.isfinite(c) for c in p):
+            raise ConfigError(f"{key}[{i}]", p, "must be [lat, lon]")
+        lat, lon = float(p[0]), float(p[1])
+        if not (-90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0):
+            raise ConfigError(f"{key}[{i}]", p, "is out of range (lat -90..90, lon -180..180)")
+        out.append((lat, lon))
+    if len(out) > 1 and out[0] == out[-1]:
+        out.pop()  # (a closing vertex repeated, as GeoJSON does)
+    if not 3 <= len(out) <= 1000:
+        raise ConfigError(key, len(out), "a polygon needs 3..1000 vertices")
+    return tuple(out)
+
+
+def _geojson_fence(path: object) -> tuple[tuple[LatLon, ...], tuple[tuple[LatLon, ...], ...]]:
+    """A GeoJSON Polygon (a Feature or the first of a FeatureCollection): its outer ring is
+    the inclusion fence, its holes the exclusions."""
+    key = "safety.fence_file"
+    if not isinstance(path, str) or not path:
+        raise ConfigError(key, path, "must be the path of a GeoJSON file")
+    try:
+        with open(path, encoding="utf-8") as fh:
+            geo = json.load(fh)
+    except (OSError, ValueError) as exc:
+        raise ConfigError(key, path, f"cannot be read as GeoJSON ({exc})") from exc
+    if isinstance(geo, dict) and geo.get("type") == "FeatureCollection":
+        features = geo.get("features") or [None]
+        geo = features[0]
+    if isinstance(geo, dict) and geo.get("type") == "Feature":
+        geo = geo.get("geometry")
+    if not (isinstance(geo, dict) and geo.get("type") == "Polygon"):
+        raise ConfigError(key, path, "holds no GeoJSON Polygon")
+    rings = geo.get("coordinates")
+    if not isinstance(rings, list) or not rings:
+        raise ConfigError(key, path, "its Polygon has no coordinates")
+    as_latlon = [
+        [[p[1], p[0]] if isinstance(p, list) and len(p) >= 2 else p for p in _list(r, key)]
+        for r in rings
+    ]  # (GeoJSON is lon, lat)
+    outer = _ring(as_latlon[0], f"{key} outer ring")
+    holes = tuple(_ring(r, f"{key} hole {i}") for i, r in enumerate(as_latlon[1:]))
+    return outer, holes
+
+
 def _end_action(mission: Mapping[str, Any]) -> EndAction:
     end = mission.get("end", "loiter")
     for action in get_args(EndAction):
@@ -530,7 +648,7 @@ def parse_config(data: Mapping[str, Any]) -> MissionConfig:
     Raises:
         ConfigError: Naming the first bad key and its value.
     """
-    sections = {"mission", "aircraft", "convoy", "uav", "mqtt", "record"}
+    sections = {"mission", "aircraft", "convoy", "uav", "mqtt", "record", "safety"}
     unknown = sorted(set(data) - sections)
     if unknown:
         raise ConfigError(unknown[0], data[unknown[0]], "unknown section")
@@ -582,6 +700,7 @@ def parse_config(data: Mapping[str, Any]) -> MissionConfig:
         planner=_planner(mission),
         mqtt=_mqtt(data),
         tlog=tlog,
+        safety=_safety(data),
     )
     speed = cfg.plan_aircraft.airspeed_mps
     if cfg.convoy.speed_mps >= speed:
@@ -619,6 +738,9 @@ def load_config(path: str | Path) -> MissionConfig:
         raise ConfigError(
             "config", str(path), f"is not UTF-8 text (byte {exc.start}: {exc.reason})"
         ) from exc
+    safety = data.get("safety")
+    if isinstance(safety, dict) and isinstance(safety.get("fence_file"), str):
+        data = {**data, "safety": {**safety, "fence_file": _near(path, safety["fence_file"])}}
     cfg = parse_config(data)
     # Files named in the config are relative to it.
     cfg = replace(cfg, convoy=replace(cfg.convoy, route_file=_near(path, cfg.convoy.route_file)))

@@ -146,3 +146,20 @@ def test_a_run_nobody_answers_ends_on_a_signal(tmp_path: Path, sig: signal.Signa
     assert time.monotonic() - sent < 2.0, (out, err)
     assert proc.returncode == 0, err
     assert "never protected" in out
+
+
+def test_plan_refuses_a_plan_that_leaves_the_fence(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    config = tmp_path / "fenced.toml"
+    config.write_text(
+        "[mission]\nsensor_radius_m = 100.0\n[aircraft]\nairspeed_mps = 18.0\n"
+        "turn_radius_m = 150.0\n[safety]\n"
+        "fence = [[47.3990, 8.5400], [47.3990, 8.5500], [47.3960, 8.5500], [47.3960, 8.5400]]\n",
+        encoding="utf-8",
+    )
+    line = _refused(["plan", "--config", str(config)], capsys)
+    assert "UAV 1's path leaves the fence at 47.39" in line
+    roomy = config.read_text().replace("47.3990", "47.4200").replace("47.3960", "47.3700")
+    config.write_text(roomy.replace("8.5400", "8.5000").replace("8.5500", "8.5900"))
+    assert cli.main(["plan", "--config", str(config)]) == 0
