@@ -68,7 +68,18 @@ times <= a day)::
                                   #   never the password itself in this file
 
     [record]
-    tlog = "mission.tlog"         # optional MAVLink recording
+    tlog = "mission.tlog"         # optional MAVLink recording (an existing file is kept)
+
+    [safety]                      # optional
+    fence = [[47.40, 8.54], [47.40, 8.56], [47.39, 8.56], [47.39, 8.54]]  # inclusion
+                                  #   polygon (or fence_file = "fence.geojson": a Polygon,
+                                  #   its holes exclusions)
+    exclusions = [[[47.395, 8.549], [47.395, 8.551], [47.396, 8.551]]]
+    min_alt_m = 30.0              # altitude band above the mission origin
+    max_alt_m = 400.0
+    fence_margin_m = 20.0         # clamped setpoints go this far inside the edges
+    min_separation_m = 30.0       # a pair closer horizontally ...
+    min_vertical_separation_m = 3.0   # ... and vertically is a separation alarm
 """
 
 from __future__ import annotations
