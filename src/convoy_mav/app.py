@@ -80,6 +80,7 @@ _MAX_SPEED_FACTOR = 2.5  # a UAV fix implying more than this x its airspeed is n
 _MAX_SPEED_FLOOR = 30.0  # m/s: ... nor more than this, whatever the airspeed (wind, a dive)
 _FIX_WINDOW_S = (30.0, 2.0)  # mission s an external fix may be stamped before / after now
 _OWN_FAILSAFE_S = 10.0  # mission s after a link is back in which a hold is our stream's doing
+_STALL_TICKS = 3  # a control tick this many periods late is a stall of the host
 _FENCE_LOOK_STEPS = 60  # a new plan's paths are checked against the fence this many steps
 _FENCE_LOOK_DT = 2.0  # mission s apart (two minutes ahead)
 _PROGRESS_ALARM_S = 10.0  # mission s between two alarms of clamped setpoints
@@ -261,6 +262,7 @@ class ConvoyService:
         self._conflict_count = 0
         self._closest_m: float | None = None  # least horizontal separation in a conflict
         self._fence_alarm_t = -math.inf
+        self._stalled_s = 0.0  # mission s the control loop was held up (a loaded host)
         self._fence_clear_until: dict[int, tuple[float, float]] = {}  # (from, to) mission s
         self.history = History(interval=history_interval)
         self.monitor = Monitor(config.sensor_radius_m)
@@ -721,8 +723,12 @@ class ConvoyService:
         await self.clock.wait_synced()
         t = self.clock.now()
         next_progress = next_publish = t
+        last = t
         while True:
             t = self.clock.now()
+            if t - last > _STALL_TICKS * self._control_dt:  # the loop was held up
+                self._stalled_s += t - last - self._control_dt
+            last = t
             await self._control_step(t)
             if t >= next_publish:
                 next_publish = t + self._publish_every
@@ -1101,6 +1107,9 @@ class ConvoyService:
                 "closest_in_conflict_m": None
                 if self._closest_m is None
                 else round(self._closest_m, 1),
+                # Mission s the control loop ran late (a loaded or stalled host); coverage
+                # meanwhile is scored from telemetry stamped then, never assumed.
+                "host_stalled_s": round(self._stalled_s, 2),
             },
         )
 

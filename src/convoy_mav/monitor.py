@@ -141,6 +141,10 @@ class Monitor:
             ``prediction_margin`` (after ``prediction_grace`` seconds of protect)
             raises ``prediction_missed``.
         max_hold: Longest interval one telemetry sample stands for (seconds).
+        fresh_s: A UAV's telemetry counts at a tick only if stamped (its own
+            ``time_boot_ms``) at most this long before it: a host stall or a slow
+            link leaves old positions, which say nothing of now. Fresh ones are
+            carried forward to the tick along their velocity.
     """
 
     sensor_radius: float
@@ -148,6 +152,7 @@ class Monitor:
     prediction_margin: float = 0.02
     prediction_grace: float = 60.0
     max_hold: float = 1.0
+    fresh_s: float = 1.0
     _tracker: CoverageTracker | None = field(default=None, init=False)
     _protect_start: float | None = field(default=None, init=False)
     _tracking: dict[int, _Tracking] = field(default_factory=dict, init=False)
@@ -193,11 +198,12 @@ class Monitor:
         if convoy is None:
             return alarms
         self._edge(t, "convoy_stale", convoy.stale, "convoy position is stale", alarms)
-        positions = {
-            sysid: (tel.north, tel.east)
-            for sysid, tel in telemetry.items()
-            if math.isfinite(tel.north) and math.isfinite(tel.east)
-        }
+        positions = {}
+        for sysid, tel in telemetry.items():
+            age = t - tel.t
+            if age <= self.fresh_s and math.isfinite(tel.north) and math.isfinite(tel.east):
+                lead = max(age, 0.0)  # (a stamp ahead of the tick: where it is)
+                positions[sysid] = (tel.north + tel.vn * lead, tel.east + tel.ve * lead)
         centre = (convoy.north, convoy.east)
         if self._tracker is None:
             self._last = CoverageTracker(self.sensor_radius).observe(t, centre, positions)

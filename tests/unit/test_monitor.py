@@ -132,3 +132,19 @@ def test_median_tracking_error_is_kept_per_uav() -> None:
     (score,) = mon.snapshot(1.0).vehicles
     assert score.median_tracking_error_m == pytest.approx(3.0, abs=0.25)
     assert score.mean_tracking_error_m == pytest.approx(12.0)
+
+
+def test_old_telemetry_says_nothing_of_now_and_fresh_is_carried_forward() -> None:
+    """A host stall or a slow link leaves old positions: they do not count (the monitor
+    never claims coverage it has no telemetry for); fresh ones move on to the tick."""
+    m = Monitor(sensor_radius=10.0, prediction_grace=1e9)
+    m.start_protect(0.0)
+    m.update(0.0, CONVOY, {1: tel(1, 0.0, 0.0, 0.0)})
+    stale = tel(1, 0.5, 0.0, 0.0)  # over the convoy, but 2.5 s before the tick
+    m.update(3.0, CONVOY, {1: stale})
+    assert not m.snapshot(3.0).covered
+    moving = Telemetry(1, 3.6, -16.0, 0.0, -100.0, 20.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    m.update(4.0, CONVOY, {1: moving})  # 16 m short at 3.6 s, at 20 m/s: 8 m short at 4.0 s
+    snap = m.snapshot(4.0)
+    assert snap.covered and snap.sample is not None
+    assert snap.sample.nearest_m == pytest.approx(8.0)
