@@ -419,3 +419,17 @@ def test_a_route_needs_no_times(tmp_path: Path) -> None:
         load_route(bad)
     with pytest.raises(ValueError, match=r"a route is a \.gpx or \.csv"):
         load_route(tmp_path / "x.tlog")
+
+
+def test_a_track_past_the_size_bound_is_refused_unread(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from convoy_mav import tracks
+
+    big = tmp_path / "huge.gpx"
+    big.write_bytes(b"<gpx>" + b" " * 2048 + b"</gpx>")
+    monkeypatch.setattr(tracks, "MAX_TRACK_BYTES", 1024)
+    with pytest.raises(ValueError, match="exceeds the 0 MiB"):
+        tracks.load_track(big)
+    with pytest.raises(ValueError, match="exceeds"):
+        tracks.load_route(big)

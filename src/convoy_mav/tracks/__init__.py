@@ -70,6 +70,19 @@ def format_of(path: str | os.PathLike[str]) -> TrackFormat:
     )
 
 
+MAX_TRACK_BYTES = 512 << 20
+"""Largest track or route file read (512 MiB: days of tlog): bigger is refused unread."""
+
+
+def _check_size(name: str) -> None:
+    size = os.path.getsize(name)
+    if size > MAX_TRACK_BYTES:
+        raise ValueError(
+            f"{name}: {size / (1 << 20):.0f} MiB exceeds the {MAX_TRACK_BYTES >> 20} MiB a "
+            "track may be (cut it to the drive to replay)"
+        )
+
+
 def load_route(path: str | os.PathLike[str]) -> tuple[list[float], list[float]]:
     """Read a route, the road a convoy will drive: (lats, lons), in order, times ignored.
 
@@ -81,13 +94,14 @@ def load_route(path: str | os.PathLike[str]) -> tuple[list[float], list[float]]:
     """
     name = os.fspath(path)
     kind = format_of(name)
+    if kind not in ("csv", "gpx"):
+        raise ValueError(f"{name}: a route is a .gpx or .csv file, not a {kind}")
+    _check_size(name)
     if kind == "csv":
         with open(name, newline="", encoding="utf-8-sig") as handle:
             return parse_csv_points(handle, name)
-    if kind == "gpx":
-        with open(name, "rb") as binary:
-            return parse_gpx_points(binary.read(), name)
-    raise ValueError(f"{name}: a route is a .gpx or .csv file, not a {kind}")
+    with open(name, "rb") as binary:
+        return parse_gpx_points(binary.read(), name)
 
 
 def load_track(
@@ -112,6 +126,7 @@ def load_track(
     kind = fmt or format_of(name)
     if sysids and kind != "tlog":
         raise ValueError(f"{name}: vehicle system ids only apply to a tlog, not a {kind} track")
+    _check_size(name)
     if kind == "csv":
         with open(name, newline="", encoding="utf-8-sig") as handle:
             track = parse_csv_track(handle, name)
