@@ -236,7 +236,11 @@ class SimVehicle:
             "TIMESYNC": self._on_timesync,
             "PING": self._on_ping,
             "MISSION_REQUEST_LIST": self._on_mission_request_list,
+            "MISSION_COUNT": self._on_mission_count,
+            "MISSION_ITEM_INT": self._on_mission_item_int,
         }
+        self.fence: list[Message] = []  # the geofence items last uploaded (MISSION_ITEM_INT)
+        self._fence_upload: list[Message | None] | None = None
         self._commands: dict[int, Callable[[Command, float], Outcome]] = {
             _R.MAV_CMD_COMPONENT_ARM_DISARM: fl.arm_disarm,
             _R.MAV_CMD_DO_SET_MODE: self._cmd_do_set_mode,
@@ -445,6 +449,46 @@ class SimVehicle:
     def _on_mission_request_list(self, msg: Message, now: float) -> list[Message]:
         src, comp = msg.get_srcSystem(), msg.get_srcComponent()
         return [_R.MAVLink_mission_count_message(src, comp, 0, msg.mission_type)]
+
+    def _on_mission_count(self, msg: Message, now: float) -> list[Message]:
+        """A geofence upload begins (mission protocol, MAV_MISSION_TYPE_FENCE): ask for item 0.
+
+        Missions and rally points are refused: the mock flies no missions.
+        """
+        src, comp = msg.get_srcSystem(), msg.get_srcComponent()
+        kind = msg.mission_type
+        if kind != _R.MAV_MISSION_TYPE_FENCE:
+            return [_R.MAVLink_mission_ack_message(src, comp, _R.MAV_MISSION_UNSUPPORTED, kind)]
+        if msg.count == 0:
+            self.fence, self._fence_upload = [], None
+            return [_R.MAVLink_mission_ack_message(src, comp, _R.MAV_MISSION_ACCEPTED, kind)]
+        self._fence_upload = [None] * msg.count
+        return [_R.MAVLink_mission_request_int_message(src, comp, 0, kind)]
+
+    def _on_mission_item_int(self, msg: Message, now: float) -> list[Message]:
+        """One fence vertex: store it, ask for the next, accept when all are in."""
+        src, comp = msg.get_srcSystem(), msg.get_srcComponent()
+        upload = self._fence_upload
+        kind = msg.mission_type
+        if upload is None or kind != _R.MAV_MISSION_TYPE_FENCE:
+            return [_R.MAVLink_mission_ack_message(src, comp, _R.MAV_MISSION_DENIED, kind)]
+        if not 0 <= msg.seq < len(upload):
+            bad = _R.MAV_MISSION_INVALID_SEQUENCE
+            return [_R.MAVLink_mission_ack_message(src, comp, bad, kind)]
+        vertex = (
+            _R.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION,
+            _R.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION,
+        )
+        if msg.command not in vertex:
+            return [_R.MAVLink_mission_ack_message(src, comp, _R.MAV_MISSION_UNSUPPORTED, kind)]
+        upload[msg.seq] = msg
+        missing = [i for i, item in enumerate(upload) if item is None]
+        if missing:
+            return [_R.MAVLink_mission_request_int_message(src, comp, missing[0], kind)]
+        self.fence = [item for item in upload if item is not None]
+        self._fence_upload = None
+        self.counters["fence_uploads"] += 1
+        return [_R.MAVLink_mission_ack_message(src, comp, _R.MAV_MISSION_ACCEPTED, kind)]
 
     def _on_request_data_stream(self, msg: Message, now: float) -> list[Message]:
         if not self.firmware.is_ardupilot:  # PX4 has no stream groups

@@ -37,7 +37,7 @@ from convoy_mav.clock import MissionClock, Observed
 from convoy_mav.config import MissionConfig, UavConfig
 from convoy_mav.convoy import ConvoyTracker
 from convoy_mav.errors import ConfigError, PlanningError
-from convoy_mav.fence import fence_from
+from convoy_mav.fence import fence_from, fence_items
 from convoy_mav.gcpolicy import collect_on_schedule, flight_gc
 from convoy_mav.geo import GeoPoint, LocalFrame
 from convoy_mav.history import History
@@ -262,6 +262,7 @@ class ConvoyService:
         self._conflict_count = 0
         self._closest_m: float | None = None  # least horizontal separation in a conflict
         self._fence_alarm_t = -math.inf
+        self.fence_uploads: dict[int, str] = {}  # the autopilots' own geofence, per UAV
         self._stalled_s = 0.0  # mission s the control loop was held up (a loaded host)
         self._fence_clear_until: dict[int, tuple[float, float]] = {}  # (from, to) mission s
         self.history = History(interval=history_interval)
@@ -638,12 +639,36 @@ class ConvoyService:
                     tg.create_task(streamer.run(), name="convoy.stream")
                     tg.create_task(collect_on_schedule(), name="convoy.gc")
                     tg.create_task(self._control(), name="convoy.control")
+                    if self.fence is not None and self.config.safety.fence:
+                        tg.create_task(self._upload_fences(), name="convoy.fences")
                     if ground_links:
                         tg.create_task(self._ground_streams(ground_links), name="convoy.ground")
                     tg.create_task(self._supervise(stop, duration), name="convoy.supervise")
             except* _Stop:
                 pass
         return self._report()
+
+    async def _upload_fences(self) -> None:
+        """Give every autopilot the fence too, once it is heard (it enforces it itself)."""
+        items = fence_items(self.config.safety)
+        started: set[int] = set()
+        async with asyncio.TaskGroup() as tg:
+            while len(started) < len(self.vehicles):
+                for sysid, v in self.vehicles.items():
+                    if sysid not in started and v.firmware is not None:
+                        started.add(sysid)
+                        tg.create_task(self._upload_fence(sysid, v, items))
+                await asyncio.sleep(0.05)
+
+    async def _upload_fence(self, sysid: int, v: Vehicle, items: Any) -> None:
+        result = await v.upload_fence(items)
+        self.fence_uploads[sysid] = result
+        if result.endswith("uploaded"):
+            self._note(f"uav{sysid}: {result}")
+        else:
+            self._alarm(
+                Alarm(self.clock.now(), "fence_upload", True, f"UAV {sysid}: {result}"), sysid
+            )
 
     async def _until(self, t: float) -> None:
         """Sleep until mission time ``t``, through steps of the autopilots' clock."""
@@ -1103,6 +1128,7 @@ class ConvoyService:
             safety={
                 "fence": self.fence is not None,
                 "fence_clamps": dict(sorted(self._fence_clamps.items())),
+                "fence_uploads": dict(sorted(self.fence_uploads.items())),
                 "separation_conflicts": self._conflict_count,
                 "closest_in_conflict_m": None
                 if self._closest_m is None

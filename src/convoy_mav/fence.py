@@ -23,7 +23,7 @@ from convoy_mav.config import SafetyConfig
 from convoy_mav.geo import GeoPoint, LocalFrame
 from convoy_mav.types import Setpoint
 
-__all__ = ["Fence", "Polygon", "fence_from", "polygon_from"]
+__all__ = ["Fence", "Polygon", "fence_from", "fence_items", "polygon_from"]
 
 Point = tuple[float, float]  # (north, east)
 
@@ -229,3 +229,14 @@ def fence_from(safety: SafetyConfig, frame: LocalFrame) -> Fence | None:
         max_alt_m=safety.max_alt_m,
         margin_m=safety.fence_margin_m,
     )
+
+
+def fence_items(safety: SafetyConfig) -> list[tuple[int, int, float, float]]:
+    """The fence as the mission protocol uploads it: (command, vertex count, lat, lon) per
+    vertex, the inclusion polygon first (MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION,
+    then _EXCLUSION per exclusion); the altitude band is the autopilot's own parameters."""
+    inclusion, exclusion = 5001, 5002  # MAV_CMD_NAV_FENCE_POLYGON_VERTEX_(IN|EX)CLUSION
+    out = [(inclusion, len(safety.fence), lat, lon) for lat, lon in safety.fence]
+    for ring in safety.exclusions:
+        out += [(exclusion, len(ring), lat, lon) for lat, lon in ring]
+    return out

@@ -49,7 +49,7 @@ import functools
 import logging
 import math
 from collections import Counter
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from enum import StrEnum
 from typing import Any, Protocol
@@ -960,6 +960,52 @@ class Vehicle:
                 return False
             with contextlib.suppress(TimeoutError):
                 await asyncio.wait_for(self._changed.wait(), wall)
+
+    # ============================================================ geofence
+    async def upload_fence(
+        self, items: Sequence[tuple[int, int, float, float]], timeout: float = 5.0
+    ) -> str:
+        """Upload a geofence (mission protocol, MAV_MISSION_TYPE_FENCE); the outcome in words.
+
+        Args:
+            items: (command, vertex count, lat, lon) per vertex, in order
+                (``fence.fence_items``).
+            timeout: Mission s to wait for each answer before asking again (3 tries).
+        """
+        fw = self.firmware
+        target = (self.sysid, fw.compid if fw is not None else _M.MAV_COMP_ID_AUTOPILOT1)
+        fence = _M.MAV_MISSION_TYPE_FENCE
+        start = self.clock.now()
+        seen = {"t": start}
+
+        def answer() -> Message | None:
+            for kind in ("MISSION_ACK", "MISSION_REQUEST_INT", "MISSION_REQUEST"):
+                t = self.last_t.get(kind, -math.inf)
+                msg = self.last.get(kind)
+                if t > seen["t"] and msg is not None and msg.mission_type == fence:
+                    return msg
+            return None
+
+        message: Message = _M.MAVLink_mission_count_message(*target, len(items), fence)
+        for _ in range(3 * (len(items) + 1)):
+            self._send(message)
+            if not await self._wait_until(lambda: answer() is not None, timeout):
+                continue
+            reply = answer()
+            assert reply is not None
+            seen["t"] = self.last_t[reply.get_type()]
+            if reply.get_type() == "MISSION_ACK":
+                if reply.type == _M.MAV_MISSION_ACCEPTED:
+                    return f"geofence of {len(items)} vertices uploaded"
+                return f"geofence refused ({_M.enums['MAV_MISSION_RESULT'][reply.type].name})"
+            if not 0 <= reply.seq < len(items):
+                return f"geofence upload asked for item {reply.seq} of {len(items)}"
+            command, count, lat, lon = items[reply.seq]
+            message = _M.MAVLink_mission_item_int_message(
+                *target, reply.seq, _M.MAV_FRAME_GLOBAL, command, 0, 1, float(count),
+                0.0, 0.0, 0.0, round(lat * 1e7), round(lon * 1e7), 0.0, fence,
+            )  # fmt: skip
+        return "geofence upload got no answer"
 
     # ============================================================ hold, resume
     async def hold(self, timeout: float = 5.0) -> bool:

@@ -29,6 +29,7 @@ DURATION = 260.0
 
 async def test_setpoints_stay_inside_a_fence_that_cuts_the_orbits() -> None:
     fences: list[Any] = []
+
     sent: list[tuple[int, float, float, float]] = []
 
     def fenced(cfg: MissionConfig) -> MissionConfig:
@@ -39,8 +40,11 @@ async def test_setpoints_stay_inside_a_fence_that_cuts_the_orbits() -> None:
         fences.append(fence_from(safety, frame))
         return replace(cfg, safety=safety)
 
+    uploaded: dict[int, list[Any]] = {}
+
     async def watch(fleet: MockFleet, service: ConvoyService) -> None:
         while True:  # what the service sends, as it sends it
+            uploaded.update({s: v.fence for s, v in fleet.vehicles.items() if v.fence})
             await asyncio.sleep(0.005)
             for sysid, v in service.vehicles.items():
                 sp = v.last_setpoint
@@ -57,6 +61,15 @@ async def test_setpoints_stay_inside_a_fence_that_cuts_the_orbits() -> None:
     assert sum(report["safety"]["fence_clamps"].values()) > 0
     kinds = {a["kind"] for a in report["alarms"]}
     assert {"fence", "fence_plan"} <= kinds, kinds
+    # Each autopilot was given the fence too (mission protocol, fence items): it holds
+    # the four inclusion vertices.
+    uavs = [v["sysid"] for v in report["vehicles"]]
+    assert report["safety"]["fence_uploads"] == dict.fromkeys(
+        uavs, "geofence of 4 vertices uploaded"
+    )
+    for s in uavs:
+        assert [item.command for item in uploaded[s]] == [5001] * 4
+        assert all(item.param1 == 4.0 for item in uploaded[s])
     # Side by side on the mock's runway row, the planes climb out close together: the
     # monitor sees it; once they protect, their altitude layers keep them apart.
     start = report["protect_start_s"]
