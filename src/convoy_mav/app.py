@@ -412,7 +412,7 @@ class ConvoyService:
             and not self.paused
             and (
                 _is_stream_loss_failsafe(vehicle.last_statustext)
-                or event.t - vehicle.recovered_t < _OWN_FAILSAFE_S
+                or event.t - max(vehicle.recovered_t, vehicle.stream_resumed_t) < _OWN_FAILSAFE_S
             )
         ):
             # Our own setpoint stream hiccupped (a stalled host, a lossy link, a link

@@ -318,6 +318,7 @@ async def run_demo(
     during: Callable[[MockFleet, ConvoyService], Coroutine[Any, Any, None]] | None = None,
     route_known: bool = False,
     signing_key_file: str | None = None,
+    faults: dict[str, Any] | None = None,
 ) -> DemoResult:
     """Start the mock, fly ``duration`` mission seconds, score from ground truth.
 
@@ -340,9 +341,12 @@ async def run_demo(
             timing) as the convoy's route.
         signing_key_file: MAVLink 2 signing: the mock's aircraft and the service's
             links sign with the key in this file (hex or a passphrase).
+        faults: The mock's ``[faults]`` table (loss, latency, reboots...), ``kill`` added.
     """
     count = uavs or scenario.fleet()
-    faults = {"kill": [f"{kill[0]}@{kill[1]}"]} if kill else None
+    faults = dict(faults or {})
+    if kill:
+        faults["kill"] = [*faults.get("kill", []), f"{kill[0]}@{kill[1]}"]
     mock = config_from_mapping(
         mock_mapping(
             scenario,
@@ -351,7 +355,7 @@ async def run_demo(
             duration=duration,
             personality=personality,
             frame=frame,
-            faults=faults,
+            faults=faults or None,
             signing_key=None if signing_key_file is None else _key_text(signing_key_file),
         )
     )

@@ -102,6 +102,7 @@ _PARAM_TOL = 0.05  # a PARAM_VALUE this close to what was set confirms it
 _HOME_WAIT = 60.0  # mission s after the fix that set-up waits for HOME_POSITION at most
 _STREAM_RETRY = 5.0  # mission s between stream requests while no position arrives
 _FED_LOOK = 0.5  # mission s between looks at a fed stream (PX4's COM_OF_LOSS_T: 1 s)
+_STREAM_GAP_S = 0.5  # mission s without a setpoint that an autopilot may take for a loss
 _JUMP_SLACK_M = 50.0  # m a fix may land past max_speed x the time since the last (GPS glitches)
 _JUMP_CONFIRM = 5  # agreeing fixes in a row that make a jump the vehicle's own (an estimator reset)
 _REJECT_WARN_EVERY = 10.0  # mission s between two warnings of rejected frames of one kind
@@ -258,6 +259,7 @@ class Vehicle:
         self.counters: Counter[str] = Counter()
         self.received = 0  # messages from the autopilot (the telemetry budget)
         self.recovered_t = -math.inf  # mission time it was last heard again after LOST
+        self.stream_resumed_t = -math.inf  # mission time our setpoints resumed after a gap
         self.first_heard_t: float | None = None
         self._statustext_t = -math.inf
         self._fix_t: float | None = None  # mission time a fix was first seen
@@ -527,6 +529,8 @@ class Vehicle:
             self.counters["setpoints_dropped"] += 1
             return
         now = self.clock.now()
+        if math.isfinite(self._last_sp_t) and now - self._last_sp_t > _STREAM_GAP_S:
+            self.stream_resumed_t = now  # (a gap: the autopilot may have failed safe meanwhile)
         for msg in ap.setpoint_messages(sp, now, self.position):
             self._send(msg)
         self._last_sp, self._last_sp_t = sp, now

@@ -1,0 +1,161 @@
+"""The fault soak (a benchmark, not a test): an hour of mission through every fault at once.
+
+    .venv/bin/python benchmarks/soak.py [--duration 3600] [--speedup 40] [--json out/soak.json]
+
+Against ``sitl_mock`` (PX4 planes, the moving convoy) and a real mosquitto: 30 % packet
+loss both ways and 200 ms latency on every link, one autopilot rebooted, the broker
+killed and restarted twice, and floods of 100 000 random and 100 000 valid-but-foreign
+MAVLink datagrams at the service's ports and 10 000 absurd MQTT inputs. Prints, and
+writes with ``--json``: coverage (the mock's truth, the service's monitor and its
+prediction), UAVs lost and back, alarms by kind, what was dropped and counted, and the
+process's resident memory after set-up and at the end (it must stay flat).
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import json
+import os
+import random
+import socket
+import sys
+import tempfile
+from collections import Counter
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import aiomqtt
+from pymavlink.dialects.v20 import common as mavlink
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # (tests.broker)
+
+from convoy_mav.app import ConvoyService
+from convoy_mav.config import MissionConfig, MqttConfig
+from convoy_mav.demo import SCENARIOS, run_demo
+from convoy_mav.mavlink.codec import MavCodec
+from sitl_mock import MockFleet
+from tests.broker import Broker, find_mosquitto
+
+PREFIX = "soak"
+_ABSURD = (
+    '{"north": 1e308, "east": 0}',
+    '{"north": 0, "east": 0, "t": 1e12}',
+    "garbage",
+    '{"command": "self-destruct"}',
+)
+
+
+def _rss_mib() -> float:
+    with open("/proc/self/statm") as fh:
+        return int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / (1 << 20)
+
+
+def _flood(ports: list[int], random_n: int, foreign_n: int) -> None:
+    """Random bytes, then well-formed frames from a stranger, at every port."""
+    rng = random.Random(7)
+    stranger = MavCodec(77, 1)
+    frame = stranger.pack(
+        mavlink.MAVLink_heartbeat_message(
+            mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0, 3
+        )
+    )
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        for k in range(random_n):
+            s.sendto(rng.randbytes(rng.randint(1, 280)), ("127.0.0.1", ports[k % len(ports)]))
+        for k in range(foreign_n):
+            s.sendto(frame, ("127.0.0.1", ports[k % len(ports)]))
+
+
+async def soak(duration: float, speedup: float) -> dict[str, Any]:
+    executable = find_mosquitto()
+    if executable is None:
+        raise SystemExit("needs mosquitto: make broker")
+    workdir = Path(tempfile.mkdtemp(prefix="convoy-soak-"))
+    broker = Broker(executable, workdir)
+    broker.start()
+    faults_done: list[str] = []
+    memory: dict[str, float] = {}
+
+    def configure(cfg: MissionConfig) -> MissionConfig:
+        return replace(cfg, mqtt=MqttConfig(broker.host, broker.port, PREFIX))
+
+    async def script(fleet: MockFleet, service: ConvoyService) -> None:
+        while service.monitor.protect_start is None:
+            await asyncio.sleep(0.05)
+        memory["after_setup_mib"] = _rss_mib()
+        plan = [(0.25, "flood"), (0.4, "broker"), (0.7, "broker"), (0.8, "mqtt")]
+        start = fleet.now
+        for at, fault in plan:
+            while fleet.now < start + at * (duration - start):
+                await asyncio.sleep(0.05)
+            if fault == "flood":
+                ports = [
+                    a[1]
+                    for v in service.vehicles.values()
+                    if (a := v.link.local_address)  # type: ignore[attr-defined]
+                ]
+                await asyncio.to_thread(_flood, ports, 100_000, 100_000)
+                faults_done.append(f"t={fleet.now:.0f}: 100k random + 100k foreign datagrams")
+            elif fault == "broker":
+                await asyncio.to_thread(broker.kill)
+                await asyncio.sleep(1.0)
+                await asyncio.to_thread(broker.restart)
+                faults_done.append(f"t={fleet.now:.0f}: broker killed, restarted 1 s later")
+            else:
+                async with aiomqtt.Client(broker.host, broker.port) as c:
+                    for k in range(10_000):
+                        payload = _ABSURD[k % 4]
+                        topic = "command" if k % 4 == 3 else "convoy/position"
+                        await c.publish(f"{PREFIX}/{topic}", payload)
+                faults_done.append(f"t={fleet.now:.0f}: 10k absurd MQTT inputs")
+
+    faults = {"loss_to_vehicle": 0.3, "loss_from_vehicle": 0.3, "latency": 0.2,
+              "reboot": [f"1@{0.55 * duration:.0f}"], "seed": 3}  # fmt: skip
+    try:
+        result = await run_demo(
+            SCENARIOS["moving"], duration=duration, speedup=speedup, configure=configure,
+            during=script, faults=faults,
+        )  # fmt: skip
+    finally:
+        broker.stop()
+    memory["end_mib"] = _rss_mib()
+    report = result.report.to_dict()
+    truth = result.truth
+    events = report["events"]
+    return {
+        "duration_s": duration,
+        "speedup": speedup,
+        "faults": [
+            "30 % loss each way, 200 ms latency, every link",
+            f"UAV 1 rebooted at t={0.55 * duration:.0f}",
+            *faults_done,
+        ],
+        "coverage_truth": None if truth is None else round(truth.fraction, 4),
+        "coverage_monitor": report["coverage_fraction"],
+        "predicted": report["predicted_coverage"],
+        "longest_gap_truth_s": None if truth is None else round(truth.longest_gap_s, 1),
+        "uavs_lost": sum("declared lost" in e or " lost" in e for e in events),
+        "alarms": dict(Counter(a["kind"] for a in report["alarms"] if a["active"])),
+        "rejected": report["rejected"],
+        "vehicles_rejected": {v["sysid"]: v["rejected"] for v in report["vehicles"]},
+        "memory_mib": {k: round(v, 1) for k, v in memory.items()},
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--duration", type=float, default=3600.0)
+    parser.add_argument("--speedup", type=float, default=40.0)
+    parser.add_argument("--json", metavar="FILE")
+    args = parser.parse_args()
+    out = asyncio.run(soak(args.duration, args.speedup))
+    text = json.dumps(out, indent=2)
+    print(text)
+    if args.json:
+        Path(args.json).write_text(text)
+
+
+if __name__ == "__main__":
+    main()
