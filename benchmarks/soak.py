@@ -76,6 +76,7 @@ async def soak(duration: float, speedup: float) -> dict[str, Any]:
     broker = Broker(executable, workdir)
     broker.start()
     faults_done: list[str] = []
+    fleets: list[MockFleet] = []
     memory: dict[str, float] = {}
 
     def configure(cfg: MissionConfig) -> MissionConfig:
@@ -85,6 +86,7 @@ async def soak(duration: float, speedup: float) -> dict[str, Any]:
         while service.monitor.protect_start is None:
             await asyncio.sleep(0.05)
         memory["after_setup_mib"] = _rss_mib()
+        fleets.append(fleet)
         plan = [(0.25, "flood"), (0.4, "broker"), (0.7, "broker"), (0.8, "mqtt")]
         start = fleet.now
         for at, fault in plan:
@@ -141,6 +143,9 @@ async def soak(duration: float, speedup: float) -> dict[str, Any]:
         "rejected": report["rejected"],
         "vehicles_rejected": {v["sysid"]: v["rejected"] for v in report["vehicles"]},
         "memory_mib": {k: round(v, 1) for k, v in memory.items()},
+        # (the mock's ground-truth rows, kept in this process to score the run, grow with
+        # the mission; the service's own records are bounded)
+        "truth_rows": len(fleets[0].history.rows) if fleets and fleets[0].history else None,
     }
 
 

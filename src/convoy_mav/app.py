@@ -80,6 +80,7 @@ _MAX_SPEED_FACTOR = 2.5  # a UAV fix implying more than this x its airspeed is n
 _MAX_SPEED_FLOOR = 30.0  # m/s: ... nor more than this, whatever the airspeed (wind, a dive)
 _FIX_WINDOW_S = (30.0, 2.0)  # mission s an external fix may be stamped before / after now
 _OWN_FAILSAFE_S = 10.0  # mission s after a link is back in which a hold is our stream's doing
+_TAKEN_CONFIRM_S = 3.0  # mission s a mode change must stand (no reboot) to be a pilot's
 _STALL_TICKS = 3  # a control tick this many periods late is a stall of the host
 _FENCE_LOOK_STEPS = 60  # a new plan's paths are checked against the fence this many steps
 _FENCE_LOOK_DT = 2.0  # mission s apart (two minutes ahead)
@@ -282,6 +283,7 @@ class ConvoyService:
         self._tlog_path: str | None = None
         self._foreign_sysid: dict[int, int] = {}  # frames of another sysid, per link owner
         self._taken: set[int] = set()  # UAVs a pilot or another GCS took (mode changed)
+        self._taken_pending: dict[int, tuple[float, int, str]] = {}  # (t, reboots, message)
         self._foreign_claims: dict[int, int] = {}  # ... claiming another vehicle's sysid
         self._foreign_seen: dict[int, int] = {}  # strangers at a link: last alarmed totals
         self._altitudes = {
@@ -423,20 +425,29 @@ class ConvoyService:
             # The vehicle reports the mode change before it marks itself HOLDING:
             # resume on the next turn of the loop, once it has.
             asyncio.get_running_loop().call_soon(vehicle.resume)
-        elif event.kind == EventKind.MODE and not self.paused:
-            # A pilot or another ground station took the UAV: respected, alarmed, and
-            # the others re-phase around it until the operator resumes it.
-            self._taken.add(event.sysid)
-            self._alarm(
-                Alarm(event.t, "uav_taken", True, f"{event.message}; the others re-phase"),
-                event.sysid,
-            )
+        elif event.kind == EventKind.MODE and not self.paused and vehicle is not None:
+            # A pilot or another ground station took the UAV -- unless it turns out, in a
+            # moment, to have rebooted (its mode changes before the reboot is confirmed).
+            self._taken_pending[event.sysid] = (event.t, vehicle.counters["reboots"], event.message)
         if event.kind is EventKind.REJECTED:
             self._alarm(Alarm(event.t, "telemetry_rejected", True, event.message), event.sysid)
         if event.kind in (EventKind.LOST, EventKind.FAILED, EventKind.RECOVERED):
             active = event.kind != EventKind.RECOVERED
             kind = "uav_lost" if event.kind == EventKind.RECOVERED else f"uav_{event.kind}"
             self._alarm(Alarm(event.t, kind, active, event.message), event.sysid)
+
+    def _check_taken(self, t: float) -> None:
+        """A mode change not ours, still in force ``_TAKEN_CONFIRM_S`` later and no reboot
+        meanwhile: the UAV was taken. Respected, alarmed; the others re-phase around it
+        until the operator resumes it."""
+        for sysid, (since, reboots, message) in list(self._taken_pending.items()):
+            if t - since < _TAKEN_CONFIRM_S:
+                continue
+            del self._taken_pending[sysid]
+            v = self.vehicles[sysid]
+            if v.status is VehicleStatus.HOLDING and v.counters["reboots"] == reboots:
+                self._taken.add(sysid)
+                self._alarm(Alarm(t, "uav_taken", True, f"{message}; the others re-phase"), sysid)
 
     def _check_plan_fence(self, t: float, view: MissionView) -> None:
         """A plan whose paths leave the fence in the next two minutes is alarmed, naming the
@@ -811,6 +822,7 @@ class ConvoyService:
             self.monitor.predicted_coverage = view.predicted_coverage or 1.0
             self._note(f"protect phase begins at t={view.protect_start:.1f}")
         self._check_airframes(t)
+        self._check_taken(t)
         self._check_safety(t, est)
         telemetry = self._counted_telemetry(t)
         for alarm in self.monitor.update(t, est, telemetry):

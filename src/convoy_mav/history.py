@@ -1,7 +1,8 @@
 """A decimated record of a mission, for reports and plots.
 
-Pure: the app appends a sample at most every ``interval`` mission seconds;
-memory stays bounded for long runs (a 2-hour mission at 2 Hz is 14 400 rows).
+Pure: the app appends a sample at most every ``interval`` mission seconds. Memory
+is bounded whatever the run's length: past ``max_samples`` every other sample is
+dropped and the interval doubled, so a day's mission keeps the whole day, coarser.
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ class History:
     """Samples at most every ``interval`` seconds of mission time."""
 
     interval: float = 0.5
+    max_samples: int = 20_000
     samples: list[HistorySample] = field(default_factory=list)
 
     def record(
@@ -42,3 +44,6 @@ class History:
         if self.samples and t - self.samples[-1].t < self.interval:
             return
         self.samples.append(HistorySample(t, convoy, dict(uavs), covered, protecting))
+        if len(self.samples) > self.max_samples:
+            self.samples = self.samples[::2]
+            self.interval *= 2.0

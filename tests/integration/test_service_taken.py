@@ -8,6 +8,7 @@ operator resumes it. Against ``sitl_mock`` over real UDP, scored from its ground
 from __future__ import annotations
 
 import asyncio
+from typing import Any
 
 import pytest
 from pymavlink import mavutil
@@ -29,7 +30,7 @@ PX4_AUTO, PX4_LOITER = 4, 3  # main and sub mode of AUTO.LOITER
 async def test_a_uav_taken_by_another_station_is_alarmed_rephased_and_resumed() -> None:
     scenario = SCENARIOS["stationary"]
     uavs = scenario.fleet() + 1
-    marks: dict[str, object] = {}
+    marks: dict[str, Any] = {}
 
     async def stranger(fleet: MockFleet, service: ConvoyService) -> None:
         while service.monitor.protect_start is None or fleet.now < TAKE_AT:
@@ -60,8 +61,8 @@ async def test_a_uav_taken_by_another_station_is_alarmed_rephased_and_resumed() 
     report = result.report.to_dict()
     taken = [a for a in report["alarms"] if a["kind"] == "uav_taken"]
     assert [a["active"] for a in taken] == [True, False], taken
-    assert "uav_taken:2" in marks["alarms"]  # type: ignore[operator]
-    assert float(marks["rephased_at"]) - TAKE_AT < 5.0  # type: ignore[arg-type]
+    assert "uav_taken:2" in marks["alarms"]
+    assert marks["rephased_at"] - TAKE_AT < 10.0  # (3 s to tell it from a reboot)
     assert "rejoined_at" in marks
     assert any(r["reason"] == "uav_lost" for r in report["replans"])
     # The others went on covering the convoy (a spare UAV; each re-phase costs a

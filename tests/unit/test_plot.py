@@ -35,3 +35,13 @@ def test_plot_writes_png(tmp_path: Path) -> None:
 def test_plot_refuses_empty_history(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="nothing to plot"):
         plot_mission(History(), tmp_path / "x.png", sensor_radius=1.0)
+
+
+def test_history_stays_bounded_however_long_the_run() -> None:
+    h = History(interval=0.5, max_samples=1000)
+    for k in range(200_000):  # a day of mission at 2 Hz, and more
+        h.record(0.5 * k, (0.0, 0.0), {1: (1.0, 2.0)}, True, True)
+    assert len(h.samples) <= 1000
+    assert h.samples[0].t == 0.0 and h.samples[-1].t > 0.5 * 200_000 - 2 * h.interval
+    gaps = {round(b.t - a.t, 6) for a, b in zip(h.samples, h.samples[1:], strict=False)}
+    assert len(gaps) <= 2  # (evenly spaced: one step, the newest ones at the next finer)
