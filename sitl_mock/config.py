@@ -59,7 +59,6 @@ Schema (every key optional)::
 
 from __future__ import annotations
 
-import hashlib
 import math
 import os
 import tomllib
@@ -69,6 +68,7 @@ from typing import Any
 
 from convoy_mav.errors import ConfigError
 from convoy_mav.geo import GeoPoint, LocalFrame
+from convoy_mav.mavlink.signing import key_from_text
 from convoy_mav.tracks import GeoTrack
 from sitl_mock.autopilot import Personality, VehicleSpec
 from sitl_mock.faults import FaultSpec, TimedFault
@@ -509,10 +509,7 @@ def _signing_key(table: _Table) -> bytes | None:
     text = table.get("signing_key")
     if not isinstance(text, str) or not text.strip():
         raise ConfigError(table.key("signing_key"), "***", "must be hex digits or a passphrase")
-    text = text.strip()
-    if len(text) == 64 and all(c in "0123456789abcdefABCDEF" for c in text):
-        return bytes.fromhex(text)
-    return hashlib.sha256(text.encode("utf-8")).digest()
+    return key_from_text(text)
 
 
 def _personality(table: _Table, name: str, default: str) -> Personality:

@@ -33,7 +33,6 @@ import dataclasses
 import logging
 import math
 import random
-import time
 from collections import Counter
 from collections.abc import Mapping, Sequence
 from contextlib import AsyncExitStack
@@ -45,6 +44,7 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from convoy_mav.errors import ConfigError
 from convoy_mav.geo import LocalFrame
+from convoy_mav.mavlink.signing import timestamp_now
 from sitl_mock.autopilot import SimVehicle, TruthRow
 from sitl_mock.clock import SimClock
 from sitl_mock.config import MockConfig
@@ -142,11 +142,6 @@ class _Outbox:
         self.frames.append(bytes(buf))
 
 
-def _signing_now() -> int:
-    """MAVLink signing time now: 10 us units since 2015-01-01 UTC."""
-    return int((time.time() - 1_420_070_400.0) * 100_000)
-
-
 class VehicleLink(asyncio.DatagramProtocol):
     """One vehicle's socket: peers, codec, faults and counters.
 
@@ -178,7 +173,7 @@ class VehicleLink(asyncio.DatagramProtocol):
         if self.signing_key is not None:
             signing = encoder.signing
             signing.secret_key, signing.sign_outgoing = self.signing_key, True
-            signing.timestamp = max(_signing_now(), self._sign_ts + 1)
+            signing.timestamp = max(timestamp_now(), self._sign_ts + 1)
         return encoder
 
     def _set_signing(self, key: bytes | None, timestamp: int) -> None:

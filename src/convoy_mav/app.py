@@ -256,7 +256,9 @@ class ConvoyService:
         )
         self.tracker = ConvoyTracker(stale_after=config.convoy.stale_after_s, window=4.0)
         self.fence = fence_from(config.safety, self.frame)
-        self._fence_clamps: dict[int, int] = {}  # setpoints moved inside the fence, per UAV
+        self._fence_clamps: Counter[int] = Counter()  # setpoints moved inside the fence, per UAV
+        craft = config.plan_aircraft  # (once: the setpoint path runs 20 times a second a UAV)
+        self._turn_radius, self._airspeed = craft.turn_radius_m, craft.airspeed_mps
         self._fence_seen = 0  # clamps already alarmed
         self._convoy_out = False  # the convoy is outside the fence
         self._conflicts: set[tuple[int, int]] = set()  # pairs below the separation minima
@@ -281,10 +283,10 @@ class ConvoyService:
         self._ground_rejected = 0  # ground fixes dropped: a clock ahead of its own
         self._fixes_rejected = 0  # external fixes dropped: stamped far from mission time
         self._tlog_path: str | None = None
-        self._foreign_sysid: dict[int, int] = {}  # frames of another sysid, per link owner
+        self._foreign_sysid: Counter[int] = Counter()  # frames of another sysid, per link owner
         self._taken: set[int] = set()  # UAVs a pilot or another GCS took (mode changed)
         self._taken_pending: dict[int, tuple[float, int, str]] = {}  # (t, reboots, message)
-        self._foreign_claims: dict[int, int] = {}  # ... claiming another vehicle's sysid
+        self._foreign_claims: Counter[int] = Counter()  # ... claiming another vehicle's sysid
         self._foreign_seen: dict[int, int] = {}  # strangers at a link: last alarmed totals
         self._altitudes = {
             uav.sysid: uav.aircraft.altitude_m + i * config.altitude_step_m
@@ -344,9 +346,9 @@ class ConvoyService:
         """
         sysid = msg.get_srcSystem()
         if sysid != owner:
-            self._foreign_sysid[owner] = self._foreign_sysid.get(owner, 0) + 1
+            self._foreign_sysid[owner] += 1
             if sysid in self.vehicles or sysid in self._ground_ids:  # a spoof, not a GCS
-                self._foreign_claims[owner] = self._foreign_claims.get(owner, 0) + 1
+                self._foreign_claims[owner] += 1
             return
         vehicle = self.vehicles.get(sysid)
         if vehicle is not None:
@@ -513,7 +515,7 @@ class ConvoyService:
         claim another vehicle's system id (a GCS's own heartbeats are only counted)."""
         for sysid, vehicle in self.vehicles.items():
             refused = _link_rejections(vehicle.link)
-            claims = self._foreign_claims.get(sysid, 0)
+            claims = self._foreign_claims[sysid]
             total = sum(refused.values()) + claims
             if total > self._foreign_seen.get(sysid, 0):
                 self._foreign_seen[sysid] = total
@@ -546,7 +548,7 @@ class ConvoyService:
         if (
             until is not None
             and until[0] <= t <= until[1]
-            and sp.radius <= 2.0 * self.config.plan_aircraft.turn_radius_m
+            and sp.radius <= 2.0 * self._turn_radius
             and fence.altitude_allows(sp)
         ):
             return sp  # (well inside: it cannot have reached an edge since it was measured)
@@ -555,13 +557,11 @@ class ConvoyService:
             # Setpoints move at most the plan's speed (+15 %, twice for margin), and a loiter
             # centre lies within an arc's radius (at most 2R) of its point: until the edge
             # is that far, the next setpoints need no look at the fence's edges.
-            craft = self.config.plan_aircraft
-            room = fence.clearance(sp.north, sp.east) - 4.0 * craft.turn_radius_m - fence.margin_m
-            speed = 2.0 * craft.airspeed_mps
+            room = fence.clearance(sp.north, sp.east) - 4.0 * self._turn_radius - fence.margin_m
             if room > 0.0:
-                self._fence_clear_until[sysid] = (t, t + room / speed)
-        if safe is not sp:
-            self._fence_clamps[sysid] = self._fence_clamps.get(sysid, 0) + 1
+                self._fence_clear_until[sysid] = (t, t + room / (2.0 * self._airspeed))
+        else:
+            self._fence_clamps[sysid] += 1
         return safe
 
     # ------------------------------------------------------------------- loop
@@ -1205,7 +1205,7 @@ class ConvoyService:
             "rejected": {
                 **{k: v.counters[k] for k in ("clock_jump", "position_jump")},
                 **_link_rejections(v.link),
-                "other_sysid": self._foreign_sysid.get(sysid, 0),
+                "other_sysid": self._foreign_sysid[sysid],
             },
             # Setpoint stream health: the longest wait between two setpoints sent (mission
             # s), and its 99th percentile over the last 2048: the mission's planning runs

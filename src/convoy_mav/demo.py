@@ -270,13 +270,6 @@ def mock_mapping(
     return mapping
 
 
-def _key_text(path: str) -> str:
-    """The key file's text, for the mock (which reads it as the service does)."""
-    load_key("--signing-key-file", file=path)  # (the errors the service would give)
-    with open(path, encoding="utf-8") as fh:
-        return fh.readline().strip()
-
-
 def mission_for(
     scenario: Scenario, fleet: Any, *, tlog: str | None = None, signing_key_file: str | None = None
 ) -> MissionConfig:
@@ -356,7 +349,10 @@ async def run_demo(
             personality=personality,
             frame=frame,
             faults=faults or None,
-            signing_key=None if signing_key_file is None else _key_text(signing_key_file),
+            # (the mock takes the key as 64 hex digits: the very key the service reads)
+            signing_key=None
+            if signing_key_file is None
+            else load_key("--signing-key-file", file=signing_key_file).hex(),
         )
     )
     async with MockFleet(mock, record_truth=True) as fleet:

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 
 from convoy_mav.errors import ConfigError
 
-__all__ = ["KEY_BYTES", "Signing", "SigningState", "load_key", "timestamp_now"]
+__all__ = ["KEY_BYTES", "Signing", "SigningState", "key_from_text", "load_key", "timestamp_now"]
 
 log = logging.getLogger(__name__)
 
@@ -63,9 +63,14 @@ def load_key(key: str, *, file: str | None = None, env: str | None = None) -> by
                 text = fh.readline()
         except (OSError, UnicodeDecodeError) as exc:
             raise ConfigError(key, file, f"cannot be read ({type(exc).__name__})") from None
-    text = text.strip()
-    if not text:
+    if not text.strip():
         raise ConfigError(key, file or env, "holds no key")
+    return key_from_text(text)
+
+
+def key_from_text(text: str) -> bytes:
+    """64 hex digits are the key itself; anything else is a passphrase, hashed (SHA-256)."""
+    text = text.strip()
     if len(text) == 2 * KEY_BYTES and all(c in "0123456789abcdefABCDEF" for c in text):
         return bytes.fromhex(text)
     return hashlib.sha256(text.encode("utf-8")).digest()

@@ -69,16 +69,17 @@ class Roster:
 
     def _take_out(self, uav: int) -> bool:
         """Move a live UAV to the lost; False if it was not live."""
-        if uav not in self._live:
-            return False
-        self._live.remove(uav)
-        self._lost.append(uav)
-        return True
+        return _move(uav, self._live, self._lost)
 
     def _take_back(self, uav: int) -> bool:
         """Move a lost UAV back to the live; False if it was not lost."""
-        if uav not in self._lost:
-            return False
-        self._lost.remove(uav)
-        self._live.append(uav)
-        return True
+        return _move(uav, self._lost, self._live)
+
+
+def _move(uav: int, source: list[int], target: list[int]) -> bool:
+    """Move ``uav`` from ``source`` to the end of ``target``; False if it was not in ``source``."""
+    if uav not in source:
+        return False
+    source.remove(uav)
+    target.append(uav)
+    return True
