@@ -80,6 +80,7 @@ _MAX_SPEED_FACTOR = 2.5  # a UAV fix implying more than this x its airspeed is n
 _MAX_SPEED_FLOOR = 30.0  # m/s: ... nor more than this, whatever the airspeed (wind, a dive)
 _FIX_WINDOW_S = (30.0, 2.0)  # mission s an external fix may be stamped before / after now
 _OWN_FAILSAFE_S = 10.0  # mission s after a link is back in which a hold is our stream's doing
+_REFLY_FAILSAFE_S = 30.0  # mission s after flying again in which a hold is our outage's
 _TAKEN_CONFIRM_S = 3.0  # mission s a mode change must stand (no reboot) to be a pilot's
 _STALL_TICKS = 3  # a control tick this many periods late is a stall of the host
 _FENCE_LOOK_STEPS = 60  # a new plan's paths are checked against the fence this many steps
@@ -417,6 +418,9 @@ class ConvoyService:
             and (
                 _is_stream_loss_failsafe(vehicle.last_statustext)
                 or event.t - max(vehicle.recovered_t, vehicle.stream_resumed_t) < _OWN_FAILSAFE_S
+                # (a UAV set up again may report the hold of its outage late: the
+                # known loaded-host case of the fleet-pause test)
+                or event.t - vehicle.reflying_t < _REFLY_FAILSAFE_S
             )
         ):
             # Our own setpoint stream hiccupped (a stalled host, a lossy link, a link

@@ -180,18 +180,25 @@ class Fence:
         return self._fallback(n, e, along)
 
     def _fallback(self, n: float, e: float, along: Point | None) -> tuple[float, float, Point]:
-        """A tight corner the pushes did not settle in: the nearest inside point found on
-        rings around (n, e), growing to the fence's size (rare; a few milliseconds)."""
-        verts = [v for p in (self.inclusion, *self.exclusions) if p for v in p.vertices]
-        span = max((math.hypot(vn - n, ve - e) for vn, ve in verts), default=self.margin_m)
-        radius = max(self.margin_m, 1.0)
-        while radius <= 2.0 * span + self.margin_m:
-            for k in range(32):
-                a = 2.0 * math.pi * k / 32
-                cn, ce = n + radius * math.cos(a), e + radius * math.sin(a)
-                if self.contains(cn, ce, self.margin_m):
-                    return cn, ce, along or (1.0, 0.0)
-            radius *= 1.25
+        """A tight corner or a thin part the pushes did not settle in: the nearest of the
+        points just inside every edge (a tenth of the way along it, and so on), pushed
+        across it by one and by two margins (rare; about a millisecond)."""
+        margin = self.margin_m
+        candidates: list[Point] = []
+        for poly, inward in ((self.inclusion, True), *((x, False) for x in self.exclusions)):
+            if poly is None:
+                continue
+            for (n1, e1), (n2, e2) in poly.edges():
+                length = math.hypot(n2 - n1, e2 - e1) or 1.0
+                edge = ((n2 - n1) / length, (e2 - e1) / length)
+                for k in range(1, 20):
+                    pn, pe = n1 + (n2 - n1) * k / 20.0, e1 + (e2 - e1) * k / 20.0
+                    for depth in (margin, 2.0 * margin + 1.0):
+                        candidates.append(_step_in(poly, pn, pe, edge, depth, inward=inward))
+        candidates.sort(key=lambda c: math.hypot(c[0] - n, c[1] - e))
+        for cn, ce in candidates:
+            if self.contains(cn, ce, margin):
+                return cn, ce, along or (1.0, 0.0)
         raise ValueError("the fence has no room inside its margin")
 
 

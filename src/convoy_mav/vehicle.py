@@ -102,7 +102,7 @@ _PARAM_TOL = 0.05  # a PARAM_VALUE this close to what was set confirms it
 _HOME_WAIT = 60.0  # mission s after the fix that set-up waits for HOME_POSITION at most
 _STREAM_RETRY = 5.0  # mission s between stream requests while no position arrives
 _FED_LOOK = 0.5  # mission s between looks at a fed stream (PX4's COM_OF_LOSS_T: 1 s)
-_STREAM_GAP_S = 0.5  # mission s without a setpoint that an autopilot may take for a loss
+_STREAM_GAP_S = 1.0  # mission s without a setpoint an autopilot may take for a loss (PX4's default)
 _JUMP_SLACK_M = 50.0  # m a fix may land past max_speed x the time since the last (GPS glitches)
 _JUMP_CONFIRM = 5  # agreeing fixes in a row that make a jump the vehicle's own (an estimator reset)
 _REJECT_WARN_EVERY = 10.0  # mission s between two warnings of rejected frames of one kind
@@ -260,6 +260,8 @@ class Vehicle:
         self.received = 0  # messages from the autopilot (the telemetry budget)
         self.recovered_t = -math.inf  # mission time it was last heard again after LOST
         self.stream_resumed_t = -math.inf  # mission time our setpoints resumed after a gap
+        self.reflying_t = -math.inf  # mission time it flew again after a new set-up
+        self._flown = False
         self.first_heard_t: float | None = None
         self._statustext_t = -math.inf
         self._fix_t: float | None = None  # mission time a fix was first seen
@@ -574,6 +576,10 @@ class Vehicle:
 
     def _set_status(self, status: VehicleStatus) -> None:
         if status is not self.status:
+            if status is _S.FLYING:
+                if self._flown:  # (set up again: a hold of its own may still be reported)
+                    self.reflying_t = self.clock.now()
+                self._flown = True
             self.status = status
             self._emit(EventKind.STATUS, str(status))
 
