@@ -37,7 +37,7 @@ from convoy_mav.clock import MissionClock, Observed
 from convoy_mav.config import MissionConfig, UavConfig
 from convoy_mav.convoy import ConvoyTracker
 from convoy_mav.errors import ConfigError, PlanningError
-from convoy_mav.fence import fence_from, fence_items
+from convoy_mav.fence import Fence, fence_from, fence_items, join_orbit, orbit_setpoint
 from convoy_mav.gcpolicy import collect_on_schedule, flight_gc
 from convoy_mav.geo import GeoPoint, LocalFrame
 from convoy_mav.history import History
@@ -262,6 +262,8 @@ class ConvoyService:
         self._turn_radius, self._airspeed = craft.turn_radius_m, craft.airspeed_mps
         self._fence_seen = 0  # clamps already alarmed
         self._convoy_out = False  # the convoy is outside the fence
+        self._hold: tuple[float, float] | None = None  # centre of the hold meanwhile
+        self._hold_orbits: dict[int, tuple[float, bool]] = {}  # (phase, clockwise) per UAV
         self._conflicts: set[tuple[int, int]] = set()  # pairs below the separation minima
         self._conflict_count = 0
         self._closest_m: float | None = None  # least horizontal separation in a conflict
@@ -308,7 +310,10 @@ class ConvoyService:
         self._planner_why = why
         self._new_route: Road | None = None  # from MQTT, for the next mission step
         # The mission step running in its worker thread, if one is.
-        self._mission_job: asyncio.Future[tuple[list[Any], MissionView]] | None = None
+        self._mission_job: (
+            asyncio.Future[tuple[list[Any], MissionView, list[tuple[int, Setpoint]]]] | None
+        ) = None
+        self._next_fence_look = -math.inf  # (the worker's: when it next looks along the plan)
         self._planner_note = f"planner: {self.planner} ({why})"
         # What the streamer and the monitor read: swapped after each mission step.
         self.view = MissionView()
@@ -455,26 +460,35 @@ class ConvoyService:
                 self._taken.add(sysid)
                 self._alarm(Alarm(t, "uav_taken", True, f"{message}; the others re-phase"), sysid)
 
-    def _check_plan_fence(self, t: float, view: MissionView) -> None:
-        """A plan whose paths leave the fence in the next two minutes is alarmed, naming the
-        UAV and the point, once per UAV (the streamer keeps every setpoint inside anyway)."""
+    def _plan_leaves_fence(
+        self, t: float, view: MissionView, skip: set[int]
+    ) -> list[tuple[int, Setpoint]]:
+        """Where the plan's paths leave the fence in the next two minutes: a setpoint per
+        UAV (those in ``skip`` already alarmed). Runs in the mission's worker thread."""
         fence = self.fence
-        if fence is None:
-            return
-        for sysid in self.vehicles:
-            if f"fence_plan:{sysid}" in self._vehicle_alarms:
-                continue  # (raised once, until the UAV's alarms clear)
+        if fence is None or t < self._next_fence_look:
+            return []
+        self._next_fence_look = t + self._progress_every
+        found = []
+        for sysid in self.vehicles.keys() - skip:
             for k in range(_FENCE_LOOK_STEPS):
                 sp = view.setpoint(sysid, t + k * _FENCE_LOOK_DT)
                 if sp is not None and not fence.allows(sp):
-                    p = self.frame.to_geo(sp.north, sp.east, sp.down)
-                    self._alarm(
-                        Alarm(t, "fence_plan", True, f"UAV {sysid}'s plan leaves the fence at "
-                              f"{p.lat:.6f}, {p.lon:.6f}, {-sp.down:.0f} m (t={sp.t:.0f} s): "
-                              "flown clamped inside it"),
-                        sysid,
-                    )  # fmt: skip
+                    found.append((sysid, sp))
                     break
+        return found
+
+    def _alarm_plan_fence(self, t: float, found: list[tuple[int, Setpoint]]) -> None:
+        """A plan that leaves the fence is alarmed, naming the UAV and the point, once per
+        UAV until its alarms clear (the streamer keeps every setpoint inside anyway)."""
+        for sysid, sp in found:
+            p = self.frame.to_geo(sp.north, sp.east, sp.down)
+            self._alarm(
+                Alarm(t, "fence_plan", True, f"UAV {sysid}'s plan leaves the fence at "
+                      f"{p.lat:.6f}, {p.lon:.6f}, {-sp.down:.0f} m (t={sp.t:.0f} s): "
+                      "flown clamped inside it"),
+                sysid,
+            )  # fmt: skip
 
     def _check_safety(self, t: float, est: ConvoyEstimate | None) -> None:
         """Fence (the convoy outside it, setpoints clamped) and separation alarms."""
@@ -485,15 +499,7 @@ class ConvoyService:
                 self._fence_seen, self._fence_alarm_t = clamps, t
                 self._alarm(Alarm(t, "fence", True, f"{clamps} setpoints clamped inside the fence"))
             if est is not None and not est.stale:
-                out = not fence.contains(est.north, est.east)
-                if out != self._convoy_out:
-                    self._convoy_out = out
-                    text = (
-                        "convoy left the fence: the UAVs fly its edge"
-                        if out
-                        else "convoy back inside the fence"
-                    )
-                    self._alarm(Alarm(t, "convoy_outside_fence", out, text))
+                self._check_convoy_in_fence(t, fence, est)
         safety = self.config.safety
         positions = {
             s: (tel.north, tel.east, tel.down)
@@ -513,6 +519,53 @@ class ConvoyService:
         if self._conflicts and not now:
             self._alarm(Alarm(t, "separation", False, "separation restored"))
         self._conflicts = now
+
+    def _check_convoy_in_fence(self, t: float, fence: Fence, est: ConvoyEstimate) -> None:
+        """A convoy outside the fence is not followed out: the UAVs hold inside, on one
+        circle of the turn radius nearest it (moved when the convoy has gone 2 R along),
+        until the convoy is back ``fence_margin_m`` inside."""
+        n, e = est.north, est.east
+        out = not fence.contains(n, e, fence.margin_m if self._convoy_out else 0.0)
+        if out:
+            radius = self._turn_radius
+            try:
+                center = fence.hold_center(n, e, radius)
+            except ValueError:  # (no room for a loiter circle: setpoints are clamped)
+                center = None
+            hold = self._hold
+            if center is None or hold is None or math.dist(center, hold) > 2.0 * radius:
+                self._place_hold(t, center)
+        else:
+            self._place_hold(t, None)
+        if out == self._convoy_out:
+            return
+        self._convoy_out = out
+        if not out:
+            text = "convoy back inside the fence: the UAVs fly the plan again"
+        elif self._hold is None:
+            text = "convoy left the fence, which has no room for a hold: flown clamped"
+        else:
+            p = self.frame.to_geo(*self._hold, 0.0)
+            text = f"convoy left the fence: the UAVs hold inside it at {p.lat:.6f}, {p.lon:.6f}"
+        self._alarm(Alarm(t, "convoy_outside_fence", out, text))
+
+    def _place_hold(self, t: float, center: tuple[float, float] | None) -> None:
+        """Each UAV joins the hold circle turning its own way, from abeam of where it is
+        (no race round the circle for a slot; the altitude layers keep them apart)."""
+        self._hold = center
+        self._hold_orbits.clear()
+        if center is None:
+            return
+        for sysid, v in self.vehicles.items():
+            tel = v.telemetry
+            self._hold_orbits[sysid] = (
+                (0.0, True)
+                if tel is None
+                else join_orbit(
+                    t, center, self._turn_radius, self._airspeed,
+                    (tel.north, tel.east), (tel.vn, tel.ve),
+                )
+            )  # fmt: skip
 
     def _check_links(self, t: float) -> None:
         """Alarm on strangers at a UAV's link: a second peer refused, or frames that
@@ -548,6 +601,12 @@ class ConvoyService:
         fence = self.fence
         if sp is None or fence is None:
             return sp
+        hold = self._hold
+        if hold is not None:  # (the convoy is outside the fence)
+            phase, clockwise = self._hold_orbits.get(sysid, (0.0, True))
+            sp = orbit_setpoint(
+                t, hold, self._turn_radius, self._airspeed, phase, sp.down, clockwise=clockwise
+            )
         until = self._fence_clear_until.get(sysid)
         if (
             until is not None
@@ -777,7 +836,6 @@ class ConvoyService:
                 next_progress = t + self._progress_every
                 self._progress(t)
                 self._check_links(t)
-                self._check_plan_fence(t, self.view)
             await self.clock.sleep_until(t + self._control_dt)
 
     async def _control_step(self, t: float) -> None:
@@ -796,9 +854,10 @@ class ConvoyService:
         job = self._mission_job
         if job is not None and job.done():
             self._mission_job = None
-            events, self.view = job.result()
+            events, self.view, off_fence = job.result()
             for ev in events:
                 self._mission_event(ev)
+            self._alarm_plan_fence(t, off_fence)
         if self._mission_job is None:
             view = self.view
             lost = self._newly_lost(t, view)
@@ -813,8 +872,9 @@ class ConvoyService:
                 if (tel := self.vehicles[sysid].telemetry) is not None
                 and view.phase(sysid, t) in ("pending", "lost")
             }
+            alarmed = {s for s in self.vehicles if f"fence_plan:{s}" in self._vehicle_alarms}
             job = asyncio.ensure_future(
-                asyncio.to_thread(self._mission_step, t, est, lost, returned, ready)
+                asyncio.to_thread(self._mission_step, t, est, lost, returned, ready, alarmed)
             )
             # (a step still running when the mission ends is never taken in: its
             # failure, if any, must not be reported as "never retrieved")
@@ -883,8 +943,10 @@ class ConvoyService:
         lost: list[int],
         returned: list[int],
         ready: dict[int, tuple[float, float, float]],
-    ) -> tuple[list[Any], MissionView]:
-        """The only code that touches the Mission (runs in a worker thread)."""
+        fence_alarmed: set[int],
+    ) -> tuple[list[Any], MissionView, list[tuple[int, Setpoint]]]:
+        """The only code that touches the Mission (runs in a worker thread), and the
+        look ahead along its plan for the fence (60 samples a UAV)."""
         mission = self.mission
         events: list[Any] = []
         road, self._new_route = self._new_route, None
@@ -902,7 +964,8 @@ class ConvoyService:
             if ready:
                 events += mission.join_many(ready, t)
         events += mission.tick(t)
-        return events, MissionView.of(mission, self._down)
+        view = MissionView.of(mission, self._down)
+        return events, view, self._plan_leaves_fence(t, view, fence_alarmed)
 
     def _track(self, tel: Telemetry) -> None:
         """Score each position update of a protecting UAV against its plan, as it comes.

@@ -10,6 +10,10 @@ Design rules:
   replaced by the nearest point ``margin_m`` inside the fence, flown as a
   straight (no loiter centre), its velocity along the fence's edge; it never
   returns a point outside (property-tested).
+- A convoy outside the fence is not followed out: :meth:`Fence.hold_center` gives the
+  nearest centre whose whole loiter circle is inside, and :func:`orbit_setpoint` the
+  setpoints of that hold (a constant-speed circle of the turn radius: flyable by every
+  airframe, each UAV at its own phase and altitude layer).
 - Cheap: a fence has tens of vertices, a check is a few microseconds.
 """
 
@@ -23,7 +27,15 @@ from convoy_mav.config import SafetyConfig
 from convoy_mav.geo import GeoPoint, LocalFrame
 from convoy_mav.types import Setpoint
 
-__all__ = ["Fence", "Polygon", "fence_from", "fence_items", "polygon_from"]
+__all__ = [
+    "Fence",
+    "Polygon",
+    "fence_from",
+    "fence_items",
+    "join_orbit",
+    "orbit_setpoint",
+    "polygon_from",
+]
 
 Point = tuple[float, float]  # (north, east)
 
@@ -152,6 +164,12 @@ class Fence:
             yaw=math.atan2(ve, vn) if speed > 0.0 else sp.yaw, center=None, radius=0.0,
         )  # fmt: skip
 
+    def hold_center(self, n: float, e: float, radius: float) -> Point:
+        """The point nearest (n, e) whose circle of ``radius`` lies ``margin_m`` inside."""
+        inner = replace(self, margin_m=self.margin_m + radius)
+        cn, ce, _ = inner._inside(n, e)
+        return cn, ce
+
     def altitude_allows(self, sp: Setpoint) -> bool:
         """Is the setpoint's altitude within the band?"""
         return self._altitude_ok(-sp.down)
@@ -200,6 +218,41 @@ class Fence:
             if self.contains(cn, ce, margin):
                 return cn, ce, along or (1.0, 0.0)
         raise ValueError("the fence has no room inside its margin")
+
+
+def orbit_setpoint(
+    t: float,
+    center: Point,
+    radius: float,
+    speed: float,
+    phase: float,
+    down: float,
+    *,
+    clockwise: bool = True,
+) -> Setpoint:
+    """The setpoint at mission time ``t`` of an orbit of ``center`` flown at ``speed``,
+    at angle ``phase`` (rad clockwise from north, seen from the centre) when t = 0."""
+    sign = 1.0 if clockwise else -1.0
+    rate = sign * speed / radius
+    angle = phase + rate * t
+    north = center[0] + radius * math.cos(angle)
+    east = center[1] + radius * math.sin(angle)
+    vn, ve = -sign * speed * math.sin(angle), sign * speed * math.cos(angle)
+    return Setpoint(
+        t, north, east, down, vn, ve, 0.0, math.atan2(ve, vn), rate,
+        center=center, radius=radius, clockwise=clockwise,
+    )  # fmt: skip
+
+
+def join_orbit(
+    t: float, center: Point, radius: float, speed: float, position: Point, velocity: Point
+) -> tuple[float, bool]:
+    """(phase, clockwise) of the orbit of ``center`` a UAV at ``position`` joins with
+    least manoeuvre: turning its current way round, its setpoint abeam of it now."""
+    rn, re = position[0] - center[0], position[1] - center[1]
+    clockwise = rn * velocity[1] - re * velocity[0] >= 0.0
+    rate = (1.0 if clockwise else -1.0) * speed / radius
+    return math.atan2(re, rn) - rate * t, clockwise
 
 
 def _step_in(

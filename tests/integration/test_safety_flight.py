@@ -9,6 +9,7 @@ clamps are alarmed, and separation is watched (the layers keep crossing orbits a
 from __future__ import annotations
 
 import asyncio
+import math
 from dataclasses import replace
 from typing import Any
 
@@ -18,7 +19,7 @@ from convoy_mav.app import ConvoyService
 from convoy_mav.config import MissionConfig, SafetyConfig
 from convoy_mav.demo import SCENARIOS, run_demo
 from convoy_mav.fence import fence_from
-from convoy_mav.geo import LocalFrame
+from convoy_mav.geo import GeoPoint, LocalFrame
 from sitl_mock import MockFleet
 
 pytestmark = pytest.mark.integration
@@ -76,3 +77,50 @@ async def test_setpoints_stay_inside_a_fence_that_cuts_the_orbits() -> None:
     raised = [a for a in report["alarms"] if a["kind"] == "separation" and a["active"]]
     assert report["safety"]["separation_conflicts"] == len(raised)
     assert not [a for a in raised if a["t"] > start + 10.0], raised
+
+
+async def test_a_convoy_leaving_the_fence_is_not_followed_out() -> None:
+    """The moving convoy (north-east, 8 m/s) crosses the fence's edge 1800 m along its
+    road: the UAVs hold inside, on one loiter circle nearest it (each joining it from
+    where it is, so a plane needs about a minute and a half to settle on it)."""
+    fences: list[Any] = []
+    frames: list[LocalFrame] = []
+
+    def fenced(cfg: MissionConfig) -> MissionConfig:
+        frame = LocalFrame(cfg.origin)
+        edge = 1800.0 * math.sqrt(2.0)  # n + e = edge: the convoy's crossing, 225 s out
+        corners = [(-5000.0, -5000.0), (-5000.0, 5000.0), (edge - 5000.0, 5000.0),
+                   (5000.0, edge - 5000.0), (5000.0, -5000.0)]  # fmt: skip
+        ring = tuple((p.lat, p.lon) for p in (frame.to_geo(n, e) for n, e in corners))
+        safety = SafetyConfig(fence=ring, fence_margin_m=20.0)
+        fences.append(fence_from(safety, frame))
+        frames.append(frame)
+        return replace(cfg, safety=safety)
+
+    rows: list[tuple[float, int, float, float]] = []
+
+    async def watch(fleet: MockFleet, service: ConvoyService) -> None:
+        while True:
+            await asyncio.sleep(0.05)
+            for truth in fleet.truth_rows():
+                if truth.kind == "aircraft" and truth.airborne:
+                    n, e, _ = frames[0].to_ned(GeoPoint(truth.lat, truth.lon))
+                    rows.append((service.clock.now(), truth.sysid, n, e))
+
+    result = await run_demo(
+        SCENARIOS["moving"], duration=420.0, speedup=SPEEDUP, configure=fenced, during=watch
+    )
+    report = result.report.to_dict()
+    out = [a for a in report["alarms"] if a["kind"] == "convoy_outside_fence"]
+    assert out and out[0]["active"] and "hold inside" in out[0]["message"], out
+    left = out[0]["t"]
+    assert 200.0 < left < 260.0, left
+    fence = fences[0]
+    settled = [(t, s, n, e) for t, s, n, e in rows if t > left + 90.0]
+    assert settled, "no truth rows after the hold settled"
+    outside = [r for r in settled if not fence.contains(r[2], r[3])]
+    assert not outside, outside[:5]
+    # One circle, the turn radius's, nearest the convoy's road beyond the edge.
+    centre = fence.hold_center(1300.0, 1300.0, 150.0)
+    late = [math.dist((n, e), centre) for t, _, n, e in settled if t > left + 150.0]
+    assert late and all(110.0 < d < 200.0 for d in late), (min(late), max(late))

@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 from convoy_mav.config import SafetyConfig, parse_config
 from convoy_mav.errors import ConfigError
-from convoy_mav.fence import Fence, Polygon, fence_from, polygon_from
+from convoy_mav.fence import Fence, Polygon, fence_from, join_orbit, orbit_setpoint, polygon_from
 from convoy_mav.geo import GeoPoint, LocalFrame
 from convoy_mav.planning import PlanRequest, make_plan
 from convoy_mav.schedule import setpoint_at
@@ -93,6 +93,65 @@ def test_every_setpoint_of_a_plan_is_kept_inside(speed: float) -> None:
             clamped += out is not sp
             assert fence.allows(out)
     assert clamped > 0  # (the fence cuts the plans: the clamp was exercised)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    seed=st.integers(0, 2**31),
+    n=st.floats(-6000, 6000),
+    e=st.floats(-6000, 6000),
+    radius=st.sampled_from([60.0, 150.0]),
+)
+def test_the_hold_circle_nearest_a_convoy_outside_is_inside_whole(
+    seed: int, n: float, e: float, radius: float
+) -> None:
+    """Wherever the convoy is, the hold circle (the turn radius) fits inside the fence,
+    clear of its holes, by the margin; its setpoints are allowed and flyable."""
+    rng = np.random.default_rng(seed)
+    hole = _star(rng, 6, 300.0)
+    fence = Fence(_star(rng, int(rng.integers(5, 12)), 3000.0), (hole,), margin_m=25.0)
+    try:
+        centre = fence.hold_center(n, e, radius)
+    except ValueError:  # (a star too thin for the circle: the app then clamps)
+        return
+    assert fence.contains(*centre, radius + 25.0 - 1e-6)
+    for clockwise in (True, False):
+        for t in np.linspace(0.0, 120.0, 25).tolist():
+            sp = orbit_setpoint(t, centre, radius, 18.0, 0.3, -100.0, clockwise=clockwise)
+            assert fence.allows(sp)
+            assert math.hypot(sp.vn, sp.ve) == pytest.approx(18.0)
+            assert abs(sp.yaw_rate) == pytest.approx(18.0 / radius)  # (curvature 1/R)
+            assert math.dist((sp.north, sp.east), centre) == pytest.approx(radius)
+
+
+def test_the_hold_centre_is_the_nearest_with_room() -> None:
+    """A convoy 500 m north of the square fence: the circle's centre is R + margin
+    inside its north edge, straight south of the convoy."""
+    centre = FENCE.hold_center(1500.0, 0.0, 150.0)
+    assert centre == pytest.approx((1000.0 - 170.0, 0.0), abs=0.01)
+
+
+def test_orbit_velocity_is_the_position_derivative() -> None:
+    for clockwise in (True, False):
+        a = orbit_setpoint(10.0, (5.0, -7.0), 150.0, 18.0, 1.0, -90.0, clockwise=clockwise)
+        b = orbit_setpoint(10.001, (5.0, -7.0), 150.0, 18.0, 1.0, -90.0, clockwise=clockwise)
+        assert (b.north - a.north) / 0.001 == pytest.approx(a.vn, rel=1e-3)
+        assert (b.east - a.east) / 0.001 == pytest.approx(a.ve, rel=1e-3)
+        assert a.yaw == pytest.approx(math.atan2(a.ve, a.vn))
+        assert (a.yaw_rate > 0.0) == clockwise and a.clockwise == clockwise
+
+
+@pytest.mark.parametrize(("velocity", "clockwise"), [((0.0, 18.0), True), ((0.0, -18.0), False)])
+def test_a_uav_joins_the_hold_turning_its_own_way_from_abeam(
+    velocity: tuple[float, float], clockwise: bool
+) -> None:
+    """A UAV 400 m north of the centre flying east turns clockwise (seen from above),
+    flying west anticlockwise; its setpoint starts abeam of it, due north of the centre."""
+    phase, cw = join_orbit(50.0, (0.0, 0.0), 150.0, 18.0, (400.0, 0.0), velocity)
+    assert cw is clockwise
+    sp = orbit_setpoint(50.0, (0.0, 0.0), 150.0, 18.0, phase, -100.0, clockwise=cw)
+    assert (sp.north, sp.east) == pytest.approx((150.0, 0.0), abs=1e-6)
+    assert sp.ve * velocity[1] > 0.0  # (the way it was already going)
 
 
 def test_the_config_gives_a_fence_as_points_or_geojson(tmp_path: Path) -> None:
