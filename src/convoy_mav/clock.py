@@ -123,6 +123,26 @@ class Observed(IntEnum):
     REJECTED = 2  # ahead of anything its clock can have run: drop the frame
 
 
+@dataclass(frozen=True, slots=True)
+class _Timeline:
+    """A new timeline a vehicle's stamps may have moved to (a reboot back, a jump
+    ahead): taken only once ``_REBOOT_CONFIRM`` stamps in a row agree with it."""
+
+    boot: float  # the last agreeing stamp
+    wall: float  # when it came
+    count: int = 1
+
+    def then(self, boot: float, wall: float, limit: float) -> _Timeline:
+        """This timeline after one more stamp: one more agreeing, or a new candidate."""
+        if self.boot - _REBOOT_JUMP <= boot <= self.boot + limit:
+            return _Timeline(boot, wall, self.count + 1)
+        return _Timeline(boot, wall)
+
+    @property
+    def confirmed(self) -> bool:
+        return self.count >= _REBOOT_CONFIRM
+
+
 @dataclass(slots=True)
 class _Track:
     """One vehicle's boot clock as seen from here."""
@@ -138,11 +158,8 @@ class _Track:
     times: deque[float] = field(default_factory=deque)  # unwrapped, at those walls
     offset: float = 0.0  # mission = unwrapped + offset
     offset_wall: float = -math.inf  # wall time the offset was last computed
-    pending: float | None = None  # boot time of a possible reboot, awaiting confirmation
-    pending_count: int = 0
-    ahead: float | None = None  # boot time of a possible jump ahead, awaiting confirmation
-    ahead_count: int = 0
-    ahead_wall: float = -math.inf
+    behind: _Timeline | None = None  # a possible reboot, awaiting confirmation
+    ahead: _Timeline | None = None  # a possible jump ahead, awaiting confirmation
     reanchored_wall: float = -math.inf  # wall time of its last reboot
 
     @property
@@ -309,7 +326,7 @@ class MissionClock:
             self._reanchor(track, boot, wall)
             rebooted = Observed.REBOOTED
         else:
-            track.pending = None
+            track.behind = None
         track.last_boot = max(track.last_boot, boot)
         track.last_wall = wall
         if self._resync_due and track.reanchored_wall < self._silence_wall:
@@ -358,44 +375,40 @@ class MissionClock:
         return 2.0 * rate * max(wall_elapsed, 0.0) + rate * _AHEAD_SLACK_WALL + _AHEAD_SLACK_S
 
     def _jump_confirmed(self, track: _Track, boot: float, wall: float) -> bool:
-        """A jump ahead is the clock's own once ``_REBOOT_CONFIRM`` packets in a row agree.
+        """A jump ahead is the clock's own once ``_REBOOT_CONFIRM`` stamps in a row agree,
+        each no further ahead of the last than the clock can have run.
 
         A spoofed or corrupt stamp among the vehicle's own is isolated (the next
         genuine packet clears it); a clock that really moved stays on its new timeline.
         """
         last = track.ahead
-        if last is not None and (
-            last - _REBOOT_JUMP <= boot <= last + self._ahead_limit(wall - track.ahead_wall)
-        ):
-            track.ahead_count += 1
-        else:
-            track.ahead_count = 1
-        track.ahead, track.ahead_wall = boot, wall
-        if track.ahead_count < _REBOOT_CONFIRM:
+        track.ahead = (
+            _Timeline(boot, wall)
+            if last is None
+            else last.then(boot, wall, self._ahead_limit(wall - last.wall))
+        )
+        if not track.ahead.confirmed:
             return False
         track.ahead = None
         return True
 
     @staticmethod
     def _reboot_confirmed(track: _Track, boot: float) -> bool:
-        """A jump back is a reboot once ``_REBOOT_CONFIRM`` packets in a row agree.
+        """A jump back is a reboot once ``_REBOOT_CONFIRM`` stamps in a row agree.
 
         A packet reordered on the way (delivered after newer ones) is isolated
         and must not re-anchor the vehicle's clock; a reboot's timeline persists.
         """
-        if track.pending is not None and boot >= track.pending - _REBOOT_JUMP:
-            track.pending_count += 1
-        else:
-            track.pending_count = 1
-        track.pending = boot
-        return track.pending_count >= _REBOOT_CONFIRM
+        last = track.behind
+        track.behind = _Timeline(boot, 0.0) if last is None else last.then(boot, 0.0, math.inf)
+        return track.behind.confirmed
 
     def _reanchor(self, track: _Track, boot: float, wall: float) -> None:
         """A reboot: the unwrapped time continues at the rate from the last observation."""
         predicted = track.last_unwrapped + self._rate * (wall - track.last_wall)
         track.epoch = predicted - boot
         track.last_boot = boot
-        track.pending = None
+        track.behind = None
         track.reanchored_wall = wall
         self.reboots += 1
 
