@@ -6,6 +6,7 @@ and frames packed by ``MavCodec``: pymavlink's generated dialect, no hand-made b
 
 from __future__ import annotations
 
+import io
 import asyncio
 import itertools
 import math
@@ -154,6 +155,28 @@ def test_gpx_route_points_without_a_namespace() -> None:
 
 
 _POINT = '<trkpt lat="47.0" lon="8.0"><time>2024-05-01T12:00:00Z</time></trkpt>'
+
+
+def test_a_long_gpx_drive_is_parsed_as_it_is_read(tmp_path: Path) -> None:
+    """Three hours at 1 Hz (2.6 MB): read in chunks, the same track as parsed whole."""
+    points = "".join(
+        f'<trkpt lat="{47.0 + k * 1e-5:.7f}" lon="8.0"><time>2024-05-01T'
+        f"{12 + k // 3600:02d}:{k // 60 % 60:02d}:{k % 60:02d}Z</time></trkpt>\n"
+        for k in range(10800)
+    )
+    text = f"<gpx><trk><trkseg>\n{points}</trkseg></trk></gpx>"
+    path = _write(tmp_path, "long.gpx", text)
+    reads: list[int] = []
+
+    class Counted(io.BytesIO):
+        def read(self, size: int | None = -1) -> bytes:
+            reads.append(size or -1)
+            return super().read(size)
+
+    streamed = parse_gpx_track(Counted(text.encode()), "long.gpx")
+    assert len(reads) > 10 and max(reads) < len(text) // 10  # (in chunks)
+    assert streamed == parse_gpx_track(text.encode(), "long.gpx")
+    assert load_track(path).times[-1] == 10799.0
 
 
 @pytest.mark.parametrize(

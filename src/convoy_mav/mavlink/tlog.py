@@ -16,6 +16,7 @@ Design rules:
 
 from __future__ import annotations
 
+import mmap
 import struct
 from collections import Counter
 from collections.abc import Iterator
@@ -47,11 +48,13 @@ class TlogRecord:
     msg: Message
 
 
-def read_tlog(data: bytes, counters: Counter[str] | None = None) -> Iterator[TlogRecord]:
+def read_tlog(
+    data: bytes | mmap.mmap, counters: Counter[str] | None = None
+) -> Iterator[TlogRecord]:
     """Decode every message of a tlog, in file order.
 
     Args:
-        data: The whole file.
+        data: The whole file (bytes, or a read-only map of it).
         counters: If given, counts ``messages``, ``bad_data`` (frames skipped) and
             ``truncated`` (1 when the file ends inside a record).
 

@@ -26,9 +26,11 @@ Design rules:
 
 from __future__ import annotations
 
+import contextlib
+import mmap
 import os
-from collections.abc import Collection
-from typing import Literal
+from collections.abc import Collection, Iterator
+from typing import BinaryIO, Literal
 
 from convoy_mav.tracks.csvfile import parse_csv_points, parse_csv_track
 from convoy_mav.tracks.geotrack import GeoTrack, TrackSpeeds, track_speeds
@@ -71,7 +73,19 @@ def format_of(path: str | os.PathLike[str]) -> TrackFormat:
 
 
 MAX_TRACK_BYTES = 512 << 20
-"""Largest track or route file read (512 MiB: days of tlog): bigger is refused unread."""
+"""Largest track or route file read (512 MiB: days of tlog): bigger is refused unread.
+Files are streamed (CSV by line, GPX by expat in chunks, tlog memory-mapped): what is
+kept is the fixes, not the file."""
+
+
+@contextlib.contextmanager
+def _mapped(handle: BinaryIO) -> Iterator[bytes | mmap.mmap]:
+    """A read-only map of the file (an empty file cannot be mapped: it is no bytes)."""
+    if os.fstat(handle.fileno()).st_size == 0:
+        yield b""
+        return
+    with mmap.mmap(handle.fileno(), 0, access=mmap.ACCESS_READ) as data:
+        yield data
 
 
 def _check_size(name: str) -> None:
@@ -101,7 +115,7 @@ def load_route(path: str | os.PathLike[str]) -> tuple[list[float], list[float]]:
         with open(name, newline="", encoding="utf-8-sig") as handle:
             return parse_csv_points(handle, name)
     with open(name, "rb") as binary:
-        return parse_gpx_points(binary.read(), name)
+        return parse_gpx_points(binary, name)
 
 
 def load_track(
@@ -130,11 +144,10 @@ def load_track(
     if kind == "csv":
         with open(name, newline="", encoding="utf-8-sig") as handle:
             track = parse_csv_track(handle, name)
-    else:
+    elif kind == "gpx":
         with open(name, "rb") as binary:
-            data = binary.read()
-        if kind == "gpx":
-            track = parse_gpx_track(data, name)
-        else:
+            track = parse_gpx_track(binary, name)
+    else:  # (mapped, not read: the pages a tlog's records are decoded from come and go)
+        with open(name, "rb") as binary, _mapped(binary) as data:
             track = parse_tlog_track(data, name, sysids=sysids)
     return track.rebased()

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from datetime import UTC, datetime
+from typing import BinaryIO
 from xml.parsers import expat
 
 from convoy_mav.tracks.geotrack import GeoTrack, check_fix
@@ -22,7 +23,7 @@ class _GpxPoint:
     time: str | None = None
 
 
-def parse_gpx_points(data: bytes | str, name: str) -> tuple[list[float], list[float]]:
+def parse_gpx_points(data: bytes | str | BinaryIO, name: str) -> tuple[list[float], list[float]]:
     """A route's points: the ``<trkpt>`` of a GPX file, else its ``<rtept>``; times ignored.
 
     Raises:
@@ -46,14 +47,15 @@ def _latlon(p: _GpxPoint, name: str) -> tuple[float, float]:
     return lat, lon
 
 
-def parse_gpx_track(data: bytes | str, name: str) -> GeoTrack:
+def parse_gpx_track(data: bytes | str | BinaryIO, name: str) -> GeoTrack:
     """Parse a GPX 1.0/1.1 file: its ``<trkpt>`` (all tracks and segments, in order).
 
     Without any ``<trkpt>`` the ``<rtept>`` of its routes are used, which must then
     carry times too. Namespaces are matched by local name, so GPX 1.0, 1.1 and
     un-namespaced files read alike; ``<time>`` is ISO-8601 (``Z`` or an offset;
     none means UTC). Parsed with expat, the parser ``xml.etree`` itself uses,
-    because expat reports the line of each point for error messages.
+    because expat reports the line of each point for error messages; a file
+    object is parsed as it is read (a long drive is never held whole).
 
     Returns:
         The track, times in POSIX seconds (not rebased).
@@ -81,7 +83,7 @@ def parse_gpx_track(data: bytes | str, name: str) -> GeoTrack:
     return GeoTrack.from_fixes(times, lats, lons, name, "gpx")
 
 
-def _gpx_points(data: bytes | str, name: str) -> list[_GpxPoint]:
+def _gpx_points(data: bytes | str | BinaryIO, name: str) -> list[_GpxPoint]:
     """The ``<trkpt>`` of a GPX file (else its ``<rtept>``), with their lines."""
     parser = expat.ParserCreate(namespace_separator=" ")
     points: list[_GpxPoint] = []
@@ -118,7 +120,10 @@ def _gpx_points(data: bytes | str, name: str) -> list[_GpxPoint]:
     parser.EndElementHandler = end
     parser.CharacterDataHandler = chars
     try:
-        parser.Parse(data, True)
+        if isinstance(data, bytes | str):
+            parser.Parse(data, True)
+        else:
+            parser.ParseFile(data)  # (in chunks)
     except expat.ExpatError as e:
         reason = expat.ErrorString(e.code)
         raise ValueError(f"{name}:{e.lineno}: not well-formed GPX: {reason}") from None

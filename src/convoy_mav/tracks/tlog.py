@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import bisect
 import math
+import mmap
 import statistics
 from collections.abc import Collection
 from dataclasses import dataclass
@@ -32,7 +33,7 @@ class _Fix:
 
 
 def parse_tlog_track(
-    data: bytes,
+    data: bytes | mmap.mmap,
     name: str,
     *,
     sysids: Collection[int] = (),
@@ -62,7 +63,7 @@ def parse_tlog_track(
     alignment.
 
     Args:
-        data: The tlog's bytes.
+        data: The tlog's bytes (or a map of the file).
         name: The file name, for messages.
         sysids: The convoy's vehicles (default: every ground rover).
         step: Sample spacing of the result, seconds.
