@@ -357,6 +357,7 @@ class SimVehicle:
         # GPS_RAW_INT says 3D while arming is refused ("Arm: Need Position Estimate").
         gps = fl.warm or now - self._boot_t >= _GPS_FIX_SHARE * self._warmup
         remaining = max(0.0, 1.0 - self._battery_s / _BATTERY_ENDURANCE_S)
+        target = fl.reported_target()
         return Snapshot(
             time_boot_ms=max(0, round((now - self._boot_t) * 1000.0)) & 0xFFFFFFFF,
             unix_usec=_UNIX_AT_SIM_ZERO_US + round(now * 1e6),
@@ -393,6 +394,7 @@ class SimVehicle:
             battery_current=15.0 if airborne else (2.0 if fl.armed else 0.5),
             battery_consumed_mah=self._battery_s * 15.0 / 3.6,
             landed_state=fl.landed_state(),
+            target=None if target is None else self.world.to_geo(*target),
         )
 
     def truth(self, now: float) -> TruthRow:

@@ -138,6 +138,32 @@ class FlightController:
             state = _R.MAV_LANDED_STATE_LANDING
         return int(state)
 
+    def reported_target(self) -> tuple[float, float, float] | None:
+        """The (north, east, down) ArduPilot reports in POSITION_TARGET_GLOBAL_INT.
+
+        ArduPlane: its ``next_WP_loc`` (here the loiter it flies: a DO_REPOSITION's
+        centre, a hold's). ArduCopter: ``get_wp`` of GUIDED, a target only in its
+        position-only and waypoint sub-modes (a position + velocity target reports
+        none). PX4 is not modelled: None.
+        """
+        fw, goal = self.firmware, self.goal
+        if not fw.is_ardupilot or self.aircraft is None:
+            return None
+        if self.plane:
+            return (goal.north, goal.east, goal.down) if isinstance(goal, Loiter) else None
+        if self.mode.behaviour is not Behaviour.EXTERNAL:
+            return None
+        if isinstance(goal, Loiter):
+            return goal.north, goal.east, goal.down
+        if (
+            isinstance(goal, TrackTarget)
+            and goal.vn is None
+            and goal.north is not None
+            and goal.east is not None
+        ):
+            return goal.north, goal.east, self._ac().state.down if goal.down is None else goal.down
+        return None
+
     def _fresh(self, now: float) -> bool:
         return now - self.setpoint_t <= self.setpoint_timeout
 

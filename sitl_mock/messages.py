@@ -287,6 +287,7 @@ class Snapshot:
     battery_current: float
     battery_consumed_mah: float
     landed_state: int
+    target: GeoPoint | None = None  # the position target the firmware reports, if any
 
     @property
     def groundspeed(self) -> float:
@@ -441,6 +442,23 @@ def _home_position(s: Snapshot) -> mavlink.MAVLink_message | None:
     )
 
 
+_TARGET_XYZ_ONLY = 0xFFF8
+"""POSITION_TARGET_GLOBAL_INT.type_mask ArduPilot reports: only x, y, z (its
+``POSITION_TARGET_TYPEMASK_LAST_BYTE`` set too)."""
+
+
+def _position_target_global_int(s: Snapshot) -> mavlink.MAVLink_message | None:
+    """ArduPilot's report of where it is going (ArduPlane ``next_WP_loc``, ArduCopter
+    guided ``get_wp``), AMSL in MAV_FRAME_GLOBAL; nothing when it has no such target."""
+    t = s.target
+    if t is None:
+        return None
+    return mavlink.MAVLink_position_target_global_int_message(
+        s.time_boot_ms, mavlink.MAV_FRAME_GLOBAL, _TARGET_XYZ_ONLY,
+        round(t.lat * 1e7), round(t.lon * 1e7), t.alt, 0, 0, 0, 0, 0, 0, 0, 0,
+    )  # fmt: skip
+
+
 TELEMETRY_BUILDERS: dict[int, Callable[[Snapshot], mavlink.MAVLink_message | None]] = {
     mavlink.MAVLINK_MSG_ID_HEARTBEAT: _heartbeat,
     mavlink.MAVLINK_MSG_ID_SYS_STATUS: _sys_status,
@@ -453,6 +471,7 @@ TELEMETRY_BUILDERS: dict[int, Callable[[Snapshot], mavlink.MAVLink_message | Non
     mavlink.MAVLINK_MSG_ID_SYSTEM_TIME: _system_time,
     mavlink.MAVLINK_MSG_ID_BATTERY_STATUS: _battery_status,
     mavlink.MAVLINK_MSG_ID_HOME_POSITION: _home_position,
+    mavlink.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT: _position_target_global_int,
 }
 """Message id -> builder; a builder returns None when it has nothing to say yet
 (HOME_POSITION before home is set)."""

@@ -44,8 +44,10 @@ AIRCRAFT_DEFAULT_INTERVALS: Mapping[int, float] = {
     mavlink.MAVLINK_MSG_ID_SYSTEM_TIME: 1.0,
     mavlink.MAVLINK_MSG_ID_BATTERY_STATUS: 1.0,
     mavlink.MAVLINK_MSG_ID_HOME_POSITION: 2.0,
+    mavlink.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT: 1.0,
 }
-"""Default intervals (s) of an aircraft: roughly PX4's onboard-UDP profile."""
+"""Default intervals (s) of an aircraft: roughly PX4's onboard-UDP profile (the position
+target is sent only by the ArduPilot personality: ``FlightState.reported_target``)."""
 
 GROUND_DEFAULT_INTERVALS: Mapping[int, float] = {
     mavlink.MAVLINK_MSG_ID_HEARTBEAT: 1.0,
@@ -61,6 +63,7 @@ ARDUPILOT_STREAM_GROUPS: Mapping[int, tuple[int, ...]] = {
     mavlink.MAV_DATA_STREAM_EXTENDED_STATUS: (
         mavlink.MAVLINK_MSG_ID_SYS_STATUS,
         mavlink.MAVLINK_MSG_ID_GPS_RAW_INT,
+        mavlink.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT,
     ),
     mavlink.MAV_DATA_STREAM_POSITION: (
         mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT,

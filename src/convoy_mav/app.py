@@ -43,7 +43,7 @@ from convoy_mav.geo import GeoPoint, LocalFrame
 from convoy_mav.history import History
 from convoy_mav.mavlink import MavLink
 from convoy_mav.mavlink.autopilots.base import set_message_interval
-from convoy_mav.mavlink.codec import MavCodec
+from convoy_mav.mavlink.codec import GCS_COMPONENT, GCS_SYSTEM, MavCodec
 from convoy_mav.mavlink.signing import Signing, load_key
 from convoy_mav.mission import (
     Mission,
@@ -83,6 +83,17 @@ _OWN_FAILSAFE_S = 10.0  # mission s after a link is back in which a hold is our 
 _REFLY_FAILSAFE_S = 30.0  # mission s after flying again in which a hold is our outage's
 _TAKEN_CONFIRM_S = 3.0  # mission s a mode change must stand (no reboot) to be a pilot's
 _STALL_TICKS = 3  # a control tick this many periods late is a stall of the host
+_COMMANDING = frozenset(
+    {
+        "SET_POSITION_TARGET_GLOBAL_INT",
+        "SET_POSITION_TARGET_LOCAL_NED",
+        "SET_ATTITUDE_TARGET",
+        "COMMAND_LONG",
+        "COMMAND_INT",
+        "SET_MODE",
+    }
+)
+"""Messages that drive a vehicle: another system's, for our UAV, is another controller."""
 _FENCE_LOOK_STEPS = 60  # a new plan's paths are checked against the fence this many steps
 _FENCE_LOOK_DT = 2.0  # mission s apart (two minutes ahead)
 _PROGRESS_ALARM_S = 10.0  # mission s between two alarms of clamped setpoints
@@ -126,6 +137,7 @@ class ServiceReport:
     rejected: dict[str, int] = field(default_factory=dict)
     tlog: str | None = None
     safety: dict[str, Any] = field(default_factory=dict)
+    refused: str | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """The report JSON (keys documented in the README)."""
@@ -154,6 +166,8 @@ class ServiceReport:
             # Inputs dropped as implausible or malformed, by kind (per UAV under vehicles).
             "rejected": self.rejected,
             "tlog": self.tlog,
+            # Why the service flew nothing: every UAV driven by another controller.
+            "refused": self.refused,
             # Fence clamps per UAV, separation conflicts (see the README's Safety section).
             "safety": self.safety,
             "vehicles": [
@@ -269,6 +283,8 @@ class ConvoyService:
         self._closest_m: float | None = None  # least horizontal separation in a conflict
         self._fence_alarm_t = -math.inf
         self.fence_uploads: dict[int, str] = {}  # the autopilots' own geofence, per UAV
+        self.refused: str | None = None  # why the service flew nothing (others drive them)
+        self._stop_event: asyncio.Event | None = None
         self._stalled_s = 0.0  # mission s the control loop was held up (a loaded host)
         self._fence_clear_until: dict[int, tuple[float, float]] = {}  # (from, to) mission s
         self.history = History(interval=history_interval)
@@ -355,6 +371,8 @@ class ConvoyService:
             self._foreign_sysid[owner] += 1
             if sysid in self.vehicles or sysid in self._ground_ids:  # a spoof, not a GCS
                 self._foreign_claims[owner] += 1
+            else:
+                self._other_controller(owner, sysid, msg)
             return
         vehicle = self.vehicles.get(sysid)
         if vehicle is not None:
@@ -442,6 +460,21 @@ class ConvoyService:
             self._taken_pending[event.sysid] = (event.t, vehicle.counters["reboots"], event.message)
         if event.kind is EventKind.REJECTED:
             self._alarm(Alarm(event.t, "telemetry_rejected", True, event.message), event.sysid)
+        if event.kind is EventKind.CONTESTED and vehicle is not None:
+            active = vehicle.contested is not None
+            self._alarm(Alarm(event.t, "uav_contested", active, event.message), event.sysid)
+        if (
+            event.kind is EventKind.FAILED
+            and self.vehicles
+            and all(v.refused for v in self.vehicles.values())
+        ):
+            self.refused = (
+                "every UAV is driven by another ground station; stop it, or give this "
+                "service other UAVs"
+            )
+            self._note(f"refused: {self.refused}")
+            if self._stop_event is not None:
+                self._stop_event.set()
         if event.kind in (EventKind.LOST, EventKind.FAILED, EventKind.RECOVERED):
             active = event.kind != EventKind.RECOVERED
             kind = "uav_lost" if event.kind == EventKind.RECOVERED else f"uav_{event.kind}"
@@ -567,6 +600,23 @@ class ConvoyService:
                 )
             )  # fmt: skip
 
+    def _other_controller(self, owner: int, sysid: int, msg: Any) -> None:
+        """Another controller's frame on a UAV's link (a shared link: a router, a radio):
+        commands for that UAV, or a ground station using our own ids (this service
+        started twice). A GCS that only watches (its heartbeat, other ids) is fine."""
+        vehicle = self.vehicles.get(owner)
+        if vehicle is None:
+            return
+        kind = msg.get_type()
+        if kind in _COMMANDING and getattr(msg, "target_system", None) == owner:
+            vehicle.stranger(f"system {sysid} sends it {kind}")
+        elif (
+            kind == "HEARTBEAT"
+            and msg.type == mavlink.MAV_TYPE_GCS
+            and (sysid, msg.get_srcComponent()) == (GCS_SYSTEM, GCS_COMPONENT)
+        ):
+            vehicle.stranger(f"another ground station uses our ids {sysid}/{GCS_COMPONENT}")
+
     def _check_links(self, t: float) -> None:
         """Alarm on strangers at a UAV's link: a second peer refused, or frames that
         claim another vehicle's system id (a GCS's own heartbeats are only counted)."""
@@ -634,6 +684,7 @@ class ConvoyService:
     ) -> ServiceReport:
         """Fly the mission until ``stop`` is set or ``duration`` mission seconds pass."""
         stop = stop or asyncio.Event()
+        self._stop_event = stop
         cfg = self.config
         self._note(self._planner_note)
         # Mission work runs in a worker thread; a short GIL switch interval lets the
@@ -723,13 +774,13 @@ class ConvoyService:
         return self._report()
 
     async def _upload_fences(self) -> None:
-        """Give every autopilot the fence too, once it is heard (it enforces it itself)."""
+        """Give every autopilot the fence too, once we take it (it enforces it itself)."""
         items = fence_items(self.config.safety)
         started: set[int] = set()
         async with asyncio.TaskGroup() as tg:
             while len(started) < len(self.vehicles):
                 for sysid, v in self.vehicles.items():
-                    if sysid not in started and v.firmware is not None:
+                    if sysid not in started and v.ours:  # (not another controller's)
                         started.add(sysid)
                         tg.create_task(self._upload_fence(sysid, v, items))
                 await asyncio.sleep(0.05)
@@ -1204,6 +1255,7 @@ class ConvoyService:
                 **{f"convoy_{k}": n for k, n in self.tracker.counters.items() if k != "accepted"},
             },
             tlog=self._tlog_path,
+            refused=self.refused,
             safety={
                 "fence": self.fence is not None,
                 "fence_clamps": dict(sorted(self._fence_clamps.items())),
@@ -1274,6 +1326,9 @@ class ConvoyService:
                 **_link_rejections(v.link),
                 "other_sysid": self._foreign_sysid[sysid],
             },
+            # Signs of another controller driving it (its targets, its frames); refused:
+            # it was driven before we took it, and never commanded.
+            "other_controller": {"signs": v.control.signs, "refused": v.refused},
             # Setpoint stream health: the longest wait between two setpoints sent (mission
             # s), and its 99th percentile over the last 2048: the mission's planning runs
             # off the flight loop and must never hold the stream.

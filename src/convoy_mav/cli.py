@@ -504,7 +504,11 @@ async def _cmd_run(args: argparse.Namespace) -> int:
     service = ConvoyService(cfg, on_progress=None if args.quiet else _print_progress)
     report = (await service.run(duration=args.duration, stop=stop)).to_dict()
     _summary(report)
-    return _write_outputs(args, report, service)
+    status = _write_outputs(args, report, service)
+    if service.refused is not None:
+        print(f"convoy-mav: error: {service.refused}", file=sys.stderr)
+        return EXIT_USAGE
+    return status
 
 
 MAX_SPEEDUP = 1000.0

@@ -57,6 +57,7 @@ from typing import Any, Protocol
 from pymavlink.dialects.v20 import common as mavlink
 
 from convoy_mav.clock import MissionClock, Observed
+from convoy_mav.contest import ControlWatch
 from convoy_mav.errors import AutopilotError
 from convoy_mav.geo import GeoPoint, LocalFrame
 from convoy_mav.mavlink.autopilots import (
@@ -89,6 +90,9 @@ _REFUSALS = {
     _M.MAV_RESULT_FAILED: "FAILED",
 }
 _REASON_WAIT = 0.3  # mission s to wait for the STATUSTEXT that explains a refusal
+_LISTEN_S = 8.0  # mission s a UAV found flying in the external mode is watched first
+_NEWCOMER_S = 60.0  # mission s after we took a UAV in which another controller wins it
+_XY_IGNORED = _M.POSITION_TARGET_TYPEMASK_X_IGNORE | _M.POSITION_TARGET_TYPEMASK_Y_IGNORE
 _CONFIRM_WAIT = 2.5  # mission s for a HEARTBEAT to confirm an accepted mode/arm
 _FLYING_STATES = (
     _M.MAV_LANDED_STATE_IN_AIR,
@@ -130,6 +134,7 @@ class EventKind(StrEnum):
     REBOOTED = "rebooted"  # time_boot_ms jumped back
     REJECTED = "rejected"  # frames dropped: a clock or a position no airframe can reach
     MODE = "mode"  # the autopilot left the external mode on its own
+    CONTESTED = "contested"  # another controller drives it (or stopped: ``contested`` says)
     WARNING = "warning"  # anything else the operator should know
 
 
@@ -266,6 +271,11 @@ class Vehicle:
         self._statustext_t = -math.inf
         self._fix_t: float | None = None  # mission time a fix was first seen
         self._gate = JumpGate(max_speed, slack_m=_JUMP_SLACK_M, confirm=_JUMP_CONFIRM)
+        self.control = ControlWatch()  # signs of another controller driving it
+        self.contested: str | None = None  # why another controller drives it, while it does
+        self.ours = False  # set-up went past listening: we command it
+        self.refused = False  # another controller drove it first: we backed off
+        self._ours_t = -math.inf  # mission time we took it
         self._warned_t: dict[str, float] = {}  # rejected-frame warnings, by kind
         self._heard_t = -math.inf
         self._acks: dict[int, tuple[int, int]] = {}  # command -> (result, seq)
@@ -289,6 +299,7 @@ class Vehicle:
             "GLOBAL_POSITION_INT": self.handle_GLOBAL_POSITION_INT,
             "HOME_POSITION": self.handle_HOME_POSITION,
             "PARAM_VALUE": self.handle_PARAM_VALUE,
+            "POSITION_TARGET_GLOBAL_INT": self.handle_POSITION_TARGET_GLOBAL_INT,
         }
 
     def __repr__(self) -> str:
@@ -511,6 +522,58 @@ class Vehicle:
         name = msg.param_id if isinstance(msg.param_id, str) else bytes(msg.param_id).decode()
         self.params[name.rstrip("\x00")] = float(msg.param_value)
 
+    def handle_POSITION_TARGET_GLOBAL_INT(self, msg: Message, now: float) -> None:
+        """Where the autopilot is going: ours, or another controller's (``contest``)."""
+        ap = self.firmware
+        if (
+            ap is None
+            or not ap.reports_target
+            or self.mode != ap.external_mode  # (a take-off, a hold: the autopilot's own)
+            or msg.type_mask & _XY_IGNORED
+        ):
+            return
+        if msg.lat_int or msg.lon_int:  # (0, 0: no target yet)
+            self.control.reported(now, msg.lat_int, msg.lon_int)
+            self._check_control(now)
+
+    def stranger(self, what: str) -> None:
+        """Another controller's frame for this vehicle was seen on its link."""
+        now = self.clock.now()
+        self.control.stranger(now, what)
+        self._check_control(now)
+
+    def _check_control(self, now: float) -> None:
+        """Refuse a UAV another controller drives before we fly it, or in our first
+        ``_NEWCOMER_S`` of flying it (we are the second service: we back off); alarm one
+        it takes while we have long flown it (the operator decides: two controllers
+        fight, and neither covers)."""
+        reason = self.control.check(now)
+        if reason == self.contested:
+            return
+        self.contested = reason
+        if reason is None:
+            self._emit(EventKind.CONTESTED, "no other controller seen for a while")
+            return
+        if not self.ours or now - self._ours_t < _NEWCOMER_S:
+            self._interrupt()
+            self.ours = False
+            self.refused = True
+            self.failure = self._refusal(reason)
+            self._set_status(_S.FAILED)
+            self._emit(EventKind.FAILED, self.failure, _M.MAV_SEVERITY_ERROR)
+            return
+        self._emit(
+            EventKind.CONTESTED,
+            f"another controller drives it too ({reason}): stop it, or take the UAV out",
+            _M.MAV_SEVERITY_WARNING,
+        )
+
+    def _refusal(self, reason: str) -> str:
+        return (
+            f"UAV {self.sysid}: refused: another ground station is driving it ({reason}); "
+            "stop it, or give this service other UAVs"
+        )
+
     def handle_HOME_POSITION(self, msg: Message, now: float) -> None:
         """Home moves when the vehicle arms: the take-off altitude is relative to it."""
         self.home = GeoPoint(msg.latitude * 1e-7, msg.longitude * 1e-7, msg.altitude * 1e-3)
@@ -519,6 +582,13 @@ class Vehicle:
     def _send(self, msg: Message) -> None:
         if not self.link.send(msg):
             self.counters["send_failed"] += 1
+            return
+        kind = msg.get_msgId()  # (our position targets, to tell them from another's)
+        if kind == _M.MAVLINK_MSG_ID_SET_POSITION_TARGET_GLOBAL_INT:
+            if not msg.type_mask & _XY_IGNORED:
+                self.control.sent(self.clock.now(), msg.lat_int, msg.lon_int)
+        elif kind == _M.MAVLINK_MSG_ID_COMMAND_INT and msg.command == _M.MAV_CMD_DO_REPOSITION:
+            self.control.sent(self.clock.now(), msg.x, msg.y)
 
     def send_setpoint(self, sp: Setpoint) -> None:
         """Fly ``sp`` now (FLYING; also SETTING_UP for autopilots needing a stream).
@@ -625,6 +695,8 @@ class Vehicle:
                     next_hb = now + 1.0
                 due = next_hb
             self._check_liveness(now)
+            if self.contested is not None:
+                self._check_control(now)  # (free again after a quiet while)
             ap = self.firmware
             if ap is not None and self.status not in (_S.CONNECTING, _S.LOST):
                 due = min(due, max(self._heard_t + self.lost_after, now) + _LOST_MARGIN)
@@ -711,6 +783,14 @@ class Vehicle:
                 self._request_streams()
             await self._wait_until(self._estimate_ready, min(1.0, deadline - now))
         self._set_status(_S.SETTING_UP)
+        if not self.ours and self.armed and self.mode == ap.external_mode and ap.reports_target:
+            # Flying under external control already, before we ever flew it: someone
+            # else's, or ours before a restart of the service. Listen before taking it
+            # (a target that keeps moving is being driven).
+            self.control.forget_ours()
+            await self._wait_until(lambda: self.status is _S.FAILED, _LISTEN_S)
+        if not self.ours:  # (a set-up again after an outage keeps the UAV ours)
+            self.ours, self._ours_t = True, self.clock.now()
         ap.reset()
         self._setup_sent = 0
         self._airborne_already = False
@@ -1027,6 +1107,8 @@ class Vehicle:
         Returns:
             True if the autopilot accepted the hold mode (or none was needed).
         """
+        if self.refused:
+            return True  # (another controller's UAV: not ours to hold)
         self._hold_requested = True
         self._interrupt()
         if self.status is _S.LOST:
@@ -1048,6 +1130,8 @@ class Vehicle:
         Returns:
             True if the autopilot accepted the action (or none was needed).
         """
+        if self.refused:
+            return True  # (another controller's UAV: not ours to end)
         ap = self.firmware
         spec = None if ap is None else ap.end_command(action)
         if spec is None or self.status is _S.LOST or not self.armed:

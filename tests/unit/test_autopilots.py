@@ -232,13 +232,17 @@ def test_stream_requests() -> None:
     stop, *intervals = ap.stream_requests(rates)
     assert stop.get_type() == "REQUEST_DATA_STREAM"
     assert (stop.req_stream_id, stop.start_stop) == (M.MAV_DATA_STREAM_ALL, 0)
-    assert [m.get_type() for m in intervals] == ["COMMAND_LONG"] * 2
+    assert [m.get_type() for m in intervals] == ["COMMAND_LONG"] * 3
+    # ... its position target too, at 1 Hz (another controller's targets show in it)
+    assert (float(M.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT), 1_000_000.0) in {
+        (m.param1, m.param2) for m in intervals
+    }
     # ... unless the firmware refuses SET_MESSAGE_INTERVAL (before 4.0): then the groups
     ap.on_ack(M.MAV_CMD_SET_MESSAGE_INTERVAL, M.MAV_RESULT_UNSUPPORTED, 1.0)
     ardu = ap.stream_requests(rates)
     groups = {(m.req_stream_id, m.req_message_rate) for m in ardu if m.get_type() != "COMMAND_LONG"}
     assert groups == {(M.MAV_DATA_STREAM_POSITION, 10), (M.MAV_DATA_STREAM_EXTENDED_STATUS, 1)}
-    assert sum(m.get_type() == "COMMAND_LONG" for m in ardu) == 2
+    assert sum(m.get_type() == "COMMAND_LONG" for m in ardu) == 3
 
 
 def test_ardupilot_streams_start_on_request() -> None:

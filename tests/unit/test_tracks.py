@@ -6,8 +6,8 @@ and frames packed by ``MavCodec``: pymavlink's generated dialect, no hand-made b
 
 from __future__ import annotations
 
-import io
 import asyncio
+import io
 import itertools
 import math
 from collections import Counter

@@ -44,7 +44,14 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from convoy_mav.mavlink.signing import Signing, timestamp_now
 
-__all__ = ["MAVLINK1_MARKER", "MAVLINK2_MARKER", "MavCodec", "Message"]
+__all__ = [
+    "GCS_COMPONENT",
+    "GCS_SYSTEM",
+    "MAVLINK1_MARKER",
+    "MAVLINK2_MARKER",
+    "MavCodec",
+    "Message",
+]
 
 Message = Any  # a pymavlink MAVLink_message: the generated dialect is untyped for mypy
 
@@ -61,6 +68,12 @@ _MAX_SEQ_GAP = 128
 _FRAME_DECODER = mavlink.MAVLink(None)
 
 
+GCS_SYSTEM = 255
+"""Our MAVLink system id: a ground station's, by convention."""
+GCS_COMPONENT = 190
+"""Our component id: MAV_COMP_ID_MISSIONPLANNER, as ground stations use."""
+
+
 class MavCodec:
     """MAVLink 2 encoder with our identity plus a robust decoder, for one link.
 
@@ -75,7 +88,11 @@ class MavCodec:
     """
 
     def __init__(
-        self, system: int = 255, component: int = 190, *, signing: Signing | None = None
+        self,
+        system: int = GCS_SYSTEM,
+        component: int = GCS_COMPONENT,
+        *,
+        signing: Signing | None = None,
     ) -> None:
         for name, value in (("system", system), ("component", component)):
             if not 0 <= value <= 255:

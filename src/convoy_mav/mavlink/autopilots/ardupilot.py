@@ -108,6 +108,7 @@ _STREAM_GROUPS: Mapping[int, tuple[int, ...]] = {
         _M.MAVLINK_MSG_ID_SYS_STATUS,
         _M.MAVLINK_MSG_ID_GPS_RAW_INT,
         _M.MAVLINK_MSG_ID_EXTENDED_SYS_STATE,
+        _M.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT,
     ),
     _M.MAV_DATA_STREAM_EXTRA3: (_M.MAVLINK_MSG_ID_SYSTEM_TIME,),
 }
@@ -119,6 +120,7 @@ class ArduPilot(Autopilot):
 
     name: ClassVar[str] = "ArduPilot"
     modes: ClassVar[Mapping[int, str]] = {}
+    reports_target: ClassVar[bool] = True  # (``send_position_target_global_int``)
 
     def mode_name(self, custom_mode: int) -> str:
         """``"GUIDED"``, ``"LOITER"``... (``"MODE(n)"`` if unknown)."""
@@ -147,7 +149,9 @@ class ArduPilot(Autopilot):
 
     def stream_requests(self, rates: Mapping[int, float]) -> list[Message]:
         """Every group stopped, then SET_MESSAGE_INTERVAL per message; REQUEST_DATA_STREAM
-        per group (integer Hz, the fastest member) once the firmware refused the former."""
+        per group (integer Hz, the fastest member) once the firmware refused the former.
+        Its position target comes at 1 Hz too (another controller shows in it)."""
+        rates = {_M.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT: 1.0, **rates}
         out: list[Message] = []
         if not self.legacy_streams:  # (before the intervals: stopping a group stops its members)
             out.append(

@@ -353,11 +353,14 @@ class Autopilot(ABC):
         name: Firmware name for messages ("PX4", "ArduCopter"...).
         setup_steps: What makes it flyable, in order.
         streams_during_setup: Setpoints must flow while setting up (PX4 offboard).
+        reports_target: It reports where it is going (POSITION_TARGET_GLOBAL_INT):
+            how another controller driving it shows (:mod:`convoy_mav.contest`).
     """
 
     name: ClassVar[str] = "autopilot"
     setup_steps: tuple[SetupStep, ...] = ()
     streams_during_setup: ClassVar[bool] = False
+    reports_target: ClassVar[bool] = False
     takeoff_mode: ClassVar[str | None] = None
     """The mode that climbs out by itself (ArduPlane TAKEOFF); None: a command does."""
 
