@@ -39,7 +39,7 @@ from convoy_mav.convoy import ConvoyTracker
 from convoy_mav.errors import ConfigError, PlanningError
 from convoy_mav.fence import Fence, fence_from, fence_items, join_orbit, orbit_setpoint
 from convoy_mav.gcpolicy import collect_on_schedule, flight_gc
-from convoy_mav.geo import GeoPoint, LocalFrame
+from convoy_mav.geo import GeoPoint, LocalFrame, no_position_yet
 from convoy_mav.history import History
 from convoy_mav.mavlink import MavLink
 from convoy_mav.mavlink.autopilots.base import set_message_interval
@@ -378,6 +378,8 @@ class ConvoyService:
         if vehicle is not None:
             vehicle.handle(msg)
         elif sysid in self._ground_ids and msg.get_type() == "GLOBAL_POSITION_INT":
+            if no_position_yet(msg.lat, msg.lon):
+                return
             if self.clock.observe(msg.time_boot_ms, sysid) is Observed.REJECTED:
                 self._ground_rejected += 1
                 return

@@ -17,7 +17,9 @@ from dataclasses import dataclass, field
 
 from convoy_mav.values import value
 
-__all__ = ["GeoPoint", "LocalFrame"]
+__all__ = ["GeoPoint", "LocalFrame", "no_position_yet"]
+
+_NULL_ISLAND_DEG = 0.01
 
 _WGS84_A = 6_378_137.0
 _WGS84_E2 = 6.694_379_990_14e-3
@@ -64,3 +66,11 @@ class LocalFrame:
         lon = self.origin.lon + math.degrees(east / p)
         lon = (lon + 180.0) % 360.0 - 180.0
         return GeoPoint(lat, lon, self.origin.alt - down)
+
+
+def no_position_yet(lat_e7: int, lon_e7: int) -> bool:
+    """A GLOBAL_POSITION_INT from before the estimator has its origin: ArduPilot reports
+    its local offset from (0, 0) then (metres off "null island"), PX4 zeros. Within a
+    kilometre of (0, 0), in the Gulf of Guinea, is taken for that, never a position."""
+    limit = _NULL_ISLAND_DEG * 1e7
+    return abs(lat_e7) < limit and abs(lon_e7) < limit

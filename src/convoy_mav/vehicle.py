@@ -59,7 +59,7 @@ from pymavlink.dialects.v20 import common as mavlink
 from convoy_mav.clock import MissionClock, Observed
 from convoy_mav.contest import ControlWatch
 from convoy_mav.errors import AutopilotError
-from convoy_mav.geo import GeoPoint, LocalFrame
+from convoy_mav.geo import GeoPoint, LocalFrame, no_position_yet
 from convoy_mav.mavlink.autopilots import (
     DEFAULT_STREAM_RATES,
     FLIGHT_STREAM_RATES,
@@ -496,6 +496,9 @@ class Vehicle:
 
     def handle_GLOBAL_POSITION_INT(self, msg: Message, now: float) -> None:
         """Position, velocity and heading into the mission frame."""
+        if no_position_yet(msg.lat, msg.lon):
+            self.counters["no_position_yet"] += 1
+            return
         lat, lon, alt = msg.lat * 1e-7, msg.lon * 1e-7, msg.alt * 1e-3
         north, east, down = self.frame.to_ned(GeoPoint(lat, lon, alt))
         vn, ve, vd = msg.vx * 0.01, msg.vy * 0.01, msg.vz * 0.01

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 from pymavlink.dialects.v20 import common as mavlink
 
-from convoy_mav.geo import GeoPoint, LocalFrame
+from convoy_mav.geo import GeoPoint, LocalFrame, no_position_yet
 from convoy_mav.mavlink.tlog import read_tlog
 from convoy_mav.tracks.geotrack import GeoTrack
 
@@ -47,7 +47,7 @@ def parse_tlog_track(
     time (the centroid of the *latest* fixes would jump whenever vehicles report
     out of phase); the track spans the time every one of them has reported (last
     first fix to first last fix), sampled every ``step`` seconds. Fixes at
-    exactly (0, 0), the "no position yet" of PX4 and ArduPilot, and repeated or
+    near (0, 0), the "no position yet" of PX4 and ArduPilot (``no_position_yet``), and repeated or
     reordered ones (``time_boot_ms`` not increasing) are skipped.
 
     Time is the vehicles' own ``time_boot_ms``, not the record stamps. The stamps
@@ -87,7 +87,7 @@ def parse_tlog_track(
         kind = msg.get_type()
         if kind == "HEARTBEAT" and msg.type == mavlink.MAV_TYPE_GROUND_ROVER:
             rovers.add(msg.get_srcSystem())
-        elif kind == "GLOBAL_POSITION_INT" and (msg.lat or msg.lon):
+        elif kind == "GLOBAL_POSITION_INT" and not no_position_yet(msg.lat, msg.lon):
             raw.setdefault(msg.get_srcSystem(), []).append(
                 (
                     record.number,
