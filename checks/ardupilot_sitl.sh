@@ -4,6 +4,12 @@
 #
 #   SITL_DIR=/path/to/ardupilot checks/ardupilot_sitl.sh plane [DURATION_S] [SPEEDUP]
 #   SITL_DIR=/path/to/ardupilot checks/ardupilot_sitl.sh copter
+#   SECOND_AFTER=60 SITL_DIR=... checks/ardupilot_sitl.sh plane 600 5
+#
+# With SECOND_AFTER (wall s), a second `convoy-mav run` is started then on the same
+# aircraft through another of their MAVLink ports (serial1, TCP 5762+10K): it must
+# refuse them (exit 2, "driven by another ground station"), and the first service
+# warn of it (uav_contested); its output is in out/sitl-FRAME/second.log.
 #
 # SITL_DIR is an ArduPilot tree with build/sitl/bin/arducopter and arduplane built
 # (see the project's notes on building SITL; it is not part of `make test`).
@@ -44,6 +50,25 @@ print(f'{g.lat:.7f},{g.lon:.7f},$alt,90')")
   pids+=($!)
 done
 echo "SITL: 3 x $bin (speedup $speedup), logs in $out/K/sitl.log"
+if [ -n "${SECOND_AFTER:-}" ]; then
+  sed -e 's/udpin:127.0.0.1:14560/tcp:127.0.0.1:5762/' \
+    -e 's/udpin:127.0.0.1:14561/tcp:127.0.0.1:5772/' \
+    -e 's/udpin:127.0.0.1:14562/tcp:127.0.0.1:5782/' "checks/sitl_$frame.toml" >"$out/second.toml"
+  (sleep "$SECOND_AFTER"
+   .venv/bin/convoy-mav run --config "$out/second.toml" --duration "$duration" \
+     --report "$out/second.json" --quiet >"$out/second.log" 2>&1
+   echo "second service exit status $?" >>"$out/second.log") &
+  pids+=($!)
+fi
 .venv/bin/convoy-mav run --config "checks/sitl_$frame.toml" --duration "$duration" \
   --report "$out/report.json" --tlog "$out/mission.tlog" --plot "$out/mission.png"
 "$py" checks/sitl_report.py "checks/sitl_$frame.toml" "$out/report.json" "$out/mission.tlog"
+if [ -n "${SECOND_AFTER:-}" ]; then
+  wait "${pids[-1]}" 2>/dev/null || true
+  echo "second service:"; grep -E "error|refused|exit status" "$out/second.log" | tail -5
+  "$py" -c "
+import json, sys
+alarms = json.load(open(sys.argv[1]))['alarms']
+print('first service uav_contested:', [(round(a['t']), a['active'], a['message'][:40]) for a in alarms if a['kind'] == 'uav_contested'])
+" "$out/report.json"
+fi

@@ -65,6 +65,12 @@ class JumpGate:
         self._last, self._pending, self._count = p, None, 0
         return True
 
+    def seed(self, t: float, x: float, y: float, z: float = 0.0) -> None:
+        """Take this fix as the last, unjudged (an estimator still settling: its jumps are
+        its own, not a forger's)."""
+        if all(map(math.isfinite, (t, x, y, z))):
+            self._last, self._pending, self._count = _Point(t, x, y, z), None, 0
+
     def _far(self, a: _Point, b: _Point) -> bool:
         dist = math.hypot(b.x - a.x, b.y - a.y, b.z - a.z)
         return not dist <= self.max_speed * abs(b.t - a.t) + self.slack_m

@@ -91,7 +91,8 @@ _REFUSALS = {
 }
 _REASON_WAIT = 0.3  # mission s to wait for the STATUSTEXT that explains a refusal
 _LISTEN_S = 8.0  # mission s a UAV found flying in the external mode is watched first
-_NEWCOMER_S = 60.0  # mission s after we took a UAV in which another controller wins it
+_ADOPTED_YIELD_S = 600.0  # mission s a UAV we found flying is yielded to another controller
+# (ArduPlane's loiter target changes every half minute or so: the other's shows late)
 _XY_IGNORED = _M.POSITION_TARGET_TYPEMASK_X_IGNORE | _M.POSITION_TARGET_TYPEMASK_Y_IGNORE
 _CONFIRM_WAIT = 2.5  # mission s for a HEARTBEAT to confirm an accepted mode/arm
 _FLYING_STATES = (
@@ -276,6 +277,7 @@ class Vehicle:
         self.ours = False  # set-up went past listening: we command it
         self.refused = False  # another controller drove it first: we backed off
         self._ours_t = -math.inf  # mission time we took it
+        self._adopted = False  # found flying under external control when we took it
         self._warned_t: dict[str, float] = {}  # rejected-frame warnings, by kind
         self._heard_t = -math.inf
         self._acks: dict[int, tuple[int, int]] = {}  # command -> (result, seq)
@@ -341,6 +343,13 @@ class Vehicle:
             self._fix_t = now
         return self.home is not None or now - self._fix_t >= _HOME_WAIT
 
+    def _settled(self, now: float) -> bool:
+        """Is its estimate settled (home set, or long after the fix), so a jump in its
+        position is a forger's or a glitch, not the estimator finding its origin?"""
+        return self.home is not None or (
+            self._fix_t is not None and now - self._fix_t >= _HOME_WAIT
+        )
+
     @property
     def airborne(self) -> bool:
         """Whether the autopilot says it is flying; never assumed from being armed.
@@ -392,7 +401,7 @@ class Vehicle:
         now = self.clock.now()
         self._heard_t = now
         self.received += 1
-        if self.first_heard_t is None:
+        if self.first_heard_t is None and self.clock.synced:
             self.first_heard_t = now
         kind = msg.get_type()
         self.last[kind] = msg
@@ -510,7 +519,9 @@ class Vehicle:
             yaw = math.atan2(ve, vn)
         t = self.clock.to_mission(msg.time_boot_ms, self.uid)
         tel = Telemetry(self.uid, t, north, east, down, vn, ve, vd, yaw, lat, lon, alt)
-        if not self._gate.admit(t, north, east, down):  # (``plausible.JumpGate``)
+        if not self._settled(now):  # (ArduPilot's altitude jumps to AMSL as it settles)
+            self._gate.seed(t, north, east, down)
+        elif not self._gate.admit(t, north, east, down):  # (``plausible.JumpGate``)
             self._reject(
                 "position_jump",
                 f"position {lat:.6f}, {lon:.6f} is farther than it can have flown; fix dropped",
@@ -546,10 +557,10 @@ class Vehicle:
         self._check_control(now)
 
     def _check_control(self, now: float) -> None:
-        """Refuse a UAV another controller drives before we fly it, or in our first
-        ``_NEWCOMER_S`` of flying it (we are the second service: we back off); alarm one
-        it takes while we have long flown it (the operator decides: two controllers
-        fight, and neither covers)."""
+        """Refuse a UAV another controller drives before we fly it, or one we found flying
+        under external control and took (we are the second service: we back off, in our
+        first ``_ADOPTED_YIELD_S`` of it); alarm one we launched (the operator decides:
+        two controllers fight, and neither covers)."""
         reason = self.control.check(now)
         if reason == self.contested:
             return
@@ -557,7 +568,7 @@ class Vehicle:
         if reason is None:
             self._emit(EventKind.CONTESTED, "no other controller seen for a while")
             return
-        if not self.ours or now - self._ours_t < _NEWCOMER_S:
+        if not self.ours or (self._adopted and now - self._ours_t < _ADOPTED_YIELD_S):
             self._interrupt()
             self.ours = False
             self.refused = True
@@ -689,6 +700,8 @@ class Vehicle:
             self._send(hb)
             with contextlib.suppress(TimeoutError):
                 await asyncio.wait_for(clock.wait_synced(), 0.5)  # (wall s)
+        if self._heard_t > -math.inf:  # heard before mission time began: heard at its start
+            self._heard_t = max(self._heard_t, clock.now())
         while True:
             now = clock.now()
             due = now + 1.0
@@ -765,11 +778,13 @@ class Vehicle:
     async def _set_up(self) -> None:
         ap = self.firmware
         assert ap is not None
-        start = self.clock.now()
-        deadline = start + self.setup_timeout
         self.failure = None
         self._set_status(_S.WAITING_FIX)
         self._request_streams()
+        if not self.clock.synced:  # (mission time comes with the first stamped message:
+            await self.clock.wait_synced()  # an autopilot up an hour is at t = 3600 then)
+        start = self.clock.now()
+        deadline = start + self.setup_timeout
         self._fix_t = None
         while not self._estimate_ready():
             now = self.clock.now()
@@ -790,6 +805,7 @@ class Vehicle:
             # Flying under external control already, before we ever flew it: someone
             # else's, or ours before a restart of the service. Listen before taking it
             # (a target that keeps moving is being driven).
+            self._adopted = True
             self.control.forget_ours()
             await self._wait_until(lambda: self.status is _S.FAILED, _LISTEN_S)
         if not self.ours:  # (a set-up again after an outage keeps the UAV ours)

@@ -60,6 +60,14 @@ class Autopilot:
             mavlink.MAV_TYPE_FIXED_WING, mavlink.MAV_AUTOPILOT_PX4, 0, 0, mavlink.MAV_STATE_ACTIVE
         )
 
+    def home(self) -> None:
+        """HOME_POSITION: its estimate has settled (positions are judged from now on)."""
+        p = self.frame.to_geo(0.0, 0.0, 0.0)
+        self.client.mav.home_position_send(
+            int(p.lat * 1e7), int(p.lon * 1e7), int(p.alt * 1000), 0, 0, 0,
+            [1.0, 0.0, 0.0, 0.0], 0, 0, 0,
+        )  # fmt: skip
+
 
 async def _talk(ap: Autopilot, seconds: float) -> None:
     end = time.monotonic() + seconds
@@ -89,7 +97,24 @@ async def test_strangers_and_forged_frames_change_nothing_flown(
         genuine = Autopilot(MavClient(port, source_system=1))
         genuine.client.conn.mav.srcComponent = 1
         try:
+            # Before its estimator has an origin, ArduPilot reports metres off (0, 0):
+            # no position yet, neither flown nor a jump when the real one comes.
+            for dn, de in ((614, 2111), (720, 2450)):
+                genuine.client.mav.global_position_int_send(
+                    genuine.boot_ms(), dn, de, 50, 58, 0, 0, 0, 0
+                )
+                await asyncio.sleep(0.02)
+            # ... nor is its altitude finding AMSL while it settles (before home is set).
+            here = genuine.frame.to_geo(100.0, 50.0)
+            genuine.client.mav.global_position_int_send(
+                genuine.boot_ms(), int(here.lat * 1e7), int(here.lon * 1e7), 0, 100_000,
+                0, 0, 0, 0,
+            )  # fmt: skip
+            genuine.position(north=100.0)  # (100 m up: its altitude found)
+            await asyncio.sleep(0.05)
+            genuine.home()
             await _talk(genuine, 1.0)
+            assert vehicle.counters["no_position_yet"] == 2 and not vehicle.counters["position_jump"]
             assert link.peer is not None and vehicle.telemetry is not None
             assert vehicle.telemetry.north == pytest.approx(100.0, abs=1.0)
 

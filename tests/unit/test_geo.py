@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from convoy_mav.geo import GeoPoint, LocalFrame
+from convoy_mav.geo import GeoPoint, LocalFrame, no_position_yet
 
 
 def test_known_distances() -> None:
@@ -36,3 +36,11 @@ def test_antimeridian() -> None:
     p = frame.to_geo(0.0, 50.0)
     assert -180.0 <= p.lon < -179.99
     assert frame.to_ned(p)[1] == pytest.approx(50.0, abs=1e-6)
+
+
+def test_no_position_yet_is_null_island_not_a_place() -> None:
+    assert no_position_yet(0, 0)
+    assert no_position_yet(614, 2111)  # (ArduPlane SITL's first report: metres off it)
+    assert no_position_yet(-99_999, 99_999)
+    assert not no_position_yet(-353_632_620, 1_491_652_370)  # CMAC
+    assert not no_position_yet(0, 1_000_000)  # (on the equator, 0.1 degrees east)
