@@ -51,9 +51,11 @@ Schema (every key optional)::
     loss_to_vehicle = 0.0
     loss_from_vehicle = 0.0
     latency = 0.0                     # both directions, sim s (or latency_to/from_vehicle)
+    duplicate = 0.0                   # probability a datagram arrives twice (both ways)
+    jitter = 0.0                      # up to this many sim s more latency: reordering
     kill = [{ sysid = 2, at = 30.0 }] # or ["2@30"]
     reboot = ["1@20"]
-    sysids = []                       # loss/latency only for these (empty: all)
+    sysids = []                       # loss/latency/duplicates/jitter only for these (empty: all)
     seed = 0
 """
 
@@ -146,6 +148,8 @@ _FAULT_KEYS = {
     "latency",
     "latency_to_vehicle",
     "latency_from_vehicle",
+    "duplicate",
+    "jitter",
     "kill",
     "reboot",
     "sysids",
@@ -645,7 +649,7 @@ def _faults(f: _Table) -> FaultSpec:
         isinstance(s, int) and not isinstance(s, bool) for s in sysids
     ):
         raise ConfigError(f.key("sysids"), sysids, "must be a list of system ids")
-    for name in ("loss_to_vehicle", "loss_from_vehicle"):
+    for name in ("loss_to_vehicle", "loss_from_vehicle", "duplicate"):
         p = f.number(name, 0.0, lo=0.0)
         if p > 1.0:
             raise ConfigError(f.key(name), f.get(name), "must be a probability in [0, 1]")
@@ -654,6 +658,8 @@ def _faults(f: _Table) -> FaultSpec:
         loss_from_vehicle=f.number("loss_from_vehicle", 0.0, lo=0.0),
         latency_to_vehicle=f.number("latency_to_vehicle", latency, lo=0.0),
         latency_from_vehicle=f.number("latency_from_vehicle", latency, lo=0.0),
+        duplicate=f.number("duplicate", 0.0, lo=0.0),
+        jitter=f.number("jitter", 0.0, lo=0.0),
         kills=_timed(f, "kill"),
         reboots=_timed(f, "reboot"),
         sysids=frozenset(sysids),

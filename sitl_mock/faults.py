@@ -48,6 +48,9 @@ class FaultSpec:
             (decided per destination, as independent links would).
         latency_to_vehicle: Sim seconds added before a vehicle sees a datagram.
         latency_from_vehicle: Sim seconds added before a sent datagram leaves.
+        duplicate: Probability that a datagram (either way) is delivered twice.
+        jitter: Up to this many sim seconds added at random to each datagram's
+            latency (either way), so datagrams overtake each other: reordering.
         kills: Vehicles that stop responding and sending entirely at a time.
         reboots: Vehicles that reboot (``time_boot_ms`` restarts) at a time.
         sysids: Vehicles that loss and latency apply to; empty means all.
@@ -58,17 +61,19 @@ class FaultSpec:
     loss_from_vehicle: float = 0.0
     latency_to_vehicle: float = 0.0
     latency_from_vehicle: float = 0.0
+    duplicate: float = 0.0
+    jitter: float = 0.0
     kills: tuple[TimedFault, ...] = ()
     reboots: tuple[TimedFault, ...] = ()
     sysids: frozenset[int] = field(default_factory=frozenset)
     seed: int = 0
 
     def __post_init__(self) -> None:
-        for name in ("loss_to_vehicle", "loss_from_vehicle"):
+        for name in ("loss_to_vehicle", "loss_from_vehicle", "duplicate"):
             p = getattr(self, name)
             if not 0.0 <= p <= 1.0:
                 raise ValueError(f"{name} must be a probability in [0, 1], got {p!r}")
-        for name in ("latency_to_vehicle", "latency_from_vehicle"):
+        for name in ("latency_to_vehicle", "latency_from_vehicle", "jitter"):
             s = getattr(self, name)
             if not (math.isfinite(s) and s >= 0.0):
                 raise ValueError(f"{name} must be finite seconds >= 0, got {s!r}")
@@ -119,12 +124,24 @@ class FaultInjector:
         return self.spec.applies_to(sysid) and self._draw(self.spec.loss_from_vehicle)
 
     def delay_to_vehicle(self, sysid: int) -> float:
-        """Sim seconds a datagram to vehicle ``sysid`` is held back."""
-        return self.spec.latency_to_vehicle if self.spec.applies_to(sysid) else 0.0
+        """Sim seconds a datagram to vehicle ``sysid`` is held back (latency + jitter)."""
+        if not self.spec.applies_to(sysid):
+            return 0.0
+        return self.spec.latency_to_vehicle + self._jitter()
 
     def delay_from_vehicle(self, sysid: int) -> float:
-        """Sim seconds a datagram from vehicle ``sysid`` is held back."""
-        return self.spec.latency_from_vehicle if self.spec.applies_to(sysid) else 0.0
+        """Sim seconds a datagram from vehicle ``sysid`` is held back (latency + jitter)."""
+        if not self.spec.applies_to(sysid):
+            return 0.0
+        return self.spec.latency_from_vehicle + self._jitter()
+
+    def copies(self, sysid: int) -> int:
+        """How many times the next datagram of vehicle ``sysid`` (either way) arrives."""
+        return 2 if self.spec.applies_to(sysid) and self._draw(self.spec.duplicate) else 1
+
+    def _jitter(self) -> float:
+        j = self.spec.jitter
+        return self._rng.uniform(0.0, j) if j > 0.0 else 0.0
 
     def due_events(self, now: float) -> list[FaultEvent]:
         """Scheduled events with ``at <= now`` not returned before, oldest first."""

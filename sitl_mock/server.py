@@ -210,11 +210,12 @@ class VehicleLink(asyncio.DatagramProtocol):
         if faults.drop_to_vehicle(self.sysid):
             self.counters["lost_to_vehicle"] += 1
             return
-        delay = faults.delay_to_vehicle(self.sysid)
-        if delay > 0.0:
-            self.inbound.push(now + delay, (data, addr))
-        else:
-            self.process(data, addr, now)
+        for _ in range(faults.copies(self.sysid)):
+            delay = faults.delay_to_vehicle(self.sysid)
+            if delay > 0.0:
+                self.inbound.push(now + delay, (data, addr))
+            else:
+                self.process(data, addr, now)
 
     def process(self, data: bytes, addr: Address, now: float) -> None:
         """Decode a datagram with the peer's parser and hand messages to the vehicle."""
@@ -287,12 +288,14 @@ class VehicleLink(asyncio.DatagramProtocol):
             self.encoder.send(msg)
         frames, self.outbox.frames = self.outbox.frames, []
         self.counters["messages_out"] += len(frames)
-        delay = self.fleet.faults.delay_from_vehicle(self.sysid)
+        faults = self.fleet.faults
         for frame in frames:
-            if delay > 0.0:
-                self.outbound.push(now + delay, frame)
-            else:
-                self.transmit(frame)
+            for _ in range(faults.copies(self.sysid)):
+                delay = faults.delay_from_vehicle(self.sysid)
+                if delay > 0.0:
+                    self.outbound.push(now + delay, frame)
+                else:
+                    self.transmit(frame)
 
     def transmit(self, frame: bytes) -> None:
         """Send one frame to every peer and the fixed GCS address."""

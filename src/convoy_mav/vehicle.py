@@ -90,6 +90,7 @@ _REFUSALS = {
     _M.MAV_RESULT_FAILED: "FAILED",
 }
 _REASON_WAIT = 0.3  # mission s to wait for the STATUSTEXT that explains a refusal
+_SETTLE_S = 3.0  # mission s after home is set before position jumps are judged
 _LISTEN_S = 8.0  # mission s a UAV found flying in the external mode is watched first
 _ADOPTED_YIELD_S = 600.0  # mission s a UAV we found flying is yielded to another controller
 # (ArduPlane's loiter target changes every half minute or so: the other's shows late)
@@ -271,6 +272,7 @@ class Vehicle:
         self.first_heard_t: float | None = None
         self._statustext_t = -math.inf
         self._fix_t: float | None = None  # mission time a fix was first seen
+        self._home_t = -math.inf  # mission time home was set (since boot)
         self._gate = JumpGate(max_speed, slack_m=_JUMP_SLACK_M, confirm=_JUMP_CONFIRM)
         self.control = ControlWatch()  # signs of another controller driving it
         self.contested: str | None = None  # why another controller drives it, while it does
@@ -344,9 +346,10 @@ class Vehicle:
         return self.home is not None or now - self._fix_t >= _HOME_WAIT
 
     def _settled(self, now: float) -> bool:
-        """Is its estimate settled (home set, or long after the fix), so a jump in its
-        position is a forger's or a glitch, not the estimator finding its origin?"""
-        return self.home is not None or (
+        """Is its estimate settled (home set a while ago, or long after the fix), so a
+        jump in its position is a forger's or a glitch, not the estimator finding its
+        origin? (ArduPlane sends HOME_POSITION just before its altitude jumps to AMSL.)"""
+        return (self.home is not None and now - self._home_t >= _SETTLE_S) or (
             self._fix_t is not None and now - self._fix_t >= _HOME_WAIT
         )
 
@@ -590,6 +593,8 @@ class Vehicle:
 
     def handle_HOME_POSITION(self, msg: Message, now: float) -> None:
         """Home moves when the vehicle arms: the take-off altitude is relative to it."""
+        if self.home is None:
+            self._home_t = now
         self.home = GeoPoint(msg.latitude * 1e-7, msg.longitude * 1e-7, msg.altitude * 1e-3)
 
     # =============================================================== outbound
@@ -807,6 +812,7 @@ class Vehicle:
             # (a target that keeps moving is being driven).
             self._adopted = True
             self.control.forget_ours()
+            self.control.needed = 2  # (yield on less: the other was there first)
             await self._wait_until(lambda: self.status is _S.FAILED, _LISTEN_S)
         if not self.ours:  # (a set-up again after an outage keeps the UAV ours)
             self.ours, self._ours_t = True, self.clock.now()

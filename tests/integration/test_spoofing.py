@@ -113,8 +113,10 @@ async def test_strangers_and_forged_frames_change_nothing_flown(
             genuine.position(north=100.0)  # (100 m up: its altitude found)
             await asyncio.sleep(0.05)
             genuine.home()
-            await _talk(genuine, 1.0)
-            assert vehicle.counters["no_position_yet"] == 2 and not vehicle.counters["position_jump"]
+            await _talk(genuine, 3.5)  # (positions are judged 3 s after home is set)
+            assert (
+                vehicle.counters["no_position_yet"] == 2 and not vehicle.counters["position_jump"]
+            )
             assert link.peer is not None and vehicle.telemetry is not None
             assert vehicle.telemetry.north == pytest.approx(100.0, abs=1.0)
 

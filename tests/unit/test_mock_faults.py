@@ -41,6 +41,26 @@ def test_loss_and_latency_only_hit_the_listed_sysids() -> None:
     assert inj.delay_from_vehicle(2) == 0.0
 
 
+def test_duplicates_and_jitter_reorder_and_repeat_datagrams() -> None:
+    """Jitter draws each datagram's extra latency afresh (so they overtake each other);
+    duplication delivers some twice; both replay with the seed, and draw nothing at 0."""
+    spec = FaultSpec(latency_from_vehicle=0.2, duplicate=0.1, jitter=0.3)
+    inj = FaultInjector(spec, random.Random(5))
+    delays = [inj.delay_from_vehicle(1) for _ in range(2000)]
+    assert all(0.2 <= d <= 0.5 for d in delays)
+    overtaken = sum(later < earlier - 0.01 for earlier, later in zip(delays, delays[1:]))
+    assert overtaken > 500  # (datagrams 10 ms apart arrive out of order)
+    copies = [inj.copies(1) for _ in range(5000)]
+    assert set(copies) == {1, 2} and 0.08 < copies.count(2) / 5000 < 0.12
+    again = FaultInjector(spec, random.Random(5))
+    assert [again.delay_from_vehicle(1) for _ in range(2000)] == delays
+    rng = random.Random(1)
+    state = rng.getstate()
+    plain = FaultInjector(FaultSpec(latency_to_vehicle=0.2), rng)
+    assert plain.copies(1) == 1 and plain.delay_to_vehicle(1) == 0.2
+    assert rng.getstate() == state
+
+
 def test_events_fire_once_in_time_order() -> None:
     spec = FaultSpec(
         kills=(TimedFault(2, 5.0),),
@@ -62,6 +82,8 @@ def test_events_fire_once_in_time_order() -> None:
         ({"loss_from_vehicle": -0.1}, "loss_from_vehicle"),
         ({"latency_to_vehicle": float("inf")}, "latency_to_vehicle"),
         ({"latency_from_vehicle": -1.0}, "latency_from_vehicle"),
+        ({"duplicate": 2.0}, "duplicate"),
+        ({"jitter": float("nan")}, "jitter"),
     ],
 )
 def test_spec_rejects_bad_values_naming_the_field(kwargs: dict[str, Any], word: str) -> None:
