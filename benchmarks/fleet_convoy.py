@@ -70,12 +70,13 @@ async def run_convoy_mav(
     decoded: dict[int, float] = {}  # sysid -> wall time its latest position was decoded
     received = dict.fromkeys(range(1, n + 1), 0)  # positions decoded per vehicle
     plan = make_plan(PlanRequest(150.0, 100.0, 18.0, uavs=n))
-    monitor = Monitor(100.0)
+    monitor = Monitor(100.0, step=1.0 / CONTROL_HZ)
 
     def source(sysid: int, t: float) -> Setpoint:
         return setpoint_at(plan, sysid - 1, t, plan_origin=(0.0, 0.0), plan_t0=0.0, down=-100.0)
 
     def on_telemetry(tel: Telemetry) -> None:  # as ConvoyService._track
+        monitor.fix(tel)
         planned = vehicles[tel.sysid].last_setpoint
         if planned is None or planned.hold or abs(tel.t - planned.t) > POSITION_AT_HORIZON_S:
             planned = source(tel.sysid, tel.t)

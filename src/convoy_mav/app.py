@@ -288,7 +288,7 @@ class ConvoyService:
         self._stalled_s = 0.0  # mission s the control loop was held up (a loaded host)
         self._fence_clear_until: dict[int, tuple[float, float]] = {}  # (from, to) mission s
         self.history = History(interval=history_interval)
-        self.monitor = Monitor(config.sensor_radius_m)
+        self.monitor = Monitor(config.sensor_radius_m, step=1.0 / control_rate_hz)
         self.publisher = publisher
         self._on_progress = on_progress
         self._on_alarm = on_alarm
@@ -1028,6 +1028,7 @@ class ConvoyService:
         sampled again: a quarter of the receive path's cost at 1000 UAVs. With
         no recent plan setpoint (paused, or the stream stalled) the plan is sampled.
         """
+        self.monitor.fix(tel)  # (coverage is judged at each fix's own stamp)
         view = self.view
         if view.phase(tel.sysid, tel.t) != "protect":
             return

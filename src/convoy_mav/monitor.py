@@ -10,6 +10,10 @@ Design rules:
   sampled as their telemetry trickles in, not all at once on the tick.
 - Coverage is counted from the protect phase on (joining UAVs are not yet
   expected to cover); before that only the live "covered now?" is reported.
+- Coverage is scored at the telemetry's own times (``stamped.StampedCoverage``):
+  each instant is decided from the fixes around it, a few seconds late at most, so
+  a host stall neither over- nor under-claims what the UAVs saw meanwhile. The
+  live "covered now?" is the latest fixes' (carried to the tick).
 - Only a UAV that can see counts: heard (not lost), airborne by its autopilot's
   word, within its altitude band and on its protecting slot. ``why_not_counted``
   is the one rule, and its answer is what the report and MQTT show.
@@ -25,6 +29,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 from convoy_mav.coverage import CoverageSample, CoverageStats, CoverageTracker, GapClosed, GapOpened
+from convoy_mav.stamped import StampedCoverage
 from convoy_mav.types import ConvoyEstimate, Telemetry
 
 __all__ = ["Alarm", "Monitor", "MonitorSnapshot", "VehicleScore", "why_not_counted"]
@@ -145,6 +150,7 @@ class Monitor:
             ``time_boot_ms``) at most this long before it: a host stall or a slow
             link leaves old positions, which say nothing of now. Fresh ones are
             carried forward to the tick along their velocity.
+        step: The control tick, mission s: the grid coverage is decided on.
     """
 
     sensor_radius: float
@@ -153,17 +159,29 @@ class Monitor:
     prediction_grace: float = 60.0
     max_hold: float = 1.0
     fresh_s: float = 1.0
+    step: float = 0.1
     _tracker: CoverageTracker | None = field(default=None, init=False)
+    _stamped: StampedCoverage | None = field(default=None, init=False)
     _protect_start: float | None = field(default=None, init=False)
     _tracking: dict[int, _Tracking] = field(default_factory=dict, init=False)
     _active: set[str] = field(default_factory=set, init=False)
     _last: CoverageSample | None = field(default=None, init=False)
+
+    def __post_init__(self) -> None:
+        self._stamped = StampedCoverage(self.sensor_radius, self.step, fresh_s=self.fresh_s)
 
     def start_protect(self, t: float) -> None:
         """Begin counting coverage at mission time ``t`` (every UAV has joined)."""
         self._protect_start = t
         self._tracker = CoverageTracker(self.sensor_radius, self.max_hold)
         self._tracking.clear()
+        assert self._stamped is not None
+        self._stamped.start(t)
+
+    def fix(self, tel: Telemetry) -> None:
+        """Each position of each UAV as it arrives (coverage is judged at its stamp)."""
+        assert self._stamped is not None
+        self._stamped.fix(tel.sysid, tel.t, tel.north, tel.east, tel.vn, tel.ve)
 
     def restart_protect(self, t: float, predicted_coverage: float) -> None:
         """A replan changed the promise: keep the totals, compare against the new figure."""
@@ -205,11 +223,15 @@ class Monitor:
                 lead = max(age, 0.0)  # (a stamp ahead of the tick: where it is)
                 positions[sysid] = (tel.north + tel.vn * lead, tel.east + tel.ve * lead)
         centre = (convoy.north, convoy.east)
-        if self._tracker is None:
+        tracker = self._tracker
+        if tracker is None:
             self._last = CoverageTracker(self.sensor_radius).observe(t, centre, positions)
             return alarms
-        sample, events = self._tracker.update(t, centre, positions)
-        self._last = sample
+        self._last = tracker.observe(t, centre, positions)
+        assert self._stamped is not None
+        events = []
+        for decided in self._stamped.tick(t, centre, frozenset(telemetry)):
+            events += tracker.update(decided.t, decided.convoy, decided.uavs)[1]
         for ev in events:
             if isinstance(ev, GapOpened):
                 alarms.append(Alarm(ev.t, "gap", True, "convoy not seen by any UAV"))
@@ -219,7 +241,7 @@ class Monitor:
                     Alarm(ev.t, "gap", False, f"convoy seen again after {ev.duration:.1f} s")
                 )
                 self._active.discard("gap")
-        stats = self._tracker.stats()
+        stats = tracker.stats()
         assert self._protect_start is not None
         if t - self._protect_start >= self.prediction_grace:
             missed = stats.fraction < self.predicted_coverage - self.prediction_margin

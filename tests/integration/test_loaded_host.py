@@ -1,11 +1,12 @@
 """Honest under load: four busy processes beside the stationary demo on this host.
 
-The service and the mock then share the cores with them and are held up for tens
-of milliseconds at a time (at speedup 10, seconds of mission time). The monitor
-counts a UAV only from telemetry stamped near each tick by the autopilot's own
-clock, so what it claims stays within half a point of the mock's ground truth,
-however much either side was stalled; the report says how long the host held
-the control loop up.
+The service and the mock then share the cores with them and are held up again and
+again (at speedup 25 the report's ``host_stalled_s`` was 50-60 s of 300 s). The
+monitor decides each instant from the fixes stamped around it by the autopilots'
+own clocks (``stamped.StampedCoverage``), so what it claims stays within half a point
+of the mock's ground truth however the loop was held up (measured 99.84 % against
+99.90 %, and 100 % against 100 %; it said 94.9 % against 99.5 % when it judged
+from the latest fix at each tick).
 """
 
 from __future__ import annotations
@@ -19,6 +20,8 @@ import pytest
 from convoy_mav.demo import SCENARIOS, run_demo
 
 pytestmark = pytest.mark.integration
+
+SPEEDUP = 25.0
 
 _BUSY = "import math\nx = 0.0\nwhile True:\n    x = math.sin(x + 1.0)\n"
 _BIG = (  # (a page of each 4 KiB touched in turn: memory traffic, not just CPU)
@@ -44,9 +47,9 @@ def busy_host() -> Iterator[None]:
 async def test_the_monitor_stays_within_half_a_point_of_truth_on_a_busy_host(
     busy_host: None,
 ) -> None:
-    result = await run_demo(SCENARIOS["stationary"], duration=300.0, speedup=10.0)
+    result = await run_demo(SCENARIOS["stationary"], duration=300.0, speedup=SPEEDUP)
     report = result.report.to_dict()
     assert result.truth is not None and report["coverage_fraction"] is not None
     claimed, truth = report["coverage_fraction"], result.truth.fraction
     assert abs(claimed - truth) <= 0.005, (claimed, truth, report["safety"]["host_stalled_s"])
-    assert report["safety"]["host_stalled_s"] >= 0.0
+    assert report["safety"]["host_stalled_s"] > 0.0  # (the load did hold it up)

@@ -29,29 +29,71 @@ def test_nothing_counted_before_protect() -> None:
     assert snap.stats.elapsed_s == 0.0
 
 
+def _fly(
+    m: Monitor, times: list[float], north: object, *, ticks: list[float] | None = None
+) -> list[Alarm]:
+    """UAV 1's fixes at ``times`` (north given by ``north(t)``), each tick seeing it."""
+    alarms: list[Alarm] = []
+    fixes = iter(times)
+    pending = next(fixes, None)
+    latest = None  # (the service passes each counted UAV's latest, however old)
+    for t in ticks if ticks is not None else times:
+        while pending is not None and pending <= t + 1e-9:
+            latest = tel(1, pending, north(pending), 0.0)  # type: ignore[operator]
+            m.fix(latest)
+            pending = next(fixes, None)
+        alarms += m.update(t, CONVOY, {1: latest} if latest is not None else {})
+    return alarms
+
+
+def _grid(a: float, b: float) -> list[float]:
+    return [round(a + 0.1 * k, 6) for k in range(round((b - a) / 0.1) + 1)]
+
+
 def test_gap_alarms_and_scores() -> None:
+    """Inside for a second, out for a second, inside again: a gap of a second, decided
+    at the fixes' own times; two thirds covered, as long in the circle."""
     m = Monitor(sensor_radius=10.0, prediction_grace=1e9)
     m.start_protect(0.0)
     planned = sp(0.0, 3.0, 4.0)
-
-    def tick(t: float, north: float) -> list[Alarm]:
-        update = tel(1, t, north, 0.0)
-        m.track(update, planned.north, planned.east)
-        return m.update(t, CONVOY, {1: update})
-
-    assert tick(0.0, 0.0) == []
-    alarms = tick(1.0, 20.0)
-    assert [(a.kind, a.active) for a in alarms] == [("gap", True)]
-    alarms = tick(2.0, 1.0)
-    assert [(a.kind, a.active) for a in alarms] == [("gap", False)]
-    snap = m.snapshot(2.0)
+    m.track(tel(1, 0.0, 0.0, 0.0), planned.north, planned.east)
+    alarms = _fly(m, _grid(0.0, 3.05), lambda t: 20.0 if 1.0 <= t < 2.0 else 0.0)
+    assert [(a.kind, a.active) for a in alarms] == [("gap", True), ("gap", False)]
+    assert alarms[0].t == pytest.approx(1.0, abs=1e-6)
+    assert alarms[1].t == pytest.approx(2.0, abs=1e-6)
+    assert "after 1.0 s" in alarms[1].message
+    snap = m.snapshot(3.0)
     assert snap.covered and snap.covering == (1,)
-    assert snap.stats.fraction == pytest.approx(0.5)
+    assert snap.stats.fraction == pytest.approx(2.0 / 3.0, abs=0.04)
     (score,) = snap.vehicles
-    assert score.time_in_circle_fraction == pytest.approx(0.5)
-    errors = [math.hypot(0 - 3, 0 - 4), math.hypot(20 - 3, 0 - 4), math.hypot(1 - 3, 0 - 4)]
-    assert score.mean_tracking_error_m == pytest.approx(sum(errors) / 3)
-    assert score.tracking_error_m == pytest.approx(errors[-1])
+    assert score.time_in_circle_fraction == pytest.approx(2.0 / 3.0, abs=0.04)
+    assert score.mean_tracking_error_m == pytest.approx(5.0)
+
+
+def test_a_host_stall_is_scored_from_the_fixes_that_come_after_it() -> None:
+    """No tick from 5 s to 7 s (the host held the loop up); the fixes of that while
+    arrive together at 7 s: every instant is decided from them, all covered."""
+    m = Monitor(sensor_radius=10.0, prediction_grace=1e9)
+    m.start_protect(0.0)
+    ticks = [t for t in _grid(0.0, 10.0) if not 5.0 < t < 7.0]
+    alarms = _fly(m, _grid(0.0, 10.0), lambda t: 3.0, ticks=ticks)
+    assert alarms == []
+    stats = m.snapshot(10.0).stats
+    assert stats.fraction == pytest.approx(1.0) and stats.elapsed_s >= 9.5
+
+
+def test_a_uav_silent_longer_than_the_interpolation_gap_sees_nothing_meanwhile() -> None:
+    """Fixes stop from 5 s to 10 s: carried along for a second, then unknown (nothing
+    is claimed without telemetry); a short silence between two fixes inside is
+    interpolated (it flew on between them)."""
+    m = Monitor(sensor_radius=10.0, prediction_grace=1e9)
+    m.start_protect(0.0)
+    fixes = [t for t in _grid(0.0, 14.0) if not (5.0 < t < 10.0 or 12.0 < t < 14.0)]
+    alarms = _fly(m, fixes, lambda t: 3.0, ticks=_grid(0.0, 14.0))
+    assert [(a.kind, a.active) for a in alarms] == [("gap", True), ("gap", False)]
+    assert alarms[0].t == pytest.approx(6.1, abs=1e-6)
+    assert alarms[1].t == pytest.approx(10.0, abs=1e-6)
+    assert m.snapshot(14.0).stats.fraction == pytest.approx(10.1 / 14.0, abs=0.02)
 
 
 def test_prediction_missed_and_stale_convoy_alarms() -> None:
