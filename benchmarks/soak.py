@@ -3,7 +3,8 @@
     .venv/bin/python benchmarks/soak.py [--duration 3600] [--speedup 40] [--json out/soak.json]
 
 Against ``sitl_mock`` (PX4 planes, the moving convoy) and a real mosquitto: 30 % packet
-loss both ways and 200 ms latency on every link, one autopilot rebooted, the broker
+loss both ways, 200 ms latency with up to 100 ms of jitter (reordering) and 5 % of
+datagrams repeated on every link, one autopilot rebooted, the broker
 killed and restarted twice, and floods of 100 000 random and 100 000 valid-but-foreign
 MAVLink datagrams at the service's ports and 10 000 absurd MQTT inputs. Prints, and
 writes with ``--json``: coverage (the mock's truth, the service's monitor and its
@@ -114,6 +115,7 @@ async def soak(duration: float, speedup: float) -> dict[str, Any]:
                 faults_done.append(f"t={fleet.now:.0f}: 10k absurd MQTT inputs")
 
     faults = {"loss_to_vehicle": 0.3, "loss_from_vehicle": 0.3, "latency": 0.2,
+              "jitter": 0.1, "duplicate": 0.05,
               "reboot": [f"1@{0.55 * duration:.0f}"], "seed": 3}  # fmt: skip
     try:
         result = await run_demo(
@@ -130,7 +132,8 @@ async def soak(duration: float, speedup: float) -> dict[str, Any]:
         "duration_s": duration,
         "speedup": speedup,
         "faults": [
-            "30 % loss each way, 200 ms latency, every link",
+            "30 % loss each way, 200 ms latency plus up to 100 ms of jitter (reordering), "
+            "5 % of datagrams repeated, every link",
             f"UAV 1 rebooted at t={0.55 * duration:.0f}",
             *faults_done,
         ],

@@ -83,6 +83,9 @@ _OWN_FAILSAFE_S = 10.0  # mission s after a link is back in which a hold is our 
 _REFLY_FAILSAFE_S = 30.0  # mission s after flying again in which a hold is our outage's
 _TAKEN_CONFIRM_S = 3.0  # mission s a mode change must stand (no reboot) to be a pilot's
 _STALL_TICKS = 3  # a control tick this many periods late is a stall of the host
+_OFF_SLOT = frozenset({"joining", "not assigned", "lost"})
+"""Not protecting, yet seeing what it sees if airborne in its band (the ground truth
+counts it too)."""
 _COMMANDING = frozenset(
     {
         "SET_POSITION_TARGET_GLOBAL_INT",
@@ -1047,8 +1050,10 @@ class ConvoyService:
                 self._alarm(Alarm(t, "airframe", True, f"UAV {sysid} {why}"), sysid)
 
     def _counted_telemetry(self, t: float) -> dict[int, Telemetry]:
-        """The telemetry of the UAVs that can see now (``monitor.why_not_counted``);
-        the others' reasons are kept, and timed over the protect phase for the report."""
+        """The telemetry of the UAVs that can see now: protecting on their slot
+        (``monitor.why_not_counted``), or airborne in their band off it (joining, taken
+        out of the plan) or silent (its fixes stamped around each instant decide:
+        ``stamped``); the reasons for not protecting are timed for the report."""
         view = self.view
         dt = 0.0 if self._counted_t is None else max(t - self._counted_t, 0.0)
         self._counted_t = t
@@ -1071,10 +1076,18 @@ class ConvoyService:
             self.why_not_counted[sysid] = why
             if why is None and tel is not None:
                 counted[sysid] = tel
-            elif protecting:
+                continue
+            if protecting:
                 spent = self._not_counted_s.setdefault(sysid, {})
                 reason = why or "no position"
                 spent[reason] = spent.get(reason, 0.0) + dt
+            if (
+                why in _OFF_SLOT
+                and tel is not None
+                and v.airborne
+                and abs(-tel.down - self._altitudes[sysid]) <= self.config.altitude_band_m
+            ):
+                counted[sysid] = tel  # (off its slot, or silent: what it saw still counts)
         return counted
 
     def _mission_event(self, ev: Any) -> None:

@@ -8,11 +8,14 @@ state (and over-claim). This decides each instant of a fixed grid of mission tim
 from the fixes around it instead:
 
 * a UAV's position at grid time ``tau`` is interpolated between its fixes just
-  before and after (at most ``max_gap`` apart), or carried forward along its
-  velocity at most ``fresh_s`` past its last fix; otherwise it is unknown;
+  before and after (at most ``max_gap`` apart: 5 s of a plane on a 150-m turn is a
+  chord 7 m inside its arc), or carried forward along its velocity at most
+  ``fresh_s`` past its last fix; otherwise it is unknown;
 * ``tau`` is decided as soon as a UAV covers it, or once every counted UAV has a
-  fix after it, or at the latest ``horizon`` seconds on (what is known then: an
-  unknown position sees nothing);
+  fix after it, or once the fleet's telemetry has come ``horizon`` seconds past it
+  (by its stamps, not the service's clock, which runs on through a stall) and a few
+  ticks have gone by, or at the latest 10 s on: on what is known then (an unknown
+  position sees nothing);
 * which UAVs count at ``tau`` (heard, airborne, in band, on their slot) and the
   convoy's position are those of the first control tick at or after ``tau``,
   the convoy interpolated between ticks.
@@ -32,6 +35,13 @@ from dataclasses import dataclass, field
 __all__ = ["StampedCoverage", "StampedSample"]
 
 Point = tuple[float, float]
+
+_LONGEST_WAIT_S = 10.0
+"""Mission s an undecided instant waits at most, whatever the telemetry (none at all)."""
+_TICKS_AFTER = 3
+"""Ticks an undecided instant waits for at least, however late: the first tick after a
+stall runs before the fixes that came meanwhile are read (one datagram per socket per
+turn of the event loop)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -94,13 +104,14 @@ class StampedCoverage:
 
     sensor_radius: float
     step: float = 0.1
-    max_gap: float = 3.0
+    max_gap: float = 5.0
     fresh_s: float = 1.0
     horizon: float = 3.0
     _fixes: dict[int, _Fixes] = field(default_factory=dict)
     _ticks: deque[tuple[float, Point, frozenset[int]]] = field(default_factory=deque)
     _next: float | None = None
     _origin: float = 0.0  # the grid is origin + k * step (no drift of summed steps)
+    _frontier: float = -math.inf  # the latest stamp of any fix: how far telemetry has come
     _k: int = 0
 
     def start(self, t: float) -> None:
@@ -118,6 +129,7 @@ class StampedCoverage:
             fixes = self._fixes[sysid] = _Fixes()
         keep = (self._next if self._next is not None else t) - self.max_gap - self.horizon
         fixes.add(t, (north, east, vn, ve), keep)
+        self._frontier = max(self._frontier, t)
 
     def tick(self, t: float, convoy: Point, counted: frozenset[int]) -> list[StampedSample]:
         """A control tick at ``t``: the convoy and the UAVs counted then; returns the
@@ -145,7 +157,11 @@ class StampedCoverage:
                     positions[sysid] = p
             covered = any(math.dist(p, centre) <= r for p in positions.values())
             settled = all((f := self._fixes.get(s)) is not None and f.after(tau) for s in nxt[2])
-            if not (covered or settled or t - tau >= self.horizon):
+            later = len(ticks) - (1 if first[0] <= tau else 0)
+            forced = (
+                self._frontier - tau >= self.horizon and later >= _TICKS_AFTER
+            ) or t - tau >= _LONGEST_WAIT_S
+            if not (covered or settled or forced):
                 break  # (fixes of this instant may still be on their way)
             out.append(StampedSample(tau, centre, positions))
             self._k += 1

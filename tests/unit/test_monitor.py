@@ -83,17 +83,17 @@ def test_a_host_stall_is_scored_from_the_fixes_that_come_after_it() -> None:
 
 
 def test_a_uav_silent_longer_than_the_interpolation_gap_sees_nothing_meanwhile() -> None:
-    """Fixes stop from 5 s to 10 s: carried along for a second, then unknown (nothing
-    is claimed without telemetry); a short silence between two fixes inside is
-    interpolated (it flew on between them)."""
+    """Fixes stop from 5 s to 11 s (longer than the 5 s interpolated over): carried
+    along for a second, then unknown (nothing is claimed without telemetry); a short
+    silence between two fixes inside is interpolated (it flew on between them)."""
     m = Monitor(sensor_radius=10.0, prediction_grace=1e9)
     m.start_protect(0.0)
-    fixes = [t for t in _grid(0.0, 14.0) if not (5.0 < t < 10.0 or 12.0 < t < 14.0)]
-    alarms = _fly(m, fixes, lambda t: 3.0, ticks=_grid(0.0, 14.0))
+    fixes = [t for t in _grid(0.0, 15.0) if not (5.0 < t < 11.0 or 12.0 < t < 15.0)]
+    alarms = _fly(m, fixes, lambda t: 3.0, ticks=_grid(0.0, 15.0))
     assert [(a.kind, a.active) for a in alarms] == [("gap", True), ("gap", False)]
     assert alarms[0].t == pytest.approx(6.1, abs=1e-6)
-    assert alarms[1].t == pytest.approx(10.0, abs=1e-6)
-    assert m.snapshot(14.0).stats.fraction == pytest.approx(10.1 / 14.0, abs=0.02)
+    assert alarms[1].t == pytest.approx(11.0, abs=1e-6)
+    assert m.snapshot(15.0).stats.fraction == pytest.approx(10.1 / 15.0, abs=0.02)
 
 
 def test_prediction_missed_and_stale_convoy_alarms() -> None:
