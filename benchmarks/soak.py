@@ -88,11 +88,17 @@ async def soak(duration: float, speedup: float) -> dict[str, Any]:
             await asyncio.sleep(0.05)
         memory["after_setup_mib"] = _rss_mib()
         fleets.append(fleet)
-        plan = [(0.25, "flood"), (0.4, "broker"), (0.7, "broker"), (0.8, "mqtt")]
+        plan = [(0.25, "flood"), (0.4, "broker"), (0.5, "rss"), (0.7, "broker"), (0.8, "mqtt")]
         start = fleet.now
         for at, fault in plan:
             while fleet.now < start + at * (duration - start):
                 await asyncio.sleep(0.05)
+            if fault == "rss":
+                memory["half_mib"] = _rss_mib()
+                truth = fleet.history
+                if truth is not None:
+                    memory["half_truth_store_mib"] = truth.nbytes / 2**20
+                continue
             if fault == "flood":
                 ports = [
                     a[1]
@@ -125,6 +131,8 @@ async def soak(duration: float, speedup: float) -> dict[str, Any]:
     finally:
         broker.stop()
     memory["end_mib"] = _rss_mib()
+    if fleets and fleets[0].history is not None:
+        memory["end_truth_store_mib"] = fleets[0].history.nbytes / 2**20
     report = result.report.to_dict()
     truth = result.truth
     events = report["events"]
@@ -147,7 +155,7 @@ async def soak(duration: float, speedup: float) -> dict[str, Any]:
         "vehicles_rejected": {v["sysid"]: v["rejected"] for v in report["vehicles"]},
         "memory_mib": {k: round(v, 1) for k, v in memory.items()},
         # (the mock's ground-truth rows, kept in this process to score the run, grow with
-        # the mission; the service's own records are bounded)
+        # the mission, as columns: ``*_truth_store_mib``; the service's own are bounded)
         "truth_rows": len(fleets[0].history.rows) if fleets and fleets[0].history else None,
     }
 

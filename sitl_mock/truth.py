@@ -13,7 +13,8 @@ import csv
 import dataclasses
 import math
 import os
-from collections import deque
+import sys
+from array import array
 from collections.abc import Sequence
 from typing import IO, TYPE_CHECKING, Protocol
 
@@ -102,14 +103,63 @@ class CsvTruthWriter:
 
 
 class TruthRecorder:
-    """Truth rows kept in memory (the last ``maxlen`` of them, if given)."""
+    """Truth rows kept in memory (the last ``maxlen`` of them, if given), in columns.
+
+    A mission's truth is hundreds of thousands of rows; as dataclass objects each holds
+    its own float objects (about 560 bytes a row), as columns of machine floats about
+    120, so a long run scored in-process does not grow the process by the hundred MiB.
+    ``rows`` builds the row objects when asked.
+    """
 
     def __init__(self, maxlen: int | None = None) -> None:
-        self.rows: deque[TruthRow] = deque(maxlen=maxlen)
+        self.maxlen = maxlen
+        self._type: type | None = None
+        self._names: tuple[str, ...] = ()
+        self._columns: list[array[float] | array[int] | list[str]] = []
+        self._bools: tuple[bool, ...] = ()  # which columns hold booleans (kept as 0/1)
+        self._count = 0
 
     def write(self, rows: Sequence[TruthRow]) -> None:
         """Keep the rows."""
-        self.rows.extend(rows)
+        if not rows:
+            return
+        if self._type is None:
+            self._type = type(rows[0])
+            self._names = tuple(f.name for f in dataclasses.fields(rows[0]))
+            self._columns = [_column(getattr(rows[0], n)) for n in self._names]
+            self._bools = tuple(isinstance(getattr(rows[0], n), bool) for n in self._names)
+        for name, column in zip(self._names, self._columns, strict=True):
+            values = [getattr(row, name) for row in rows]
+            if isinstance(column, list):
+                column.extend(sys.intern(v) for v in values)
+            else:
+                column.extend(values)
+        self._count += len(rows)
+        if self.maxlen is not None and self._count > 2 * self.maxlen:
+            self._trim()
+
+    def _trim(self) -> None:
+        assert self.maxlen is not None
+        cut = self._count - self.maxlen
+        for column in self._columns:
+            del column[:cut]
+        self._count = self.maxlen
+
+    @property
+    def rows(self) -> list[TruthRow]:
+        """Every row kept, oldest first (the last ``maxlen``)."""
+        if self._type is None:
+            return []
+        start = 0 if self.maxlen is None else max(0, self._count - self.maxlen)
+        make = self._type
+        return [make(*values) for values in zip(*(c[start:] for c in self._columns), strict=True)]
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes the columns hold (string cells: their pointers; the strings are shared)."""
+        return sum(
+            c.itemsize * len(c) if isinstance(c, array) else 8 * len(c) for c in self._columns
+        )
 
     def close(self) -> None:
         """Nothing to release; rows stay readable."""
@@ -117,6 +167,14 @@ class TruthRecorder:
     def of(self, sysid: int) -> list[TruthRow]:
         """Rows of one vehicle, oldest first."""
         return [r for r in self.rows if r.sysid == sysid]
+
+
+def _column(value: object) -> array[float] | array[int] | list[str]:
+    if isinstance(value, str):
+        return []
+    if isinstance(value, bool | int):
+        return array("q")
+    return array("d")
 
 
 def _cell(value: object) -> object:
