@@ -83,6 +83,10 @@ _OWN_FAILSAFE_S = 10.0  # mission s after a link is back in which a hold is our 
 _REFLY_FAILSAFE_S = 30.0  # mission s after flying again in which a hold is our outage's
 _TAKEN_CONFIRM_S = 3.0  # mission s a mode change must stand (no reboot) to be a pilot's
 _STALL_TICKS = 3  # a control tick this many periods late is a stall of the host
+_JOINABLE = frozenset({"pending", "protect"})
+"""Phases a join starts from: a UAV without a slot, or one far off its slot (``_off_slot``)."""
+_OFF_SLOT_S = 5.0  # mission s a protecting UAV is farther than R off its slot before...
+_REJOIN_EVERY_S = 30.0  # ... it is joined to it again from where it is (at most this often)
 _OFF_SLOT = frozenset({"joining", "not assigned", "lost"})
 """Not protecting, yet seeing what it sees if airborne in its band (the ground truth
 counts it too)."""
@@ -281,6 +285,8 @@ class ConvoyService:
         self._convoy_out = False  # the convoy is outside the fence
         self._hold: tuple[float, float] | None = None  # centre of the hold meanwhile
         self._hold_orbits: dict[int, tuple[float, bool]] = {}  # (phase, clockwise) per UAV
+        self._off_slot_since: dict[int, float] = {}  # protecting UAVs far off their slot
+        self._rejoined_t: dict[int, float] = {}  # when each was last sent back to it
         self._conflicts: set[tuple[int, int]] = set()  # pairs below the separation minima
         self._conflict_count = 0
         self._closest_m: float | None = None  # least horizontal separation in a conflict
@@ -928,6 +934,7 @@ class ConvoyService:
                 if (tel := self.vehicles[sysid].telemetry) is not None
                 and view.phase(sysid, t) in ("pending", "lost")
             }
+            ready.update(self._off_slot(t, flying))
             alarmed = {s for s in self.vehicles if f"fence_plan:{s}" in self._vehicle_alarms}
             job = asyncio.ensure_future(
                 asyncio.to_thread(self._mission_step, t, est, lost, returned, ready, alarmed)
@@ -954,6 +961,30 @@ class ConvoyService:
             self.monitor.snapshot(t).covered,
             self.monitor.protect_start is not None,
         )
+
+    def _off_slot(self, t: float, flying: list[int]) -> dict[int, tuple[float, float, float]]:
+        """Protecting UAVs more than a turn radius off their slot for ``_OFF_SLOT_S`` (a
+        fight with another controller, a pilot's loiter, the fence's hold, a gust):
+        joined to it again from where they are, not left to claw the phase back at a
+        plane's few per cent of speed."""
+        if self.paused or self._hold is not None:
+            return {}
+        out = {}
+        for sysid in flying:
+            since = self._off_slot_since.get(sysid)
+            tel = self.vehicles[sysid].telemetry
+            if (
+                since is None
+                or tel is None
+                or t - since < _OFF_SLOT_S
+                or t - self._rejoined_t.get(sysid, -math.inf) < _REJOIN_EVERY_S
+            ):
+                continue
+            self._rejoined_t[sysid] = t
+            self._off_slot_since.pop(sysid, None)
+            self._note(f"uav{sysid}: far off its slot; joining it again from where it is")
+            out[sysid] = (tel.north, tel.east, tel.yaw)
+        return out
 
     def _newly_lost(self, t: float, view: MissionView) -> list[int]:
         """UAVs to take out of the plan now.
@@ -1016,7 +1047,7 @@ class ConvoyService:
         for sysid in returned:
             events += mission.on_returned(sysid, t)
         if mission.plan is not None:
-            ready = {u: p for u, p in ready.items() if mission.phase(u, t) == "pending"}
+            ready = {u: p for u, p in ready.items() if mission.phase(u, t) in _JOINABLE}
             if ready:
                 events += mission.join_many(ready, t)
         events += mission.tick(t)
@@ -1040,7 +1071,11 @@ class ConvoyService:
             planned = view.setpoint(tel.sysid, tel.t)
             if planned is None:
                 return
-        self.monitor.track(tel, *position_at(planned, tel.t))
+        err = self.monitor.track(tel, *position_at(planned, tel.t))
+        if err is not None and err > self._turn_radius:
+            self._off_slot_since.setdefault(tel.sysid, tel.t)
+        else:
+            self._off_slot_since.pop(tel.sysid, None)
 
     def _check_airframes(self, t: float) -> None:
         """Alarm (once per UAV) when a plane cannot fly what the plan asks of it."""
