@@ -83,6 +83,7 @@ _OWN_FAILSAFE_S = 10.0  # mission s after a link is back in which a hold is our 
 _REFLY_FAILSAFE_S = 30.0  # mission s after flying again in which a hold is our outage's
 _TAKEN_CONFIRM_S = 3.0  # mission s a mode change must stand (no reboot) to be a pilot's
 _STALL_TICKS = 3  # a control tick this many periods late is a stall of the host
+_FINISH_WALL_S = 15.0  # wall s the end-of-mission commands are waited for at most
 _JOINABLE = frozenset({"pending", "protect"})
 """Phases a join starts from: a UAV without a slot, or one far off its slot (``_off_slot``)."""
 _OFF_SLOT_S = 5.0  # mission s a protecting UAV is farther than R off its slot before...
@@ -449,6 +450,7 @@ class ConvoyService:
             event.kind == EventKind.MODE
             and vehicle is not None
             and not self.paused
+            and not self._stopping  # (the end of the mission's own holds are no failsafe)
             and (
                 _is_stream_loss_failsafe(vehicle.last_statustext)
                 or event.t - max(vehicle.recovered_t, vehicle.stream_resumed_t) < _OWN_FAILSAFE_S
@@ -465,7 +467,12 @@ class ConvoyService:
             # The vehicle reports the mode change before it marks itself HOLDING:
             # resume on the next turn of the loop, once it has.
             asyncio.get_running_loop().call_soon(vehicle.resume)
-        elif event.kind == EventKind.MODE and not self.paused and vehicle is not None:
+        elif (
+            event.kind == EventKind.MODE
+            and not self.paused
+            and not self._stopping
+            and vehicle is not None
+        ):
             # A pilot or another ground station took the UAV -- unless it turns out, in a
             # moment, to have rebooted (its mode changes before the reboot is confirmed).
             self._taken_pending[event.sysid] = (event.t, vehicle.counters["reboots"], event.message)
@@ -839,9 +846,13 @@ class ConvoyService:
         action = self.config.end
         told = {"loiter": "loiter where it is", "rtl": "return home", "land": "land"}[action]
         self._note(f"shutting down: every UAV told to {told}")
-        await asyncio.gather(
+        ending = asyncio.gather(
             *(v.finish(action) for v in self.vehicles.values()), return_exceptions=True
         )
+        try:  # (wall seconds: mission time stands still if every autopilot went quiet)
+            await asyncio.wait_for(ending, _FINISH_WALL_S)
+        except TimeoutError:
+            self._note(f"shutdown: not every UAV confirmed within {_FINISH_WALL_S:g} s")
         self._stopped = True
         self._publish_state(self.clock.now())  # the retained status says "stopped"
         raise _Stop
