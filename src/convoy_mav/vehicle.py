@@ -569,7 +569,8 @@ class Vehicle:
             return
         self.contested = reason
         if reason is None:
-            self._emit(EventKind.CONTESTED, "no other controller seen for a while")
+            if not self.refused:  # (a refused UAV's contest was never alarmed)
+                self._emit(EventKind.CONTESTED, "no other controller seen for a while")
             return
         if not self.ours or (self._adopted and now - self._ours_t < _ADOPTED_YIELD_S):
             self._interrupt()
