@@ -55,7 +55,7 @@ from convoy_mav.mission import (
 )
 from convoy_mav.mission.choose import choose_planner
 from convoy_mav.mission.road import RoadMission
-from convoy_mav.monitor import Alarm, Monitor, MonitorSnapshot, why_not_counted
+from convoy_mav.monitor import Alarm, Monitor, MonitorSnapshot, sees, why_not_counted
 from convoy_mav.planning.export import compass_to_planner
 from convoy_mav.planning.road import Road
 from convoy_mav.publish import topics
@@ -1130,8 +1130,11 @@ class ConvoyService:
             if (
                 why in _OFF_SLOT
                 and tel is not None
-                and v.airborne
-                and abs(-tel.down - self._altitudes[sysid]) <= self.config.altitude_band_m
+                and sees(
+                    airborne=v.airborne,
+                    altitude_error=-tel.down - self._altitudes[sysid],
+                    band=self.config.altitude_band_m,
+                )
             ):
                 counted[sysid] = tel  # (off its slot, or silent: what it saw still counts)
         return counted

@@ -32,7 +32,7 @@ from convoy_mav.coverage import CoverageSample, CoverageStats, CoverageTracker, 
 from convoy_mav.stamped import StampedCoverage
 from convoy_mav.types import ConvoyEstimate, Telemetry
 
-__all__ = ["Alarm", "Monitor", "MonitorSnapshot", "VehicleScore", "why_not_counted"]
+__all__ = ["Alarm", "Monitor", "MonitorSnapshot", "VehicleScore", "sees", "why_not_counted"]
 
 _ERROR_BIN_M = 0.25
 """Tracking errors are kept as a histogram of this resolution (for the median)."""
@@ -69,16 +69,30 @@ def why_not_counted(
         return status
     if not airborne:
         return "on ground"
+    off_band = _band_reason(altitude_error, band)
+    if off_band is not None:
+        return off_band
+    if phase == "join":
+        return "joining"
+    if phase != "protect":
+        return "not assigned"
+    return None
+
+
+def sees(*, airborne: bool, altitude_error: float | None, band: float) -> bool:
+    """Does a UAV see what the plan assumes, wherever it is in the plan: airborne and in
+    its altitude band (the part of ``why_not_counted`` that is not the plan's)?"""
+    return airborne and _band_reason(altitude_error, band) is None
+
+
+def _band_reason(altitude_error: float | None, band: float) -> str | None:
+    """Why a UAV's altitude (minus its planned one, m) is off its band; None if in it."""
     if altitude_error is None or not math.isfinite(altitude_error):
         return "no position"
     if altitude_error < -band:
         return "climbing"
     if altitude_error > band:
         return "above its altitude band"
-    if phase == "join":
-        return "joining"
-    if phase != "protect":
-        return "not assigned"
     return None
 
 

@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from convoy_mav.monitor import Alarm, Monitor, why_not_counted
+from convoy_mav.monitor import Alarm, Monitor, sees, why_not_counted
 from convoy_mav.types import ConvoyEstimate, Setpoint, Telemetry
 
 
@@ -190,3 +190,14 @@ def test_old_telemetry_says_nothing_of_now_and_fresh_is_carried_forward() -> Non
     snap = m.snapshot(4.0)
     assert snap.covered and snap.sample is not None
     assert snap.sample.nearest_m == pytest.approx(8.0)
+
+
+def test_a_uav_off_its_slot_sees_by_the_same_band_rule() -> None:
+    """``sees`` is ``why_not_counted``'s airborne-and-in-band part, whatever the phase."""
+    for airborne in (True, False):
+        for error in (None, math.nan, -20.0, -14.0, 0.0, 15.0, 16.0):
+            protecting = why_not_counted(
+                status="flying", airborne=airborne, altitude_error=error, band=15.0,
+                phase="protect",
+            )  # fmt: skip
+            assert sees(airborne=airborne, altitude_error=error, band=15.0) == (protecting is None)
