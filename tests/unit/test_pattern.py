@@ -95,3 +95,21 @@ def test_clock_lays_the_pattern_along_the_smoothed_course_and_holds_it_at_a_stop
     assert clock.speed < 0.01
     # one half-cycle (a full circle at a stop) every 2 pi R / V
     assert clock.phase - phase == pytest.approx(200.0 * V / (2 * math.pi * R), rel=0.1)
+
+
+def test_a_stop_shows_in_the_pattern_speed_within_seconds_a_winding_road_keeps_its_progress() -> (
+    None
+):
+    clock = PatternClock(0.0, 8.0, 0.0, tau=20.0, speed_tau=5.0)
+    clock.advance(60.0, 8.0, 0.0, R, V)
+    assert clock.speed == pytest.approx(8.0, rel=1e-3)
+    clock.advance(75.0, 0.0, 0.0, R, V)  # parked for 15 s: three speed_tau
+    assert clock.speed < 0.06 * 8.0
+    # A road that turns back and forth at full speed: the mean velocity is slower.
+    winding = PatternClock(0.0, 8.0, 0.0, tau=20.0, speed_tau=5.0)
+    for k in range(20):
+        heading = math.pi / 3 * (1 if k % 2 else -1)
+        winding.advance(10.0 * (k + 1), 8.0 * math.cos(heading), 8.0 * math.sin(heading), R, V)
+    assert winding.speed < 0.6 * 8.0 + 0.5
+    copy = winding.copy()
+    assert (copy.speed, copy.phase, copy.course) == (winding.speed, winding.phase, winding.course)

@@ -18,7 +18,8 @@ from convoy_mav.mission.events import PhaseChanged, Replanned
 from convoy_mav.mission.road import RoadMission
 from convoy_mav.mission.simulate import fly_road
 from convoy_mav.planning import PlanRequest
-from convoy_mav.planning.dubins import Segment, Turn, wrap_angle
+from convoy_mav.planning.dubins import Pose, Segment, Turn, wrap_angle
+from convoy_mav.planning.plan import Trajectory
 from convoy_mav.planning.road import Road
 from convoy_mav.tracks.roads import random_road, road_kind
 from convoy_mav.types import Setpoint
@@ -179,3 +180,24 @@ def _lead_in(mission: RoadMission, uav: int) -> tuple[Segment, ...]:
     traj = mission.trajectory(uav)
     assert traj is not None
     return traj.lead_in
+
+
+def test_a_replan_never_throws_away_a_pass_for_a_path_that_sees_the_convoy_less() -> None:
+    t = np.arange(0.0, 600.0, 1.0)
+    mission, _ = _fly(t, 8.0 * t, 0.0 * t, 6, until=200.0)
+    forecast = mission._forecast(200.0, 60.0)
+    far = Trajectory(200.0, (Segment(Pose(1e5, 1e5, 0.0), Turn.LEFT, R, V, 2 * math.pi * R / V),))
+    covering = []
+    for u in range(1, 7):
+        path = mission.trajectory(u)
+        assert path is not None
+        assert not mission._keeps(u, 200.0, path, forecast)  # the same path: taken
+        covering.append(mission._keeps(u, 200.0, far, forecast))
+    # Every UAV whose path sees the convoy over the next 40 s keeps it; six UAVs
+    # tiling the convoy's time between them: most of them do.
+    assert sum(covering) >= 4
+    # A joining UAV (no arrival yet) always takes its new legs.
+    mission.on_lost(2, 200.0)
+    mission.on_returned(2, 201.0)
+    mission.join(2, 0.0, 1600.0, 0.0, 201.0)
+    assert not mission._keeps(2, 202.0, far, mission._forecast(202.0, 60.0))

@@ -35,7 +35,7 @@ import bisect
 import math
 from collections import deque
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -77,6 +77,8 @@ class RoadSettings:
         speed_band: (low, high) fractions of cruise the legs may fly (planes +-15 %).
         replan_every_s: Mission seconds between two re-plans of every UAV's legs.
         course_tau_s: Time constant of the convoy velocity the pattern is laid along.
+        speed_tau_s: Time constant of the convoy speed that can lower the pattern's
+            (``PatternClock``): a stop shows within seconds.
         legs_ahead: Meetings planned ahead at each re-plan (>= 2 keeps a
             plan in force past the next re-plan).
         min_lead_s: A meeting closer than this is not aimed at (the next one is).
@@ -87,17 +89,23 @@ class RoadSettings:
             on its heading (metres of mean offset a radian is worth, ``plan_leg``).
         on_pattern_m: A UAV protects from its first leg that arrives on time
             within this mean distance of the pattern (0: half of r).
+        keep_horizon_s: A re-plan is not taken when the path in force sees the
+            forecast convoy ``keep_margin_s`` longer over this horizon (``_keeps``).
+        keep_margin_s: ... seconds longer.
     """
 
     speed_band: tuple[float, float] = (0.85, 1.15)
     replan_every_s: float = 4.0
     course_tau_s: float = 20.0
+    speed_tau_s: float = 5.0
     legs_ahead: int = 2
     min_lead_s: float = 3.0
     pattern_cap: float = 1.3
     settle_s: float = 4.0
     join_heading_weight: float = 50.0
     on_pattern_m: float = 0.0
+    keep_horizon_s: float = 40.0
+    keep_margin_s: float = 2.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -207,6 +215,7 @@ class RoadMission(Roster):
         self._scored_s = 0.0
         self.replans = 0
         self.legs_late = 0
+        self.plans_kept = 0
         self.uav_replans = 0
         self._margins: dict[int, tuple[float, float, float]] = {}  # radius, slowest, fastest
         self._convoy_speeds: tuple[float, float] | None = None
@@ -329,7 +338,13 @@ class RoadMission(Roster):
                 self._first_fix = est.t
             if est.t - self._first_fix < self.settings.settle_s:
                 return events  # (the tracker's velocity is still settling)
-            self._clock = PatternClock(est.t, est.ve, est.vn, tau=self.settings.course_tau_s)
+            self._clock = PatternClock(
+                est.t,
+                est.ve,
+                est.vn,
+                tau=self.settings.course_tau_s,
+                speed_tau=self.settings.speed_tau_s,
+            )
             events.append(self._replanned(est.t, "initial"))
             return events
         self._clock.advance(est.t, est.ve, est.vn, self.pattern_radius, V)
@@ -473,21 +488,51 @@ class RoadMission(Roster):
             close = self.settings.on_pattern_m or 0.5 * self.request.sensor_radius
             joining = uav not in self._arrival
             weight = self.settings.join_heading_weight if joining else 0.0
-            legs = self._legs(pose, t, pattern, forecast.meetings(slot / n, t), limits, weight)
+            # A joining UAV's late legs are planned for where the pattern is when they
+            # arrive, as before the scan: it protects once a leg meets the pattern close,
+            # and the earliest-meeting legs the scan gives a protecting UAV skirt it.
+            how = replace(limits, late_max_s=0.0) if joining else limits
+            legs = self._legs(pose, t, pattern, forecast.meetings(slot / n, t), how, weight)
             if not legs:
                 continue
             segments = tuple(seg for leg in legs for seg in leg.segments)
             first_leg = legs[0]
-            self.legs_late += not first_leg.on_time
-            if uav not in self._arrival and first_leg.on_time and first_leg.mean_offset <= close:
-                self._arrival[uav] = first_leg.t_end
-            self._record(uav, segments)
             # Past the last arc (a re-plan that never came): circle where it ends.
             last = segments[-1]
             lap = 2.0 * math.pi * self.pattern_radius / last.speed
             hold = Segment(last.at(last.duration), Turn.LEFT, self.pattern_radius, last.speed, lap)
-            self._trajectories[uav] = Trajectory(t, (hold,), lead_in=segments)
+            path = Trajectory(t, (hold,), lead_in=segments)
+            if self._keeps(uav, t, path, forecast):
+                self.plans_kept += 1
+                continue
+            self.legs_late += not first_leg.on_time or first_leg.late_s > 0.0
+            if uav not in self._arrival and first_leg.on_time and first_leg.mean_offset <= close:
+                self._arrival[uav] = first_leg.t_end
+            self._record(uav, segments)
+            self._trajectories[uav] = path
             self._starts.pop(uav, None)
+
+    def _keeps(self, uav: int, t: float, path: Trajectory, forecast: _Forecast) -> bool:
+        """Whether a protecting UAV keeps the path in force over ``path``: it does when the
+        path in force sees the convoy as forecast ``keep_margin_s`` longer over the next
+        ``keep_horizon_s``.
+
+        A re-plan follows the forecast of the moment. When the convoy turns or
+        stops unforeseen, the new plan can throw away a pass that is about to
+        see it for a meeting well after; the pass is flown first.
+        """
+        old = self._trajectories.get(uav)
+        if old is None or self._arrival.get(uav, math.inf) > t:
+            return False
+        settings = self.settings
+        k = min(len(forecast.t), int(settings.keep_horizon_s / _FORECAST_STEP) + 1)
+        times, cx, cy = forecast.t[:k], forecast.cx[:k], forecast.cy[:k]
+        r = self.request.sensor_radius
+        seen = [
+            _FORECAST_STEP * np.count_nonzero(np.hypot(s.x - cx, s.y - cy) <= r)
+            for s in (old.sample_array(times), path.sample_array(times))
+        ]
+        return bool(seen[0] > seen[1] + settings.keep_margin_s)
 
     def _legs(
         self,
@@ -542,6 +587,7 @@ class RoadMission(Roster):
             "convoy_speed_range_mps": None if speeds is None else [round(v, 2) for v in speeds],
             "uav_replans": self.uav_replans,
             "legs_late": self.legs_late,
+            "plans_kept": self.plans_kept,
             "flyability": {
                 str(u): {
                     "min_turn_radius_m": round(radius, 1),

@@ -16,8 +16,12 @@ Design rules:
   kept is the one that arrives on time and stays nearest the pattern on
   the way (mean distance). On a straight road at constant speed that is the
   paper's arc itself, with no steering.
-- A leg that cannot arrive on time is planned again for where the pattern
-  will be when it does arrive: it meets late, never at a point the pattern
+- A leg that cannot arrive on time meets the pattern at the earliest later
+  time it can (scanned in ``late_step_s`` steps): just past its meeting the
+  pattern is still over the convoy, so a leg a few seconds late still
+  covers it. Iterating "plan again for where the pattern is when the leg
+  arrives" overshoots: each retry arrives later, and a sudden turn of the
+  convoy made every UAV 20-45 s late at once. Never at a point the pattern
   has left.
 - Every leg starts at the pose the previous one ended with: position and
   heading are continuous, curvature is at most 1/R and speed inside the
@@ -29,7 +33,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import numpy.typing as npt
@@ -44,7 +48,7 @@ Where = Callable[["FloatArray"], tuple["FloatArray", "FloatArray"]]
 """Where the pattern puts a UAV (planner x, y arrays) at each of an array of times."""
 
 _TRACK_SAMPLES = 24  # points per candidate at which its distance to the pattern is taken
-_RETARGETS = 3  # times a late leg is planned again for the pattern where it arrives
+_RETARGETS = 3  # past the scan: times a late leg is planned again for where it arrives
 _HEADING_DT = 0.5  # s: the pattern's heading at a meeting, from its positions this far apart
 
 
@@ -59,6 +63,9 @@ class LegLimits:
         steer_max_s: Longest steering part considered, seconds at cruise.
         steer_step_s: Grid step of the steering part, seconds at cruise.
         pattern_radius: Radius of the pattern's arcs (0: R), a steering curvature.
+        late_step_s: Step of the scan for a late leg's earliest feasible meeting.
+        late_max_s: How far past its meeting the scan looks, seconds (0: no scan;
+            a late leg is planned again for where the pattern is when it arrives).
     """
 
     turn_radius: float
@@ -67,13 +74,17 @@ class LegLimits:
     steer_max_s: float = 40.0
     steer_step_s: float = 1.0
     pattern_radius: float = 0.0
+    late_step_s: float = 1.0
+    late_max_s: float = 60.0
 
     def __post_init__(self) -> None:
         lo, hi = self.speed_band
-        for name in ("turn_radius", "cruise", "steer_max_s", "steer_step_s"):
+        for name in ("turn_radius", "cruise", "steer_max_s", "steer_step_s", "late_step_s"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0.0):
                 raise PlanningError(f"leg {name} must be positive and finite, got {value!r}")
+        if not (math.isfinite(self.late_max_s) and self.late_max_s >= 0.0):
+            raise PlanningError(f"leg late_max_s must be >= 0 and finite, got {self.late_max_s!r}")
         if not (0.0 < lo <= 1.0 <= hi and math.isfinite(hi)):
             raise PlanningError(f"speed band must satisfy 0 < low <= 1 <= high, got {lo}, {hi}")
 
@@ -102,10 +113,12 @@ class Leg:
     Attributes:
         segments: The steering part (if any) then the arc, all flown at ``speed``.
         t_start: When the leg begins.
-        t_end: When it ends: the meeting time when ``on_time``, else later or earlier.
+        t_end: When it ends: on the pattern, ``late_s`` past the meeting asked for,
+            when ``on_time``; else where the speed band left it, early or late.
         speed: Speed it is flown at, m/s.
-        on_time: The band allowed arriving at the meeting time.
+        on_time: The band allowed arriving at the pattern at ``t_end``.
         mean_offset: Mean distance from the pattern along the leg, metres.
+        late_s: Seconds past the meeting asked for that ``t_end`` is (0: met on time).
     """
 
     segments: tuple[Segment, ...]
@@ -114,6 +127,7 @@ class Leg:
     speed: float
     on_time: bool
     mean_offset: float
+    late_s: float = 0.0
 
     @property
     def end(self) -> Pose:
@@ -145,11 +159,37 @@ def plan_leg(
             pattern going its way flies it from there (0: position only).
     """
     leg = _leg_to(pose, t, t_meet, pattern, limits, heading_weight)
+    if leg.on_time:
+        return leg
+    late = _earliest_late_leg(pose, t, t_meet, pattern, limits, heading_weight)
+    if late is not None:
+        return late
     for _ in range(_RETARGETS):
         if leg.on_time:
             break
         leg = _leg_to(pose, t, leg.t_end, pattern, limits, heading_weight)
-    return leg
+    return replace(leg, late_s=max(leg.t_end - t_meet, 0.0))
+
+
+def _earliest_late_leg(
+    pose: Pose, t: float, t_meet: float, pattern: Where, limits: LegLimits, heading_weight: float
+) -> Leg | None:
+    """The leg to the pattern at the first time past ``t_meet`` some candidate reaches it
+    in the speed band; None if none does within ``late_max_s``."""
+    lo, hi = limits.speeds
+    step = limits.late_step_s
+    taus = t_meet + np.arange(step, limits.late_max_s + 0.5 * step, step)
+    tx, ty = pattern(taus)
+    for k, tau in enumerate(taus.tolist()):
+        _, _, k2, _, total = _candidates(pose, (float(tx[k]), float(ty[k])), limits)
+        left = tau - t
+        flyable = np.abs(k2) <= 1.0 / limits.turn_radius + 1e-12
+        if not np.any(flyable & (total <= hi * left) & (total >= lo * left)):
+            continue
+        leg = _leg_to(pose, t, tau, pattern, limits, heading_weight)
+        if leg.on_time:
+            return replace(leg, late_s=tau - t_meet)
+    return None
 
 
 def _leg_to(

@@ -176,26 +176,35 @@ class PatternClock:
     seconds (its course and its speed, which sets ``beta``): a convoy's turns
     and stops then reshape the pattern gradually, and a road that winds back
     and forth (hairpins, a grid) is flown as the slower progress it makes.
-    The phase counts half-cycles (arcs) at ``V / (2 R beta)`` a second.
+    The speed is the lesser of that and the convoy's speed low-passed over
+    ``speed_tau``: a stop closes the pattern into the figure eight within
+    seconds instead of a whole ``tau`` later, when the convoy is parked and
+    the arcs laid for a moving one no longer meet it (road table: +0.6 to
+    +1.1 points of mean coverage). The phase counts half-cycles (arcs) at
+    ``V / (2 R beta)`` a second.
     """
 
-    def __init__(self, t: float, vx: float, vy: float, *, tau: float = 20.0) -> None:
+    def __init__(
+        self, t: float, vx: float, vy: float, *, tau: float = 20.0, speed_tau: float = 5.0
+    ) -> None:
         self.t = t
         self.fx, self.fy = vx, vy
+        self.fs = math.hypot(vx, vy)
         self.phase = 0.0
         self.course = math.atan2(vy, vx) if math.hypot(vx, vy) > _COURSE_MIN_SPEED else 0.0
         self.tau = tau
+        self.speed_tau = speed_tau
 
     def copy(self) -> PatternClock:
         """An independent copy (to forecast from)."""
-        out = PatternClock(self.t, self.fx, self.fy, tau=self.tau)
-        out.phase, out.course = self.phase, self.course
+        out = PatternClock(self.t, self.fx, self.fy, tau=self.tau, speed_tau=self.speed_tau)
+        out.fs, out.phase, out.course = self.fs, self.phase, self.course
         return out
 
     @property
     def speed(self) -> float:
         """The smoothed convoy speed the pattern is laid for, m/s."""
-        return math.hypot(self.fx, self.fy)
+        return min(math.hypot(self.fx, self.fy), self.fs)
 
     def advance(self, t: float, vx: float, vy: float, radius: float, uav_speed: float) -> None:
         """Integrate to time ``t`` with the convoy moving at (vx, vy) meanwhile."""
@@ -206,6 +215,7 @@ class PatternClock:
             a = 1.0 - math.exp(-dt / self.tau)
             self.fx += (vx - self.fx) * a
             self.fy += (vy - self.fy) * a
+            self.fs += (math.hypot(vx, vy) - self.fs) * (1.0 - math.exp(-dt / self.speed_tau))
             if self.speed > _COURSE_MIN_SPEED:
                 self.course = math.atan2(self.fy, self.fx)
             self.t += dt

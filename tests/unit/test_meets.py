@@ -1,0 +1,86 @@
+"""Meet-to-meet legs: on time when the band allows, else at the earliest later meeting."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import numpy.typing as npt
+import pytest
+
+from convoy_mav.planning.dubins import Pose, Turn
+from convoy_mav.planning.meets import LegLimits, _candidates, _leg_to, plan_leg
+
+FloatArray = npt.NDArray[np.float64]
+R, V = 150.0, 18.0
+LIMITS = LegLimits(R, V, (0.85, 1.15))
+
+
+def _moving_point(x0: float, y0: float, vx: float, vy: float):  # type: ignore[no-untyped-def]
+    def where(times: FloatArray) -> tuple[FloatArray, FloatArray]:
+        t = np.asarray(times, dtype=np.float64)
+        return x0 + vx * t, y0 + vy * t
+
+    return where
+
+
+def _flyable(leg) -> None:  # type: ignore[no-untyped-def]
+    lo, hi = LIMITS.speeds
+    for seg in leg.segments:
+        assert lo - 1e-9 <= seg.speed <= hi + 1e-9
+        if seg.turn != Turn.STRAIGHT:
+            assert seg.radius >= R - 1e-6
+
+
+def test_a_reachable_meeting_is_met_on_time_at_the_pattern() -> None:
+    where = _moving_point(400.0, 100.0, 8.0, 0.0)
+    leg = plan_leg(Pose(0.0, 0.0, 0.0), 0.0, where, 40.0, LIMITS)
+    assert leg.on_time and leg.late_s == 0.0
+    assert leg.t_end == pytest.approx(40.0, abs=0.05)
+    end = leg.end
+    x, y = where(np.array([40.0]))
+    assert math.hypot(end.x - x[0], end.y - y[0]) < 1.0
+    _flyable(leg)
+
+
+def test_a_late_leg_meets_at_the_earliest_feasible_later_time() -> None:
+    # The meeting is 10 s away, behind the UAV: no flyable leg makes it.
+    where = _moving_point(-100.0, 0.0, -8.0, 0.0)
+    pose = Pose(0.0, 0.0, 0.0)
+    leg = plan_leg(pose, 0.0, where, 10.0, LIMITS)
+    assert leg.on_time and leg.late_s > 0.0
+    assert leg.t_end == pytest.approx(10.0 + leg.late_s, abs=0.05)
+    x, y = where(np.array([leg.t_end]))
+    assert math.hypot(leg.end.x - x[0], leg.end.y - y[0]) < 1.0
+    _flyable(leg)
+    # One scan step earlier no candidate fits the band: it is the earliest.
+    lo, hi = LIMITS.speeds
+    tau = leg.t_end - LIMITS.late_step_s
+    px, py = where(np.array([tau]))
+    _, _, k2, _, total = _candidates(pose, (float(px[0]), float(py[0])), LIMITS)
+    fits = (np.abs(k2) <= 1.0 / R + 1e-12) & (total <= hi * tau) & (total >= lo * tau)
+    assert not fits.any()
+
+
+def test_the_scan_meets_near_the_first_time_a_leg_fits_and_never_after_chasing() -> None:
+    # Retargeting to where the pattern is when the leg arrives chases it: each try
+    # arrives later. The scan takes (within a few steps) the first time a leg fits.
+    pose = Pose(0.0, 0.0, 0.0)
+    lo, hi = LIMITS.speeds
+    for y0 in (-150.0, 0.0, 50.0, 200.0):
+        where = _moving_point(-100.0, y0, -8.0, 3.0)
+        leg = plan_leg(pose, 0.0, where, 10.0, LIMITS)
+        assert leg.on_time
+        first = None
+        for tau in np.arange(11.0, 71.0, 1.0).tolist():
+            px, py = where(np.array([tau]))
+            _, _, k2, _, total = _candidates(pose, (float(px[0]), float(py[0])), LIMITS)
+            if ((np.abs(k2) <= 1.0 / R + 1e-12) & (total <= hi * tau) & (total >= lo * tau)).any():
+                first = tau
+                break
+        assert first is not None and first <= leg.t_end <= first + 3.0
+        chased = _leg_to(pose, 0.0, 10.0, where, LIMITS, 0.0)
+        for _ in range(3):
+            chased = _leg_to(pose, 0.0, chased.t_end, where, LIMITS, 0.0)
+        if chased.on_time:
+            assert leg.t_end <= chased.t_end + LIMITS.late_step_s
