@@ -66,6 +66,7 @@ FloatArray = npt.NDArray[np.float64]
 
 _FORECAST_STEP = 0.5  # s
 _SCORE_STEP = 0.5  # s: resolution of the planned-coverage score
+_KEEP_STEP = 1.0  # s: resolution of the comparison of a path in force with its re-plan
 _REPLAN_BATCHES = 8  # a fleet's re-plans are spread over this many mission steps at least
 
 
@@ -526,10 +527,11 @@ class RoadMission(Roster):
             return False
         settings = self.settings
         k = min(len(forecast.t), int(settings.keep_horizon_s / _FORECAST_STEP) + 1)
-        times, cx, cy = forecast.t[:k], forecast.cx[:k], forecast.cy[:k]
+        every = max(1, round(_KEEP_STEP / _FORECAST_STEP))
+        times, cx, cy = (a[:k:every] for a in (forecast.t, forecast.cx, forecast.cy))
         r = self.request.sensor_radius
         seen = [
-            _FORECAST_STEP * np.count_nonzero(np.hypot(s.x - cx, s.y - cy) <= r)
+            _KEEP_STEP * np.count_nonzero(np.hypot(s.x - cx, s.y - cy) <= r)
             for s in (old.sample_array(times), path.sample_array(times))
         ]
         return bool(seen[0] > seen[1] + settings.keep_margin_s)

@@ -175,25 +175,39 @@ def _earliest_late_leg(
     pose: Pose, t: float, t_meet: float, pattern: Where, limits: LegLimits, heading_weight: float
 ) -> Leg | None:
     """The leg to the pattern at the first time past ``t_meet`` some candidate reaches it
-    in the speed band; None if none does within ``late_max_s``."""
+    in the speed band; None if none does within ``late_max_s``.
+
+    One vectorised pass over every (time, candidate) pair, then one leg: a late
+    leg costs about what an on-time one does (the planner runs beside the
+    setpoint stream, which must never wait long).
+    """
     lo, hi = limits.speeds
     step = limits.late_step_s
     taus = t_meet + np.arange(step, limits.late_max_s + 0.5 * step, step)
+    if len(taus) == 0:
+        return None
     tx, ty = pattern(taus)
-    for k, tau in enumerate(taus.tolist()):
-        _, _, k2, _, total = _candidates(pose, (float(tx[k]), float(ty[k])), limits)
-        left = tau - t
-        flyable = np.abs(k2) <= 1.0 / limits.turn_radius + 1e-12
-        if not np.any(flyable & (total <= hi * left) & (total >= lo * left)):
-            continue
-        leg = _leg_to(pose, t, tau, pattern, limits, heading_weight)
-        if leg.on_time:
-            return replace(leg, late_s=tau - t_meet)
-    return None
+    _, _, k2, _, total = _candidates(pose, (tx, ty), limits)
+    left = (taus - t)[:, None]
+    fits = (np.abs(k2) <= 1.0 / limits.turn_radius + 1e-12) & (total >= lo * left)
+    fits &= total <= hi * left
+    first = np.nonzero(fits.any(axis=1))[0]
+    if len(first) == 0:
+        return None
+    tau = float(taus[first[0]])
+    leg = _leg_to(pose, t, tau, pattern, limits, heading_weight, on_time_only=True)
+    return replace(leg, late_s=tau - t_meet)
 
 
 def _leg_to(
-    pose: Pose, t: float, t_meet: float, pattern: Where, limits: LegLimits, heading_weight: float
+    pose: Pose,
+    t: float,
+    t_meet: float,
+    pattern: Where,
+    limits: LegLimits,
+    heading_weight: float,
+    *,
+    on_time_only: bool = False,
 ) -> Leg:
     lo, hi = limits.speeds
     left = max(t_meet - t, 1e-3)
@@ -212,7 +226,7 @@ def _leg_to(
         want = math.atan2(float(ty[1] - ty[0]), float(tx[1] - tx[0]))
         h_end = pose.heading + k1 * l1 + np.where(np.isfinite(k2), k2, 0.0) * arc
         cost = cost + heading_weight * np.abs(np.mod(h_end - want + math.pi, 2 * math.pi) - math.pi)
-    cost = np.where(ok, cost, np.inf)
+    cost = np.where(ok & ((late < 0.05) | (not on_time_only)), cost, np.inf)
     i = int(np.argmin(cost))
     if not math.isfinite(float(cost[i])):  # pragma: no cover - a long enough turn always fits
         raise PlanningError("no flyable leg reaches the pattern")
@@ -237,9 +251,13 @@ def _leg_to(
 
 
 def _candidates(
-    pose: Pose, target: tuple[float, float], limits: LegLimits
+    pose: Pose, target: tuple[float, float] | tuple[FloatArray, FloatArray], limits: LegLimits
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
-    """Every candidate: (steer curvature, steer length, arc curvature, arc length, total)."""
+    """Every candidate: (steer curvature, steer length, arc curvature, arc length, total).
+
+    ``target`` may be arrays of points: the arc parts (and ``total``) then have one row
+    per point.
+    """
     step = limits.steer_step_s * limits.cruise
     lengths = np.arange(0.0, limits.steer_max_s * limits.cruise + 0.5 * step, step)
     kinds = np.array(limits.steer_curvatures)
@@ -251,7 +269,10 @@ def _candidates(
     safe = np.where(turning, k1, 1.0)
     x1 = np.where(turning, pose.x + (np.sin(h1) - math.sin(h0)) / safe, pose.x + l1 * math.cos(h0))
     y1 = np.where(turning, pose.y - (np.cos(h1) - math.cos(h0)) / safe, pose.y + l1 * math.sin(h0))
-    dx, dy = target[0] - x1, target[1] - y1
+    gx, gy = (np.asarray(g, dtype=np.float64) for g in target)
+    if gx.ndim:
+        gx, gy = gx[:, None], gy[:, None]
+    dx, dy = gx - x1, gy - y1
     d2 = dx * dx + dy * dy
     hx, hy = np.cos(h1), np.sin(h1)
     cross = hx * dy - hy * dx
