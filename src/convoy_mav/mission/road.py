@@ -479,6 +479,10 @@ class RoadMission(Roster):
         horizon = (self.settings.legs_ahead + 1.5) * period + 60.0
         forecast = self._forecast(t, horizon)
         limits = self._limits()
+        # A joining UAV's late legs are planned for where the pattern is when they
+        # arrive, as before the scan: it protects once a leg meets the pattern close,
+        # and the earliest-meeting legs the scan gives a protecting UAV skirt it.
+        join_limits = replace(limits, late_max_s=0.0)
         for uav in self._slots if uavs is None else uavs:
             slot = self._slots[uav]
             pose = self._pose_at(uav, t)
@@ -489,10 +493,7 @@ class RoadMission(Roster):
             close = self.settings.on_pattern_m or 0.5 * self.request.sensor_radius
             joining = uav not in self._arrival
             weight = self.settings.join_heading_weight if joining else 0.0
-            # A joining UAV's late legs are planned for where the pattern is when they
-            # arrive, as before the scan: it protects once a leg meets the pattern close,
-            # and the earliest-meeting legs the scan gives a protecting UAV skirt it.
-            how = replace(limits, late_max_s=0.0) if joining else limits
+            how = join_limits if joining else limits
             legs = self._legs(pose, t, pattern, forecast.meetings(slot / n, t), how, weight)
             if not legs:
                 continue

@@ -189,8 +189,7 @@ def _earliest_late_leg(
     tx, ty = pattern(taus)
     _, _, k2, _, total = _candidates(pose, (tx, ty), limits)
     left = (taus - t)[:, None]
-    fits = (np.abs(k2) <= 1.0 / limits.turn_radius + 1e-12) & (total >= lo * left)
-    fits &= total <= hi * left
+    fits = _flyable(k2, limits) & (total >= lo * left) & (total <= hi * left)
     first = np.nonzero(fits.any(axis=1))[0]
     if len(first) == 0:
         return None
@@ -214,7 +213,7 @@ def _leg_to(
     tx, ty = pattern(np.array([t_meet, t_meet + _HEADING_DT]))
     target = (float(tx[0]), float(ty[0]))
     k1, l1, k2, arc, total = _candidates(pose, target, limits)
-    ok = np.abs(k2) <= 1.0 / limits.turn_radius + 1e-12
+    ok = _flyable(k2, limits)
     speed = np.clip(total / left, lo, hi)
     late = np.abs(total / speed - left)  # seconds early or late
     taus = np.linspace(0.0, left, _TRACK_SAMPLES)
@@ -248,6 +247,11 @@ def _leg_to(
         segments.append(Segment(start, Turn.STRAIGHT, 0.0, v, 1e-3))
     end = t + sum(s.duration for s in segments)
     return Leg(tuple(segments), t, end, v, bool(late[i] < 0.05), float(offset[i]))
+
+
+def _flyable(k2: FloatArray, limits: LegLimits) -> npt.NDArray[np.bool_]:
+    """Candidates whose arc is no tighter than R (a full turn's ``inf`` never is)."""
+    return np.abs(k2) <= 1.0 / limits.turn_radius + 1e-12
 
 
 def _candidates(
