@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -113,3 +114,32 @@ def test_a_stop_shows_in_the_pattern_speed_within_seconds_a_winding_road_keeps_i
     assert winding.speed < 0.6 * 8.0 + 0.5
     copy = winding.copy()
     assert (copy.speed, copy.phase, copy.course) == (winding.speed, winding.phase, winding.course)
+
+
+@given(
+    st.lists(
+        st.tuples(st.floats(0.0, 3.0), st.floats(-15.0, 15.0), st.floats(-15.0, 15.0)),
+        min_size=1,
+        max_size=60,
+    ),
+    st.floats(-10.0, 10.0),
+    st.floats(-10.0, 10.0),
+)
+def test_a_forecast_is_what_advancing_a_copy_step_by_step_gives(
+    steps: list[tuple[float, float, float]], vx0: float, vy0: float
+) -> None:
+    clock = PatternClock(0.0, vx0, vy0, tau=20.0, speed_tau=5.0)
+    clock.advance(2.3, 1.0, -2.0, R, V)
+    times = list(itertools.accumulate((dt for dt, _, _ in steps), initial=clock.t))[1:]
+    vx = [v for _, v, _ in steps]
+    vy = [v for _, _, v in steps]
+    before = (clock.t, clock.phase, clock.course, clock.speed)
+    got = clock.forecast(times, vx, vy, R, V)
+    assert (clock.t, clock.phase, clock.course, clock.speed) == before  # left as is
+    copy = clock.copy()
+    want: tuple[list[float], list[float], list[float]] = ([], [], [])
+    for tk, a, b in zip(times, vx, vy, strict=True):
+        copy.advance(tk, a, b, R, V)
+        for out, value in zip(want, copy.state(V), strict=True):
+            out.append(value)
+    assert got == want

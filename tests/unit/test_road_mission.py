@@ -15,7 +15,7 @@ from convoy_mav.convoy import ConvoyTracker
 from convoy_mav.errors import PlanningError
 from convoy_mav.mission.choose import choose_planner, road_fleet
 from convoy_mav.mission.events import PhaseChanged, Replanned
-from convoy_mav.mission.road import RoadMission
+from convoy_mav.mission.road import RoadMission, _Watch
 from convoy_mav.mission.simulate import fly_road
 from convoy_mav.planning import PlanRequest
 from convoy_mav.planning.dubins import Pose, Segment, Turn, wrap_angle
@@ -182,22 +182,77 @@ def _lead_in(mission: RoadMission, uav: int) -> tuple[Segment, ...]:
     return traj.lead_in
 
 
-def test_a_replan_never_throws_away_a_pass_for_a_path_that_sees_the_convoy_less() -> None:
+def _far(t0: float) -> Trajectory:
+    """A circle kilometres from any convoy of these tests."""
+    return Trajectory(t0, (Segment(Pose(1e5, 1e5, 0.0), Turn.LEFT, R, V, 2 * math.pi * R / V),))
+
+
+def test_a_replan_never_throws_away_a_pass_no_other_uav_makes() -> None:
     t = np.arange(0.0, 600.0, 1.0)
     mission, _ = _fly(t, 8.0 * t, 0.0 * t, 6, until=200.0)
-    forecast = mission._forecast(200.0, 60.0)
-    far = Trajectory(200.0, (Segment(Pose(1e5, 1e5, 0.0), Turn.LEFT, R, V, 2 * math.pi * R / V),))
+    watch = _Watch(mission._forecast(200.0, 60.0), 40.0, r)
     covering = []
     for u in range(1, 7):
         path = mission.trajectory(u)
         assert path is not None
-        assert not mission._keeps(u, 200.0, path, forecast)  # the same path: taken
-        covering.append(mission._keeps(u, 200.0, far, forecast))
-    # Every UAV whose path sees the convoy over the next 40 s keeps it; six UAVs
-    # tiling the convoy's time between them: most of them do.
+        others = mission._others_see(u, 200.0, watch)
+        assert not mission._keeps(u, path, watch, others)  # the same path: taken
+        covering.append(mission._keeps(u, _far(200.0), watch, others))
+        # With the convoy seen by every other UAV all the time, nothing is kept.
+        everywhere = np.ones(len(watch.times), dtype=bool)
+        assert not mission._keeps(u, _far(200.0), watch, everywhere)
+    # Six UAVs tiling the convoy's time between them: most of them see some of it
+    # alone over the next 40 s, and keep their pass.
     assert sum(covering) >= 4
-    # A joining UAV (no arrival yet) always takes its new legs.
-    mission.on_lost(2, 200.0)
-    mission.on_returned(2, 201.0)
-    mission.join(2, 0.0, 1600.0, 0.0, 201.0)
-    assert not mission._keeps(2, 202.0, far, mission._forecast(202.0, 60.0))
+    # A path in force that sees nothing is never kept, protecting or joining.
+    for u in (1, 2):
+        if u == 2:
+            mission.on_lost(2, 200.0)
+            mission.on_returned(2, 201.0)
+            mission.join(2, 0.0, 1600.0, 0.0, 201.0)
+        mission._trajectories[u] = _far(202.0)
+        mission._plan_paths(202.0, [u])
+        assert mission.trajectory(u) is not None
+        assert mission.trajectory(u) != _far(202.0)
+
+
+def test_a_hole_the_pattern_leaves_is_filled_by_a_uav_flying_to_the_convoy() -> None:
+    t = np.arange(0.0, 600.0, 1.0)
+    mission, _ = _fly(t, 8.0 * t, 0.0 * t, 6, until=200.0)
+    now = 200.0
+    forecast = mission._forecast(now, 240.0)
+    watch = _Watch(forecast, 40.0, r)
+    limits = mission._limits()
+    nobody = np.zeros(len(watch.times), dtype=bool)
+    filled = 0
+    for u in range(1, 7):
+        pose = mission._pose_at(u, now)
+        assert pose is not None
+        # The other UAVs gone, and this one's legs (here: a circle far off) see nothing.
+        out = mission._fill(u, now, pose, _far(now), forecast, watch, nobody, limits)
+        if out is None:
+            continue
+        filled += 1
+        legs, path = out
+        first = legs[0]
+        assert first.on_time
+        cx, cy = forecast.cx, forecast.cy
+        end = first.end
+        # The first leg ends on the forecast convoy, at its time, flyably.
+        assert (
+            math.hypot(
+                end.x - np.interp(first.t_end, forecast.t, cx),
+                end.y - np.interp(first.t_end, forecast.t, cy),
+            )
+            < 1.0
+        )
+        for leg in legs:
+            assert BAND[0] - 1e-9 <= leg.speed <= BAND[1] + 1e-9
+            assert all(seg.turn == Turn.STRAIGHT or seg.radius >= R - 1e-9 for seg in leg.segments)
+        assert path.sample(now).x == pytest.approx(pose.x)
+        assert watch.seconds(watch.sees(path)) > mission.settings.fill_margin_s
+        # With the convoy seen all the time by the others, there is no hole to fill.
+        everywhere = np.ones(len(watch.times), dtype=bool)
+        assert mission._fill(u, now, pose, _far(now), forecast, watch, everywhere, limits) is None
+    # Every UAV flies within a few hundred metres of the convoy: each can reach it.
+    assert filled == 6

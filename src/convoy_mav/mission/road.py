@@ -91,8 +91,12 @@ class RoadSettings:
         on_pattern_m: A UAV protects from its first leg that arrives on time
             within this mean distance of the pattern (0: half of r).
         keep_horizon_s: A re-plan is not taken when the path in force sees the
-            forecast convoy ``keep_margin_s`` longer over this horizon (``_keeps``).
+            forecast convoy ``keep_margin_s`` longer, while no other UAV does, over
+            this horizon (``_keeps``).
         keep_margin_s: ... seconds longer.
+        fill_margin_s: A protecting UAV flies to the forecast convoy first when that sees
+            it this much longer than its legs do while no other UAV does (``_fill``;
+            0: never).
     """
 
     speed_band: tuple[float, float] = (0.85, 1.15)
@@ -106,7 +110,8 @@ class RoadSettings:
     join_heading_weight: float = 50.0
     on_pattern_m: float = 0.0
     keep_horizon_s: float = 40.0
-    keep_margin_s: float = 2.0
+    keep_margin_s: float = 0.5
+    fill_margin_s: float = 1.5
 
 
 @dataclass(frozen=True, slots=True)
@@ -135,16 +140,10 @@ class _Forecast:
         self.cx, self.cy = model.positions(self.t)
         vx = np.gradient(self.cx, _FORECAST_STEP)
         vy = np.gradient(self.cy, _FORECAST_STEP)
-        c = clock.copy()
-        phase = np.empty(n)
-        course = np.empty(n)
-        beta = np.empty(n)
-        for k, tk in enumerate(self.t):
-            c.advance(float(tk), float(vx[k]), float(vy[k]), radius, V)
-            phase[k], course[k], beta[k] = c.state(V)
-        self.phase = phase
-        self.course = np.unwrap(course)
-        self.beta = beta
+        phase, course, beta = clock.forecast(self.t.tolist(), vx.tolist(), vy.tolist(), radius, V)
+        self.phase = np.array(phase)
+        self.course = np.unwrap(np.array(course))
+        self.beta = np.array(beta)
         self.radius = radius
 
     def pattern(self, offset: float) -> Where:
@@ -172,6 +171,26 @@ class _Forecast:
         f = (whole[k] - ph[k - 1]) / np.maximum(ph[k] - ph[k - 1], 1e-12)
         times = self.t[k - 1] + f * _FORECAST_STEP
         return [float(tm) for tm in times if tm > after]
+
+
+class _Watch:
+    """The forecast convoy over the next ``horizon`` seconds, sampled every ``_KEEP_STEP``,
+    and which of those samples a path sees."""
+
+    def __init__(self, forecast: _Forecast, horizon: float, sensor_radius: float) -> None:
+        k = min(len(forecast.t), int(horizon / _FORECAST_STEP) + 1)
+        every = max(1, round(_KEEP_STEP / _FORECAST_STEP))
+        self.times, self.cx, self.cy = (a[:k:every] for a in (forecast.t, forecast.cx, forecast.cy))
+        self.r = sensor_radius
+
+    def sees(self, path: Trajectory) -> npt.NDArray[np.bool_]:
+        """Samples of the convoy within the sensor radius of ``path``."""
+        s = path.sample_array(self.times)
+        return np.asarray(np.hypot(s.x - self.cx, s.y - self.cy) <= self.r)
+
+    def seconds(self, seen: npt.NDArray[np.bool_]) -> float:
+        """Seconds of convoy ``seen`` covers."""
+        return _KEEP_STEP * float(np.count_nonzero(seen))
 
 
 class RoadMission(Roster):
@@ -217,6 +236,7 @@ class RoadMission(Roster):
         self.replans = 0
         self.legs_late = 0
         self.plans_kept = 0
+        self.fills = 0
         self.uav_replans = 0
         self._margins: dict[int, tuple[float, float, float]] = {}  # radius, slowest, fastest
         self._convoy_speeds: tuple[float, float] | None = None
@@ -483,6 +503,7 @@ class RoadMission(Roster):
         # arrive, as before the scan: it protects once a leg meets the pattern close,
         # and the earliest-meeting legs the scan gives a protecting UAV skirt it.
         join_limits = replace(limits, late_max_s=0.0)
+        watch: _Watch | None = None
         for uav in self._slots if uavs is None else uavs:
             slot = self._slots[uav]
             pose = self._pose_at(uav, t)
@@ -497,16 +518,24 @@ class RoadMission(Roster):
             legs = self._legs(pose, t, pattern, forecast.meetings(slot / n, t), how, weight)
             if not legs:
                 continue
-            segments = tuple(seg for leg in legs for seg in leg.segments)
             first_leg = legs[0]
-            # Past the last arc (a re-plan that never came): circle where it ends.
-            last = segments[-1]
-            lap = 2.0 * math.pi * self.pattern_radius / last.speed
-            hold = Segment(last.at(last.duration), Turn.LEFT, self.pattern_radius, last.speed, lap)
-            path = Trajectory(t, (hold,), lead_in=segments)
-            if self._keeps(uav, t, path, forecast):
-                self.plans_kept += 1
-                continue
+            path = self._path(t, legs)
+            if self._arrival.get(uav, math.inf) <= t and uav in self._trajectories:
+                # A protecting UAV: its path in force, or a detour to the convoy, may
+                # see more of it than the new legs do.
+                watch = watch or _Watch(
+                    forecast, self.settings.keep_horizon_s, self.request.sensor_radius
+                )
+                others = self._others_see(uav, t, watch)
+                if self._keeps(uav, path, watch, others):
+                    self.plans_kept += 1
+                    continue
+                filled = self._fill(uav, t, pose, path, forecast, watch, others, limits)
+                if filled is not None:
+                    self.fills += 1
+                    legs, path = filled
+                    first_leg = legs[0]
+            segments = tuple(seg for leg in legs for seg in leg.segments)
             self.legs_late += not first_leg.on_time or first_leg.late_s > 0.0
             if uav not in self._arrival and first_leg.on_time and first_leg.mean_offset <= close:
                 self._arrival[uav] = first_leg.t_end
@@ -514,28 +543,94 @@ class RoadMission(Roster):
             self._trajectories[uav] = path
             self._starts.pop(uav, None)
 
-    def _keeps(self, uav: int, t: float, path: Trajectory, forecast: _Forecast) -> bool:
-        """Whether a protecting UAV keeps the path in force over ``path``: it does when the
-        path in force sees the convoy as forecast ``keep_margin_s`` longer over the next
-        ``keep_horizon_s``.
+    def _others_see(self, uav: int, t: float, watch: _Watch) -> npt.NDArray[np.bool_]:
+        """Samples of ``watch`` some other protecting UAV's path in force sees."""
+        seen = np.zeros(len(watch.times), dtype=bool)
+        for other, traj in self._trajectories.items():
+            if other != uav and self._arrival.get(other, math.inf) <= t:
+                seen |= watch.sees(traj)
+        return seen
+
+    def _keeps(
+        self, uav: int, path: Trajectory, watch: _Watch, others: npt.NDArray[np.bool_]
+    ) -> bool:
+        """Whether a protecting UAV keeps its path in force over ``path``: it does when
+        the path in force sees the convoy, as forecast, ``keep_margin_s`` longer over the
+        next ``keep_horizon_s`` while no other UAV (``others``) does.
 
         A re-plan follows the forecast of the moment. When the convoy turns or
         stops unforeseen, the new plan can throw away a pass that is about to
-        see it for a meeting well after; the pass is flown first.
+        see it for a meeting well after; the pass is flown first. Only what no
+        other UAV sees counts: a pass another UAV makes too is not worth keeping
+        the pattern's next meeting waiting for.
         """
-        old = self._trajectories.get(uav)
-        if old is None or self._arrival.get(uav, math.inf) > t:
-            return False
+        old = watch.sees(self._trajectories[uav]) & ~others
+        new = watch.sees(path) & ~others
+        return watch.seconds(old) > watch.seconds(new) + self.settings.keep_margin_s
+
+    def _path(self, t: float, legs: Sequence[Leg]) -> Trajectory:
+        """The legs, then (a re-plan that never came) a circle where the last one ends."""
+        segments = tuple(seg for leg in legs for seg in leg.segments)
+        last = segments[-1]
+        lap = 2.0 * math.pi * self.pattern_radius / last.speed
+        hold = Segment(last.at(last.duration), Turn.LEFT, self.pattern_radius, last.speed, lap)
+        return Trajectory(t, (hold,), lead_in=segments)
+
+    def _fill(
+        self,
+        uav: int,
+        t: float,
+        pose: Pose,
+        path: Trajectory,
+        forecast: _Forecast,
+        watch: _Watch,
+        others: npt.NDArray[np.bool_],
+        limits: LegLimits,
+    ) -> tuple[list[Leg], Trajectory] | None:
+        """Legs that fly to the forecast convoy first, then back to the pattern, when
+        they see it ``fill_margin_s`` longer than ``path`` while no other UAV does.
+
+        The pattern's meetings are laid for the convoy's course low-passed; after a
+        sudden turn or stop every UAV's next meetings can fall where the convoy is
+        not, and the fleet leaves it unseen until the pattern has swung round. A
+        UAV that can reach the convoy in that hole closes it; the others stay on
+        the pattern. Only tried once protection has begun (before, the fleet's
+        holes are those of UAVs still joining) and when the fleet's paths leave
+        a hole.
+        """
         settings = self.settings
-        k = min(len(forecast.t), int(settings.keep_horizon_s / _FORECAST_STEP) + 1)
-        every = max(1, round(_KEEP_STEP / _FORECAST_STEP))
-        times, cx, cy = (a[:k:every] for a in (forecast.t, forecast.cx, forecast.cy))
-        r = self.request.sensor_radius
-        seen = [
-            _KEEP_STEP * np.count_nonzero(np.hypot(s.x - cx, s.y - cy) <= r)
-            for s in (old.sample_array(times), path.sample_array(times))
+        if self._protect_start is None or settings.fill_margin_s <= 0.0:
+            return None
+        mine = watch.sees(path)
+        holes = watch.times[~(others | mine)]
+        if len(holes) == 0:
+            return None
+
+        def convoy(ts: FloatArray) -> tuple[FloatArray, FloatArray]:
+            return np.interp(ts, forecast.t, forecast.cx), np.interp(ts, forecast.t, forecast.cy)
+
+        # (It sees the convoy from about r out: arriving past the last hole, it fills none.)
+        reach = 2.0 * self.request.sensor_radius / self.request.uav_speed
+        slot = self._slots[uav] / len(self._live)
+        pattern = forecast.pattern(slot)
+        to_convoy = plan_leg(
+            pose,
+            t,
+            convoy,
+            t + settings.min_lead_s,
+            limits,
+            heading_weight=settings.join_heading_weight,
+        )
+        if not to_convoy.on_time or to_convoy.t_end - reach > holes[-1]:
+            return None
+        after = forecast.meetings(slot, to_convoy.t_end)
+        legs = [
+            to_convoy,
+            *self._legs(to_convoy.end, to_convoy.t_end, pattern, after, limits, 0.0),
         ]
-        return bool(seen[0] > seen[1] + settings.keep_margin_s)
+        alt = self._path(t, legs)
+        gain = watch.seconds(watch.sees(alt) & ~others) - watch.seconds(mine & ~others)
+        return (legs, alt) if gain > settings.fill_margin_s else None
 
     def _legs(
         self,
@@ -591,6 +686,7 @@ class RoadMission(Roster):
             "uav_replans": self.uav_replans,
             "legs_late": self.legs_late,
             "plans_kept": self.plans_kept,
+            "fills": self.fills,
             "flyability": {
                 str(u): {
                     "min_turn_radius_m": round(radius, 1),

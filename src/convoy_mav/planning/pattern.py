@@ -28,7 +28,7 @@ Design rules:
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from functools import cache
 
 import numpy as np
@@ -208,21 +208,78 @@ class PatternClock:
 
     def advance(self, t: float, vx: float, vy: float, radius: float, uav_speed: float) -> None:
         """Integrate to time ``t`` with the convoy moving at (vx, vy) meanwhile."""
-        while self.t < t - 1e-9:
-            dt = min(_CLOCK_STEP, t - self.t)
-            beta = beta_for_speed(self.speed, uav_speed)
-            self.phase += half_cycle_rate(beta, radius, uav_speed) * dt
-            a = 1.0 - math.exp(-dt / self.tau)
-            self.fx += (vx - self.fx) * a
-            self.fy += (vy - self.fy) * a
-            self.fs += (math.hypot(vx, vy) - self.fs) * (1.0 - math.exp(-dt / self.speed_tau))
-            if self.speed > _COURSE_MIN_SPEED:
-                self.course = math.atan2(self.fy, self.fx)
-            self.t += dt
+        self._integrate([t], [vx], [vy], radius, uav_speed, keep=True)
 
     def state(self, uav_speed: float) -> tuple[float, float, float]:
         """(phase, course, beta) now."""
         return self.phase, self.course, beta_for_speed(self.speed, uav_speed)
+
+    def forecast(
+        self,
+        times: Sequence[float],
+        vx: Sequence[float],
+        vy: Sequence[float],
+        radius: float,
+        uav_speed: float,
+    ) -> tuple[list[float], list[float], list[float]]:
+        """(phase, course, beta) at each of ``times`` (ascending, none before ``t``), the
+        convoy moving at ``(vx[k], vy[k])`` until ``times[k]``; the clock is left as is.
+
+        What ``advance`` then ``state`` give at each time, in one pass: a
+        re-plan forecasts some 500 steps, in the mission worker beside the
+        setpoint stream.
+        """
+        return self._integrate(times, vx, vy, radius, uav_speed, keep=False)
+
+    def _integrate(
+        self,
+        times: Sequence[float],
+        vx: Sequence[float],
+        vy: Sequence[float],
+        radius: float,
+        uav_speed: float,
+        *,
+        keep: bool,
+    ) -> tuple[list[float], list[float], list[float]]:
+        """Step the filters and the phase through ``times`` in ``_CLOCK_STEP`` steps;
+        (phase, course, beta) at each; the clock left at the last when ``keep``."""
+        t, fx, fy, fs, phase, course = self.t, self.fx, self.fy, self.fs, self.phase, self.course
+        tau, speed_tau = self.tau, self.speed_tau
+        a_step = 1.0 - math.exp(-_CLOCK_STEP / tau)
+        s_step = 1.0 - math.exp(-_CLOCK_STEP / speed_tau)
+        hypot = math.hypot
+        phases: list[float] = []
+        courses: list[float] = []
+        betas: list[float] = []
+        for tk, vxk, vyk in zip(times, vx, vy, strict=True):
+            vk = hypot(vxk, vyk)
+            while t < tk - 1e-9:
+                dt = min(_CLOCK_STEP, tk - t)
+                if dt == _CLOCK_STEP:
+                    a, b = a_step, s_step
+                else:
+                    a, b = 1.0 - math.exp(-dt / tau), 1.0 - math.exp(-dt / speed_tau)
+                beta = beta_for_speed(min(hypot(fx, fy), fs), uav_speed)
+                phase += uav_speed / (2.0 * radius * beta) * dt
+                fx += (vxk - fx) * a
+                fy += (vyk - fy) * a
+                fs += (vk - fs) * b
+                if min(hypot(fx, fy), fs) > _COURSE_MIN_SPEED:
+                    course = math.atan2(fy, fx)
+                t += dt
+            phases.append(phase)
+            courses.append(course)
+            betas.append(beta_for_speed(min(hypot(fx, fy), fs), uav_speed))
+        if keep:
+            self.t, self.fx, self.fy, self.fs, self.phase, self.course = (
+                t,
+                fx,
+                fy,
+                fs,
+                phase,
+                course,
+            )
+        return phases, courses, betas
 
 
 _CLOCK_STEP = 0.5  # s: integration step of the pattern clock

@@ -114,6 +114,7 @@ class Trajectory:
     _lead_times: tuple[float, ...] = field(init=False, repr=False, compare=False)
     _cycle_times: tuple[float, ...] = field(init=False, repr=False, compare=False)
     _arrays: dict[str, FloatArray] = field(init=False, repr=False, compare=False)
+    _lead_arrays: dict[str, FloatArray] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         if not self.cycle:
@@ -136,6 +137,7 @@ class Trajectory:
         object.__setattr__(self, "_lead_times", tuple(lead_times))
         object.__setattr__(self, "_cycle_times", tuple(cycle_times))
         object.__setattr__(self, "_arrays", _segment_arrays(self.cycle, cycle_times))
+        object.__setattr__(self, "_lead_arrays", _segment_arrays(self.lead_in, lead_times))
 
     @property
     def period(self) -> float:
@@ -159,42 +161,39 @@ class Trajectory:
         return _sample_segment(self.cycle[i], t, tau - self._cycle_times[i], dx, dy)
 
     def sample_array(self, times: npt.ArrayLike) -> SampleArray:
-        """The planned states at every time of ``times`` (vectorised ``sample``).
-
-        Only the cycle is vectorised; times that fall in the lead-in are
-        sampled one by one (a lead-in is short and flown once).
-        """
+        """The planned states at every time of ``times`` (vectorised ``sample``)."""
         t = np.asarray(times, dtype=np.float64)
-        a = self._arrays
         lap = np.floor((t - self.cycle_start) / self.period)
         tau = (t - self.cycle_start) - lap * self.period
-        idx = np.clip(np.searchsorted(a["t0"], tau, side="right") - 1, 0, len(self.cycle) - 1)
-        dt = tau - a["t0"][idx]
-        turn = a["turn"][idx]
-        h0 = a["h0"][idx]
-        rate = a["rate"][idx]
-        heading = h0 + rate * dt
-        k = np.where(turn != 0.0, turn * a["radius"][idx], 0.0)
-        straight = a["speed"][idx] * dt
-        is_arc = turn != 0.0
-        x = a["x0"][idx] + np.where(
-            is_arc, k * (np.sin(heading) - np.sin(h0)), straight * np.cos(h0)
-        )
-        y = a["y0"][idx] + np.where(
-            is_arc, -k * (np.cos(heading) - np.cos(h0)), straight * np.sin(h0)
-        )
+        x, y, heading, speed, rate = _states(self._arrays, tau)
         x = x + lap * self.drift[0]
         y = y + lap * self.drift[1]
-        speed = a["speed"][idx]
-        out = SampleArray(
-            t, x, y, heading, speed * np.cos(heading), speed * np.sin(heading), rate.copy()
-        )
         if self.lead_in:
-            for j in np.nonzero(t < self.cycle_start)[0]:
-                s = self.sample(float(t[j]))
-                out.x[j], out.y[j], out.heading[j] = s.x, s.y, s.heading
-                out.vx[j], out.vy[j], out.turn_rate[j] = s.vx, s.vy, s.turn_rate
-        return out
+            lead = t < self.cycle_start
+            if lead.any():
+                tau_in = np.maximum(t[lead] - self.t_start, 0.0)
+                lx, ly, lh, lv, lr = _states(self._lead_arrays, tau_in)
+                x[lead], y[lead], heading[lead], speed[lead], rate[lead] = lx, ly, lh, lv, lr
+        return SampleArray(t, x, y, heading, speed * np.cos(heading), speed * np.sin(heading), rate)
+
+
+def _states(
+    a: dict[str, FloatArray], tau: FloatArray
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Position, heading, speed and turn rate ``tau`` seconds into a chain of segments
+    (``_segment_arrays``); past its end, on its last segment."""
+    idx = np.clip(np.searchsorted(a["t0"], tau, side="right") - 1, 0, len(a["t0"]) - 1)
+    dt = tau - a["t0"][idx]
+    turn = a["turn"][idx]
+    h0 = a["h0"][idx]
+    rate = a["rate"][idx]
+    heading = h0 + rate * dt
+    k = np.where(turn != 0.0, turn * a["radius"][idx], 0.0)
+    straight = a["speed"][idx] * dt
+    is_arc = turn != 0.0
+    x = a["x0"][idx] + np.where(is_arc, k * (np.sin(heading) - np.sin(h0)), straight * np.cos(h0))
+    y = a["y0"][idx] + np.where(is_arc, -k * (np.cos(heading) - np.cos(h0)), straight * np.sin(h0))
+    return x, y, heading, a["speed"][idx].copy(), rate.copy()
 
 
 def _segment_arrays(cycle: tuple[Segment, ...], times: list[float]) -> dict[str, FloatArray]:
