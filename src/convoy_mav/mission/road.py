@@ -15,6 +15,12 @@ Design rules:
   band. The pattern's arcs are laid wider than R when the fleet has a UAV
   to spare (``planning.pattern.pattern_radius``): turn left over to follow
   the road with.
+- The fleet's coverage, not each UAV's, decides between plans: a
+  protecting UAV keeps its path in force over a re-plan, or first flies to
+  the convoy, when that sees the forecast convoy longer while no other UAV
+  does (``_keeps``, ``_fill``). The pattern is laid for the convoy's course
+  low-passed; after a sudden turn or stop its meetings can all fall where
+  the convoy is not, and the UAV that can close the hole does.
 - A joining UAV takes a free slot and flies legs from where it is; it is
   ``protect`` from its first meeting on time, within half of r of the pattern
   on its way there. A UAV lost or back changes N:
@@ -506,8 +512,8 @@ class RoadMission(Roster):
         watch: _Watch | None = None
         for uav in self._slots if uavs is None else uavs:
             slot = self._slots[uav]
-            pose = self._pose_at(uav, t)
             self._planned_at[uav] = t
+            pose = self._pose_at(uav, t)
             if pose is None:
                 continue
             pattern = forecast.pattern(slot / n)
@@ -568,9 +574,10 @@ class RoadMission(Roster):
         new = watch.sees(path) & ~others
         return watch.seconds(old) > watch.seconds(new) + self.settings.keep_margin_s
 
-    def _path(self, t: float, legs: Sequence[Leg]) -> Trajectory:
-        """The legs, then (a re-plan that never came) a circle where the last one ends."""
-        segments = tuple(seg for leg in legs for seg in leg.segments)
+    def _path(self, t: float, legs: Sequence[Leg], flown: tuple[Segment, ...] = ()) -> Trajectory:
+        """From ``t``: what is ``flown`` of the path in force, the legs, then (a re-plan
+        that never came) a circle where the last one ends."""
+        segments = flown + tuple(seg for leg in legs for seg in leg.segments)
         last = segments[-1]
         lap = 2.0 * math.pi * self.pattern_radius / last.speed
         hold = Segment(last.at(last.duration), Turn.LEFT, self.pattern_radius, last.speed, lap)
@@ -609,27 +616,40 @@ class RoadMission(Roster):
         def convoy(ts: FloatArray) -> tuple[FloatArray, FloatArray]:
             return np.interp(ts, forecast.t, forecast.cx), np.interp(ts, forecast.t, forecast.cy)
 
-        # (It sees the convoy from about r out: arriving past the last hole, it fills none.)
-        reach = 2.0 * self.request.sensor_radius / self.request.uav_speed
-        slot = self._slots[uav] / len(self._live)
-        pattern = forecast.pattern(slot)
+        # It sees the convoy from about r out: arriving past the last hole, it fills
+        # none. Cheap tests first (a re-plan runs beside the setpoint stream): too
+        # far to get there in time at the fastest speed; its first leg alone (then a
+        # circle) not seeing enough.
+        r = self.request.sensor_radius
+        hi = limits.speeds[1]
+        reach = 2.0 * r / self.request.uav_speed
+        k = int(np.searchsorted(forecast.t, t))
+        gap = math.hypot(pose.x - forecast.cx[k], pose.y - forecast.cy[k])
+        step = np.hypot(np.diff(forecast.cx), np.diff(forecast.cy))
+        closing = hi + float(np.max(step, initial=0.0)) / _FORECAST_STEP
+        if gap - r > (holes[-1] - t) * closing:
+            return None
         to_convoy = plan_leg(
             pose,
             t,
             convoy,
             t + settings.min_lead_s,
-            limits,
+            replace(limits, late_max_s=max(holes[-1] + reach - t - settings.min_lead_s, 0.0)),
             heading_weight=settings.join_heading_weight,
         )
         if not to_convoy.on_time or to_convoy.t_end - reach > holes[-1]:
             return None
+        mine_alone = watch.seconds(mine & ~others)
+        if watch.seconds(watch.sees(self._path(t, [to_convoy])) & ~others) <= mine_alone:
+            return None
+        slot = self._slots[uav] / len(self._live)
         after = forecast.meetings(slot, to_convoy.t_end)
         legs = [
             to_convoy,
-            *self._legs(to_convoy.end, to_convoy.t_end, pattern, after, limits, 0.0),
+            *self._legs(to_convoy.end, to_convoy.t_end, forecast.pattern(slot), after, limits, 0.0),
         ]
         alt = self._path(t, legs)
-        gain = watch.seconds(watch.sees(alt) & ~others) - watch.seconds(mine & ~others)
+        gain = watch.seconds(watch.sees(alt) & ~others) - mine_alone
         return (legs, alt) if gain > settings.fill_margin_s else None
 
     def _legs(

@@ -208,7 +208,7 @@ class PatternClock:
 
     def advance(self, t: float, vx: float, vy: float, radius: float, uav_speed: float) -> None:
         """Integrate to time ``t`` with the convoy moving at (vx, vy) meanwhile."""
-        self._integrate([t], [vx], [vy], radius, uav_speed, keep=True)
+        self.forecast([t], [vx], [vy], radius, uav_speed, keep=True)
 
     def state(self, uav_speed: float) -> tuple[float, float, float]:
         """(phase, course, beta) now."""
@@ -221,28 +221,17 @@ class PatternClock:
         vy: Sequence[float],
         radius: float,
         uav_speed: float,
+        *,
+        keep: bool = False,
     ) -> tuple[list[float], list[float], list[float]]:
         """(phase, course, beta) at each of ``times`` (ascending, none before ``t``), the
-        convoy moving at ``(vx[k], vy[k])`` until ``times[k]``; the clock is left as is.
+        convoy moving at ``(vx[k], vy[k])`` until ``times[k]``; the clock is left as is
+        unless ``keep`` (then it is at the last time: ``advance``).
 
         What ``advance`` then ``state`` give at each time, in one pass: a
         re-plan forecasts some 500 steps, in the mission worker beside the
         setpoint stream.
         """
-        return self._integrate(times, vx, vy, radius, uav_speed, keep=False)
-
-    def _integrate(
-        self,
-        times: Sequence[float],
-        vx: Sequence[float],
-        vy: Sequence[float],
-        radius: float,
-        uav_speed: float,
-        *,
-        keep: bool,
-    ) -> tuple[list[float], list[float], list[float]]:
-        """Step the filters and the phase through ``times`` in ``_CLOCK_STEP`` steps;
-        (phase, course, beta) at each; the clock left at the last when ``keep``."""
         t, fx, fy, fs, phase, course = self.t, self.fx, self.fy, self.fs, self.phase, self.course
         tau, speed_tau = self.tau, self.speed_tau
         a_step = 1.0 - math.exp(-_CLOCK_STEP / tau)
