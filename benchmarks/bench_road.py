@@ -14,6 +14,7 @@ Where each runs in the service:
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +25,8 @@ from convoy_mav.geo import GeoPoint, LocalFrame
 from convoy_mav.mission.road import RoadMission
 from convoy_mav.mission.simulate import fly_road
 from convoy_mav.planning import PlanRequest
+from convoy_mav.planning.dubins import Pose, Segment, Turn
+from convoy_mav.planning.plan import Trajectory
 from convoy_mav.planning.road import Road
 from convoy_mav.tracks import load_track
 from convoy_mav.types import ConvoyEstimate
@@ -61,6 +64,42 @@ def test_replan_one_uav(benchmark: BenchmarkFixture) -> None:
     now = float(t[39])
     mission.join_many({u: (north[0] + 50.0 * u, east[0], 0.0) for u in range(1, 7)}, now)
     benchmark(mission._plan_paths, now, [1])
+
+
+def test_replan_one_uav_filling_a_hole(benchmark: BenchmarkFixture) -> None:
+    """One protecting UAV's re-plan when the fleet leaves the convoy unseen: its legs,
+    the path in force to keep or not, and the detour to the convoy (``_fill``), all
+    tried. The other five UAVs' paths are moved far off so that every re-plan does."""
+    request = PlanRequest(150.0, 100.0, 18.0)
+    mission = RoadMission(request, [1, 2, 3, 4, 5, 6], down=lambda _u: -100.0)
+    tracker = ConvoyTracker(window=4.0)
+    for k in range(2001):
+        now = 0.1 * k
+        if k % 10 == 0:
+            tracker.update(now, 8.0 * now, 0.0)
+        est = tracker.estimate(now)
+        if est is not None:
+            mission.on_convoy(est)
+        if mission.plan is not None and not mission._slots:
+            mission.join_many(
+                {u: (300.0 * math.cos(u), 300.0 * math.sin(u), 0.0) for u in range(1, 7)}, now
+            )
+    assert mission.protect_start is not None
+    far = Trajectory(
+        now, (Segment(Pose(1e5, 1e5, 0.0), Turn.LEFT, 150.0, 18.0, 2 * math.pi * 150.0 / 18.0),)
+    )
+    planned = dict(mission._trajectories)
+
+    def replan(uav: int) -> bool:
+        fills = mission.fills
+        mission._trajectories.update({u: far for u in planned if u != uav})
+        mission._trajectories[uav] = planned[uav]
+        mission._plan_paths(now, [uav])
+        return mission.fills > fills
+
+    # A UAV the detour helps (one whose own legs see the convoy soon needs none).
+    uav = next(u for u in planned if replan(u))
+    assert benchmark(replan, uav)
 
 
 def test_convoy_fix_on_the_flight_loop(benchmark: BenchmarkFixture) -> None:

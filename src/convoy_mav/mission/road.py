@@ -512,8 +512,8 @@ class RoadMission(Roster):
         watch: _Watch | None = None
         for uav in self._slots if uavs is None else uavs:
             slot = self._slots[uav]
-            self._planned_at[uav] = t
             pose = self._pose_at(uav, t)
+            self._planned_at[uav] = t
             if pose is None:
                 continue
             pattern = forecast.pattern(slot / n)
