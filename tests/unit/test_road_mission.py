@@ -196,11 +196,11 @@ def test_a_replan_never_throws_away_a_pass_no_other_uav_makes() -> None:
         path = mission.trajectory(u)
         assert path is not None
         others = mission._others_see(u, 200.0, watch)
-        assert not mission._keeps(u, path, watch, others)  # the same path: taken
-        covering.append(mission._keeps(u, _far(200.0), watch, others))
+        assert not mission._keeps(u, watch.sees(path), watch, others)  # the same path: taken
+        covering.append(mission._keeps(u, watch.sees(_far(200.0)), watch, others))
         # With the convoy seen by every other UAV all the time, nothing is kept.
         everywhere = np.ones(len(watch.times), dtype=bool)
-        assert not mission._keeps(u, _far(200.0), watch, everywhere)
+        assert not mission._keeps(u, watch.sees(_far(200.0)), watch, everywhere)
     # Six UAVs tiling the convoy's time between them: most of them see some of it
     # alone over the next 40 s, and keep their pass.
     assert sum(covering) >= 4
@@ -229,7 +229,7 @@ def test_a_hole_the_pattern_leaves_is_filled_by_a_uav_flying_to_the_convoy() -> 
         pose = mission._pose_at(u, now)
         assert pose is not None
         # The other UAVs gone, and this one's legs (here: a circle far off) see nothing.
-        out = mission._fill(u, now, pose, _far(now), forecast, watch, nobody, limits)
+        out = mission._fill(u, now, pose, watch.sees(_far(now)), forecast, watch, nobody, limits)
         if out is None:
             continue
         filled += 1
@@ -253,6 +253,9 @@ def test_a_hole_the_pattern_leaves_is_filled_by_a_uav_flying_to_the_convoy() -> 
         assert watch.seconds(watch.sees(path)) > mission.settings.fill_margin_s
         # With the convoy seen all the time by the others, there is no hole to fill.
         everywhere = np.ones(len(watch.times), dtype=bool)
-        assert mission._fill(u, now, pose, _far(now), forecast, watch, everywhere, limits) is None
+        assert (
+            mission._fill(u, now, pose, watch.sees(_far(now)), forecast, watch, everywhere, limits)
+            is None
+        )
     # Every UAV flies within a few hundred metres of the convoy: each can reach it.
     assert filled == 6

@@ -157,8 +157,7 @@ class _Forecast:
 
         def where(times: FloatArray) -> tuple[FloatArray, FloatArray]:
             t = self.t
-            cx = np.interp(times, t, self.cx)
-            cy = np.interp(times, t, self.cy)
+            cx, cy = self.convoy(times)
             ph = np.interp(times, t, self.phase) + offset
             co = np.interp(times, t, self.course)
             be = np.interp(times, t, self.beta)
@@ -167,6 +166,10 @@ class _Forecast:
             return cx + c * qx - s * qy, cy + s * qx + c * qy
 
         return where
+
+    def convoy(self, times: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Where the convoy is forecast at given times (vectorised, a ``Where``)."""
+        return np.interp(times, self.t, self.cx), np.interp(times, self.t, self.cy)
 
     def meetings(self, offset: float, after: float) -> list[float]:
         """Times after ``after`` at which ``phase + offset`` crosses a whole number."""
@@ -533,10 +536,11 @@ class RoadMission(Roster):
                     forecast, self.settings.keep_horizon_s, self.request.sensor_radius
                 )
                 others = self._others_see(uav, t, watch)
-                if self._keeps(uav, path, watch, others):
+                mine = watch.sees(path)
+                if self._keeps(uav, mine, watch, others):
                     self.plans_kept += 1
                     continue
-                filled = self._fill(uav, t, pose, path, forecast, watch, others, limits)
+                filled = self._fill(uav, t, pose, mine, forecast, watch, others, limits)
                 if filled is not None:
                     self.fills += 1
                     legs, path = filled
@@ -558,11 +562,16 @@ class RoadMission(Roster):
         return seen
 
     def _keeps(
-        self, uav: int, path: Trajectory, watch: _Watch, others: npt.NDArray[np.bool_]
+        self,
+        uav: int,
+        mine: npt.NDArray[np.bool_],
+        watch: _Watch,
+        others: npt.NDArray[np.bool_],
     ) -> bool:
-        """Whether a protecting UAV keeps its path in force over ``path``: it does when
-        the path in force sees the convoy, as forecast, ``keep_margin_s`` longer over the
-        next ``keep_horizon_s`` while no other UAV (``others``) does.
+        """Whether a protecting UAV keeps its path in force over its new legs (which see
+        ``mine`` of ``watch``): it does when the path in force sees the convoy, as
+        forecast, ``keep_margin_s`` longer over the next ``keep_horizon_s`` while no
+        other UAV (``others``) does.
 
         A re-plan follows the forecast of the moment. When the convoy turns or
         stops unforeseen, the new plan can throw away a pass that is about to
@@ -571,13 +580,13 @@ class RoadMission(Roster):
         the pattern's next meeting waiting for.
         """
         old = watch.sees(self._trajectories[uav]) & ~others
-        new = watch.sees(path) & ~others
+        new = mine & ~others
         return watch.seconds(old) > watch.seconds(new) + self.settings.keep_margin_s
 
-    def _path(self, t: float, legs: Sequence[Leg], flown: tuple[Segment, ...] = ()) -> Trajectory:
-        """From ``t``: what is ``flown`` of the path in force, the legs, then (a re-plan
-        that never came) a circle where the last one ends."""
-        segments = flown + tuple(seg for leg in legs for seg in leg.segments)
+    def _path(self, t: float, legs: Sequence[Leg]) -> Trajectory:
+        """The legs from ``t``, then (a re-plan that never came) a circle where the last
+        one ends."""
+        segments = tuple(seg for leg in legs for seg in leg.segments)
         last = segments[-1]
         lap = 2.0 * math.pi * self.pattern_radius / last.speed
         hold = Segment(last.at(last.duration), Turn.LEFT, self.pattern_radius, last.speed, lap)
@@ -588,14 +597,15 @@ class RoadMission(Roster):
         uav: int,
         t: float,
         pose: Pose,
-        path: Trajectory,
+        mine: npt.NDArray[np.bool_],
         forecast: _Forecast,
         watch: _Watch,
         others: npt.NDArray[np.bool_],
         limits: LegLimits,
     ) -> tuple[list[Leg], Trajectory] | None:
         """Legs that fly to the forecast convoy first, then back to the pattern, when
-        they see it ``fill_margin_s`` longer than ``path`` while no other UAV does.
+        they see it ``fill_margin_s`` longer than the UAV's new legs (which see ``mine``
+        of ``watch``) while no other UAV does.
 
         The pattern's meetings are laid for the convoy's course low-passed; after a
         sudden turn or stop every UAV's next meetings can fall where the convoy is
@@ -608,14 +618,9 @@ class RoadMission(Roster):
         settings = self.settings
         if self._protect_start is None or settings.fill_margin_s <= 0.0:
             return None
-        mine = watch.sees(path)
         holes = watch.times[~(others | mine)]
         if len(holes) == 0:
             return None
-
-        def convoy(ts: FloatArray) -> tuple[FloatArray, FloatArray]:
-            return np.interp(ts, forecast.t, forecast.cx), np.interp(ts, forecast.t, forecast.cy)
-
         # It sees the convoy from about r out: arriving past the last hole, it fills
         # none. Cheap tests first (a re-plan runs beside the setpoint stream): too
         # far to get there in time at the fastest speed; its first leg alone (then a
@@ -623,8 +628,7 @@ class RoadMission(Roster):
         r = self.request.sensor_radius
         hi = limits.speeds[1]
         reach = 2.0 * r / self.request.uav_speed
-        k = int(np.searchsorted(forecast.t, t))
-        gap = math.hypot(pose.x - forecast.cx[k], pose.y - forecast.cy[k])
+        gap = math.hypot(pose.x - forecast.cx[0], pose.y - forecast.cy[0])  # (from t)
         step = np.hypot(np.diff(forecast.cx), np.diff(forecast.cy))
         closing = hi + float(np.max(step, initial=0.0)) / _FORECAST_STEP
         if gap - r > (holes[-1] - t) * closing:
@@ -632,7 +636,7 @@ class RoadMission(Roster):
         to_convoy = plan_leg(
             pose,
             t,
-            convoy,
+            forecast.convoy,
             t + settings.min_lead_s,
             replace(limits, late_max_s=max(holes[-1] + reach - t - settings.min_lead_s, 0.0)),
             heading_weight=settings.join_heading_weight,
