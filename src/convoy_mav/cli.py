@@ -610,7 +610,7 @@ async def _cmd_replay(args: argparse.Namespace) -> int:
 
 
 async def _fly_mock(args: argparse.Namespace, scenario: Scenario, duration: float) -> int:
-    """Fly ``scenario`` against the in-process mock; summary, report, plot."""
+    """Fly ``scenario`` against the mock in a process of its own; summary, report, plot."""
     stop = asyncio.Event()
     _stop_on_signals(stop)
     services: list[ConvoyService] = []
@@ -629,6 +629,7 @@ async def _fly_mock(args: argparse.Namespace, scenario: Scenario, duration: floa
         configure=None if mission is None else lambda cfg: rehearsed_config(cfg, mission),
         route_known=getattr(args, "route_known", False),
         signing_key_file=args.signing_key_file,
+        mock_process=True,
     )
     report = result.to_dict()
     _summary(report)

@@ -39,6 +39,7 @@ from convoy_mav.errors import PlanningError
 from convoy_mav.geo import GeoPoint, LocalFrame
 from convoy_mav.mavlink.signing import load_key
 from convoy_mav.mission.choose import road_fleet
+from convoy_mav.mockproc import MockProcess
 from convoy_mav.planning import PlanRequest, make_plan
 from convoy_mav.planning.export import compass_to_planner
 from convoy_mav.planning.road import Road
@@ -312,6 +313,7 @@ async def run_demo(
     route_known: bool = False,
     signing_key_file: str | None = None,
     faults: dict[str, Any] | None = None,
+    mock_process: bool = False,
 ) -> DemoResult:
     """Start the mock, fly ``duration`` mission seconds, score from ground truth.
 
@@ -335,27 +337,35 @@ async def run_demo(
         signing_key_file: MAVLink 2 signing: the mock's aircraft and the service's
             links sign with the key in this file (hex or a passphrase).
         faults: The mock's ``[faults]`` table (loss, latency, reboots...), ``kill`` added.
+        mock_process: Run the mock in a process of its own (``MockProcess``): the
+            service then has the interpreter to itself, as beside a real
+            autopilot. ``during`` needs the mock in-process.
     """
+    if mock_process and during is not None:
+        raise ValueError("a fault script (during) needs the mock in-process")
     count = uavs or scenario.fleet()
     faults = dict(faults or {})
     if kill:
         faults["kill"] = [*faults.get("kill", []), f"{kill[0]}@{kill[1]}"]
-    mock = config_from_mapping(
-        mock_mapping(
-            scenario,
-            count,
-            speedup=speedup,
-            duration=duration,
-            personality=personality,
-            frame=frame,
-            faults=faults or None,
-            # (the mock takes the key as 64 hex digits: the very key the service reads)
-            signing_key=None
-            if signing_key_file is None
-            else load_key("--signing-key-file", file=signing_key_file).hex(),
-        )
+    mapping = mock_mapping(
+        scenario,
+        count,
+        speedup=speedup,
+        duration=duration,
+        personality=personality,
+        frame=frame,
+        faults=faults or None,
+        # (the mock takes the key as 64 hex digits: the very key the service reads)
+        signing_key=None
+        if signing_key_file is None
+        else load_key("--signing-key-file", file=signing_key_file).hex(),
     )
-    async with MockFleet(mock, record_truth=True) as fleet:
+    fleet: MockFleet | MockProcess = (
+        MockProcess(mapping)
+        if mock_process
+        else MockFleet(config_from_mapping(mapping), record_truth=True)
+    )
+    async with fleet:
         cfg = mission_for(scenario, fleet, tlog=tlog, signing_key_file=signing_key_file)
         if uavs is not None:
             cfg = replace(cfg, uav_count=uavs)
@@ -365,7 +375,10 @@ async def run_demo(
         service = ConvoyService(cfg, rate_hint=speedup, on_progress=on_progress, route=route)
         if history is not None:
             history.append(service)
-        script = None if during is None else asyncio.create_task(during(fleet, service))
+        script = None
+        if during is not None:
+            assert isinstance(fleet, MockFleet)
+            script = asyncio.create_task(during(fleet, service))
         try:
             report = await service.run(duration=duration, stop=stop)
         finally:
@@ -373,12 +386,14 @@ async def run_demo(
                 script.cancel()
                 with contextlib.suppress(asyncio.CancelledError):
                     await script
-        start = report.snapshot.protect_start
-        truth = None if start is None else score_fleet(fleet, cfg, start, report.end_t)
-        return DemoResult(report, truth, scenario)
+    start = report.snapshot.protect_start  # (a process's truth arrives as it stops)
+    truth = None if start is None else score_fleet(fleet, cfg, start, report.end_t)
+    return DemoResult(report, truth, scenario)
 
 
-def score_fleet(fleet: MockFleet, cfg: MissionConfig, start: float, end: float) -> CoverageStats:
+def score_fleet(
+    fleet: MockFleet | MockProcess, cfg: MissionConfig, start: float, end: float
+) -> CoverageStats:
     """Coverage from the mock's ground truth (killed or grounded aircraft see nothing)."""
     if fleet.history is None:
         raise ValueError("the fleet keeps no truth history (record_truth=False)")

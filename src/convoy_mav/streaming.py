@@ -8,6 +8,15 @@ an overloaded machine sends fresher setpoints less often, never a burst of
 stale ones. One task for all vehicles keeps the cost per setpoint at one
 function call (no per-vehicle task wake-ups).
 
+A simulator run faster than real time is not fed faster than it can use: the
+rate is halved while a vehicle would get more than ``max_wall_hz`` setpoints per
+wall second (doubled back, up to ``rate_hz``, once it fits with room to spare),
+never below ``MIN_RATE_HZ`` of mission time. At 40x, 20 Hz of mission time is
+800 setpoints a wall second for each UAV: decoding them (the simulator) and
+encoding them (the service) took the CPU the planner needed, and the simulated
+aircraft flew worse for it (``README.md``, *Speed*). A real autopilot (1x) gets
+``rate_hz`` unchanged.
+
 A big fleet is not sent in one burst: its round is cut into slices of
 ``slice_size`` vehicles spread evenly over the period (at most ``max_slices``),
 each sampled at its own instant. A thousand sends in a row would hold the event
@@ -34,11 +43,28 @@ from typing import Protocol
 from convoy_mav.clock import MissionClock
 from convoy_mav.types import Setpoint, VehicleStatus
 
-__all__ = ["IntervalStats", "SendStats", "SetpointStreamer", "StreamTarget", "percentile"]
+__all__ = [
+    "MAX_WALL_HZ",
+    "MIN_RATE_HZ",
+    "IntervalStats",
+    "SendStats",
+    "SetpointStreamer",
+    "StreamTarget",
+    "percentile",
+]
 
 log = logging.getLogger(__name__)
 
 _STREAMING = (VehicleStatus.FLYING, VehicleStatus.SETTING_UP)
+
+MIN_RATE_HZ = 5.0
+"""Setpoints per mission second the rate is never halved below: five within PX4's
+default offboard loss window (``COM_OF_LOSS_T`` 1 s)."""
+
+MAX_WALL_HZ = 500.0
+"""Setpoints per wall second per vehicle above which the rate is halved."""
+
+_ROOM = 0.75  # the rate is doubled back only if it then fits in this share of the cap
 
 
 class StreamTarget(Protocol):
@@ -144,7 +170,10 @@ class SetpointStreamer:
             None for nothing this round. An exception is logged and counted; the
             other vehicles still get theirs.
         clock: The mission clock.
-        rate_hz: Setpoints per mission second per vehicle.
+        rate_hz: Setpoints per mission second per vehicle (at most: see ``max_wall_hz``).
+        max_wall_hz: At a speedup that would send a vehicle more than this per
+            wall second, the rate is halved (not below ``MIN_RATE_HZ``, nor
+            below ``rate_hz`` if that is lower). None: never.
         slice_size: Vehicles per slice of a round (bigger fleets are staggered).
         max_slices: At most this many slices per period.
         wall: Wall clock for the statistics (injected for tests).
@@ -152,6 +181,8 @@ class SetpointStreamer:
     Attributes:
         ticks: Rounds (deadlines) served.
         missed: Rounds skipped because the loop was late.
+        rate: Setpoints per mission second now (``rate_hz``, or it halved).
+        period: Mission seconds between rounds now, ``1 / rate``.
         errors: Source calls that raised.
         stats: Per-uid :class:`SendStats`.
     """
@@ -163,6 +194,7 @@ class SetpointStreamer:
         clock: MissionClock,
         rate_hz: float = 20.0,
         *,
+        max_wall_hz: float | None = MAX_WALL_HZ,
         slice_size: int = 50,
         max_slices: int = 20,
         wall: Callable[[], float] = time.monotonic,
@@ -176,6 +208,10 @@ class SetpointStreamer:
         self.vehicles = vehicles
         self.source = source
         self.clock = clock
+        if max_wall_hz is not None and not (math.isfinite(max_wall_hz) and max_wall_hz > 0.0):
+            raise ValueError(f"max_wall_hz must be finite and > 0, got {max_wall_hz!r}")
+        self.rate_hz = self.rate = rate_hz
+        self.max_wall_hz = max_wall_hz
         self.period = 1.0 / rate_hz
         self.slice_size = slice_size
         self.max_slices = max_slices
@@ -190,10 +226,17 @@ class SetpointStreamer:
         """Stream until cancelled (waits for the first vehicle to set mission time)."""
         clock = self.clock
         await clock.wait_synced()
+        self._set_rate(self.rate_for(clock.rate))
         period = self.period
         k = math.floor(clock.now() / period) + 1  # deadlines are whole multiples of period
         while True:
             await clock.sleep_until(k * period)
+            rate = self.rate_for(clock.rate)
+            if rate != self.rate:  # the speedup changed: deadlines of the new period
+                self._set_rate(rate)
+                period = self.period
+                k = math.floor(clock.now() / period) + 1
+                continue
             due = math.floor(clock.now() / period + 1e-9)
             if due < k:  # woken early: the autopilots' clock stepped back; re-anchor
                 k = due + 1
@@ -204,6 +247,35 @@ class SetpointStreamer:
                 k += late
             self.ticks += 1
             k = await self._round(k) + 1
+
+    def rate_for(self, speedup: float) -> float:
+        """Setpoints per mission second at ``speedup`` (mission per wall second).
+
+        Starts from the rate in force and halves or doubles it (exact in
+        floating point), so a speedup near a threshold does not flip the rate
+        round after round.
+        """
+        cap = self.max_wall_hz
+        rate = self.rate
+        if cap is None or not (math.isfinite(speedup) and speedup > 0.0):
+            return rate
+        floor = min(MIN_RATE_HZ, self.rate_hz)
+        while rate * speedup > cap and rate / 2.0 >= floor - 1e-9:
+            rate /= 2.0
+        while rate * 2.0 <= self.rate_hz + 1e-9 and rate * 2.0 * speedup <= _ROOM * cap:
+            rate *= 2.0
+        return rate
+
+    def _set_rate(self, rate: float) -> None:
+        if rate != self.rate:
+            log.info(
+                "setpoints at %g Hz of mission time (%g configured): %.3g x speedup",
+                rate,
+                self.rate_hz,
+                self.clock.rate,
+            )
+        self.rate = rate
+        self.period = 1.0 / rate
 
     async def _round(self, k: int) -> int:
         """Send round ``k`` slice by slice; returns the round to continue from."""

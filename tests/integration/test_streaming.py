@@ -21,7 +21,7 @@ import pytest
 from convoy_mav.clock import MissionClock
 from convoy_mav.geo import LocalFrame
 from convoy_mav.mavlink import MavLink
-from convoy_mav.streaming import IntervalStats, SetpointStreamer
+from convoy_mav.streaming import MAX_WALL_HZ, MIN_RATE_HZ, IntervalStats, SetpointStreamer
 from convoy_mav.types import Setpoint, VehicleStatus
 from convoy_mav.vehicle import EventKind, Vehicle, VehicleEvent
 from sitl_mock.config import MockConfig
@@ -136,6 +136,59 @@ async def test_streams_on_mission_deadlines_to_flying_and_setting_up_only() -> N
     assert stats.mission.percentile(50) == pytest.approx(0.05, rel=0.15)
     assert stats.wall.percentile(50) == pytest.approx(0.05 / 20.0, rel=0.2)
     assert streamer.ticks >= len(vehicles[0].sent)
+
+
+async def test_a_fast_simulator_gets_fewer_setpoints_per_mission_second() -> None:
+    """At 80x, 20 Hz of mission time would be 1,600 sends a wall second: halved
+    twice to 5 Hz (400 a wall second), on steady deadlines, none missed."""
+    vehicle = FakeVehicle(1)
+    async with autopilot_clock(80.0) as clock:
+        streamer = SetpointStreamer([vehicle], setpoint, clock, rate_hz=20.0)
+        async with streaming(streamer):
+            await mission_sleep(clock, 40.0)
+    assert streamer.rate == 5.0 and streamer.period == pytest.approx(0.2)
+    # (one wall millisecond of timer jitter is 0.08 mission s at 80x: the mean, not
+    # the median, is the rate)
+    stats = streamer.stats[1]
+    assert stats.mission.mean == pytest.approx(0.2, rel=0.05)
+    assert stats.mission.max < 2 * 0.2
+    assert 1.0 / stats.wall.mean <= MAX_WALL_HZ
+    assert len(vehicle.sent) >= 5.0 * 40.0 - streamer.missed - 3
+
+
+@pytest.mark.parametrize(
+    ("rate_hz", "speedup", "expected"),
+    [
+        (20.0, 1.0, 20.0),  # a real autopilot: as configured
+        (20.0, 20.0, 20.0),  # 400 a wall second
+        (20.0, 40.0, 10.0),
+        (20.0, 1000.0, MIN_RATE_HZ),  # never below 5 Hz of mission time
+        (2.0, 1000.0, 2.0),  # nor below a slower configured rate
+        (100.0, 1.0, 100.0),
+    ],
+)
+def test_the_rate_is_halved_only_while_a_vehicle_would_get_too_many(
+    rate_hz: float, speedup: float, expected: float
+) -> None:
+    streamer = SetpointStreamer([], setpoint, MissionClock(), rate_hz=rate_hz)
+    assert streamer.rate_for(speedup) == expected
+    assert (
+        SetpointStreamer([], setpoint, MissionClock(), rate_hz, max_wall_hz=None).rate_for(speedup)
+        == rate_hz
+    )
+
+
+def test_the_rate_comes_back_only_with_room_to_spare() -> None:
+    """Halved at 40x; 26x still keeps it halved (20 Hz would be 520 a wall
+    second, over the cap), 18x doubles it back (360: under 75 % of the cap)."""
+    streamer = SetpointStreamer([], setpoint, MissionClock(), rate_hz=20.0)
+    streamer.rate = streamer.rate_for(40.0)
+    assert streamer.rate == 10.0
+    assert streamer.rate_for(26.0) == 10.0
+    assert streamer.rate_for(24.0) == 10.0  # 480: under the cap, not with room
+    assert streamer.rate_for(18.0) == 20.0
+    with pytest.raises(ValueError, match="max_wall_hz"):
+        SetpointStreamer([], setpoint, MissionClock(), max_wall_hz=0.0)
 
 
 async def test_a_big_fleet_is_sent_in_slices_spread_over_the_period() -> None:
