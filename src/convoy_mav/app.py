@@ -83,6 +83,7 @@ _OWN_FAILSAFE_S = 10.0  # mission s after a link is back in which a hold is our 
 _REFLY_FAILSAFE_S = 30.0  # mission s after flying again in which a hold is our outage's
 _TAKEN_CONFIRM_S = 3.0  # mission s a mode change must stand (no reboot) to be a pilot's
 _STALL_TICKS = 3  # a control tick this many periods late is a stall of the host
+_PLANNER_BEHIND = 1.5  # re-plans this many times rarer than planned: the planner is behind
 _FINISH_WALL_S = 15.0  # wall s the end-of-mission commands are waited for at most
 _JOINABLE = frozenset({"pending", "protect"})
 """Phases a join starts from: a UAV without a slot, or one far off its slot (``_off_slot``)."""
@@ -296,6 +297,7 @@ class ConvoyService:
         self.refused: str | None = None  # why the service flew nothing (others drive them)
         self._stop_event: asyncio.Event | None = None
         self._stalled_s = 0.0  # mission s the control loop was held up (a loaded host)
+        self._planner_behind = False
         self._fence_clear_until: dict[int, tuple[float, float]] = {}  # (from, to) mission s
         self.history = History(interval=history_interval)
         self.monitor = Monitor(config.sensor_radius_m, step=1.0 / control_rate_hz)
@@ -635,6 +637,30 @@ class ConvoyService:
         ):
             vehicle.stranger(f"another ground station uses our ids {sysid}/{GCS_COMPONENT}")
 
+    def _check_planner(self) -> None:
+        """Say when the road planner falls behind its re-plans, and when it catches up.
+
+        Its re-plans run in the mission's worker thread; on a host short of CPU for
+        the speedup (a simulator at 40x and the service on one core) each UAV is
+        re-planned less often than ``replan_every_s``, and coverage pays for it.
+        """
+        mission = self.mission
+        if not isinstance(mission, RoadMission):
+            return
+        every = mission.settings.replan_every_s
+        lag = mission.replan_interval_s
+        behind = lag is not None and lag > _PLANNER_BEHIND * every
+        if behind and not self._planner_behind:
+            text = (
+                f"planner behind: each UAV re-planned every {lag:.1f} mission s instead of "
+                f"{every:g} (the host is short of CPU at this speedup)"
+            )
+            log.warning("%s", text)
+            self._note(text, logged=True)
+        elif self._planner_behind and not behind:
+            self._note(f"planner caught up: re-plans every {lag:.1f} mission s")
+        self._planner_behind = behind
+
     def _check_links(self, t: float) -> None:
         """Alarm on strangers at a UAV's link: a second peer refused, or frames that
         claim another vehicle's system id (a GCS's own heartbeats are only counted)."""
@@ -909,6 +935,7 @@ class ConvoyService:
                 next_progress = t + self._progress_every
                 self._progress(t)
                 self._check_links(t)
+                self._check_planner()
             await self.clock.sleep_until(t + self._control_dt)
 
     async def _control_step(self, t: float) -> None:

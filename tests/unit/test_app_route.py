@@ -10,6 +10,7 @@ import pytest
 
 from convoy_mav.app import ConvoyService
 from convoy_mav.config import parse_config
+from convoy_mav.mission.road import RoadMission
 
 
 def test_the_scripted_route_starts_when_the_mission_does() -> None:
@@ -31,3 +32,32 @@ def test_the_scripted_route_starts_when_the_mission_does() -> None:
     assert est is not None
     assert (est.north, est.east) == pytest.approx((20.0, -30.0 + 5.0 * 2.0), abs=0.05)
     assert service._report().route_start_s == boot
+
+
+def test_a_planner_falling_behind_is_said_once_and_its_catching_up_too(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    uavs = [{"connection": f"udpin:127.0.0.1:{14560 + i}", "sysid": i + 1} for i in range(6)]
+    cfg = parse_config(
+        {
+            "mission": {"sensor_radius_m": 100.0, "planner": "road"},
+            "aircraft": {"airspeed_mps": 18.0, "turn_radius_m": 150.0},
+            "uav": uavs,
+        }
+    )
+    service = ConvoyService(cfg)
+    mission = service.mission
+    assert isinstance(mission, RoadMission)
+    every = mission.settings.replan_every_s
+    for lag in (every, 2.5 * every, 2.6 * every, every):
+        mission.replan_interval_s = lag
+        service._check_planner()
+    warned = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
+    assert warned == [
+        f"planner behind: each UAV re-planned every {2.5 * every:.1f} mission s instead of "
+        f"{every:g} (the host is short of CPU at this speedup)"
+    ]
+    assert [e.split(" ", 1)[1].split(":")[0] for e in service.events[-2:]] == [
+        "planner behind",
+        "planner caught up",
+    ]

@@ -259,3 +259,23 @@ def test_a_hole_the_pattern_leaves_is_filled_by_a_uav_flying_to_the_convoy() -> 
         )
     # Every UAV flies within a few hundred metres of the convoy: each can reach it.
     assert filled == 6
+
+
+def test_the_replan_interval_says_when_the_planner_falls_behind() -> None:
+    """Stepped at 10 Hz each protecting UAV is re-planned every 4 s; stepped every
+    3 s (a starved worker: one UAV a step), every 18 s, and the figure says so."""
+    t = np.arange(0.0, 900.0, 1.0)
+    mission, _ = _fly(t, 8.0 * t, 0.0 * t, 6, until=240.0)
+    assert mission.protect_start is not None
+    every = mission.settings.replan_every_s
+    assert mission.replan_interval_s == pytest.approx(every, abs=0.2)
+    assert mission.report()["replan_interval_s"] == pytest.approx(every, abs=0.5)
+    tracker = ConvoyTracker(window=4.0)
+    for now in np.arange(230.0, 400.0, 1.0).tolist():
+        tracker.update(now, 8.0 * now, 0.0)
+        if now >= 240.0 and now % 3.0 == 0.0:
+            est = tracker.estimate(now)
+            assert est is not None
+            mission.on_convoy(est)
+    assert mission.replan_interval_s == pytest.approx(6 * 3.0, abs=0.5)
+    assert mission.report()["replan_interval_s"] > every

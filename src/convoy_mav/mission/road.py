@@ -74,6 +74,7 @@ _FORECAST_STEP = 0.5  # s
 _SCORE_STEP = 0.5  # s: resolution of the planned-coverage score
 _KEEP_STEP = 1.0  # s: resolution of the comparison of a path in force with its re-plan
 _REPLAN_BATCHES = 8  # a fleet's re-plans are spread over this many mission steps at least
+_RECENT_GAPS = 24  # re-plans the recent re-plan interval is the median of
 
 
 @dataclass(frozen=True, slots=True)
@@ -247,6 +248,12 @@ class RoadMission(Roster):
         self.plans_kept = 0
         self.fills = 0
         self.uav_replans = 0
+        # Mission s between two re-plans of one protecting UAV, recent ones and the
+        # run's: more than replan_every_s when the host is short of CPU.
+        self._replan_gaps: deque[float] = deque(maxlen=_RECENT_GAPS)
+        self._gaps_total = 0.0
+        self._gaps_count = 0
+        self.replan_interval_s: float | None = None  # median of the recent ones
         self._margins: dict[int, tuple[float, float, float]] = {}  # radius, slowest, fastest
         self._convoy_speeds: tuple[float, float] | None = None
 
@@ -516,6 +523,11 @@ class RoadMission(Roster):
         for uav in self._slots if uavs is None else uavs:
             slot = self._slots[uav]
             pose = self._pose_at(uav, t)
+            before = self._planned_at.get(uav)
+            if before is not None and self._arrival.get(uav, math.inf) <= before:
+                self._replan_gaps.append(t - before)
+                self._gaps_total += t - before
+                self._gaps_count += 1
             self._planned_at[uav] = t
             if pose is None:
                 continue
@@ -552,6 +564,8 @@ class RoadMission(Roster):
             self._record(uav, segments)
             self._trajectories[uav] = path
             self._starts.pop(uav, None)
+        if self._replan_gaps:  # (one assignment: the service reads it from another thread)
+            self.replan_interval_s = float(np.median(self._replan_gaps))
 
     def _others_see(self, uav: int, t: float, watch: _Watch) -> npt.NDArray[np.bool_]:
         """Samples of ``watch`` some other protecting UAV's path in force sees."""
@@ -708,6 +722,9 @@ class RoadMission(Roster):
             "convoy_left_route": self.model.counters["left_route"],
             "convoy_speed_range_mps": None if speeds is None else [round(v, 2) for v in speeds],
             "uav_replans": self.uav_replans,
+            "replan_interval_s": None
+            if not self._gaps_count
+            else round(self._gaps_total / self._gaps_count, 2),
             "legs_late": self.legs_late,
             "plans_kept": self.plans_kept,
             "fills": self.fills,

@@ -2,9 +2,11 @@
 
 Design rules:
 - The convoy drives a recorded or generated track; its fixes go through the
-  service's own ``ConvoyTracker`` at the track's rate, into the service's own
-  ``RoadMission``; the UAVs fly exactly what they are commanded (sampled
-  from their trajectories). What is left out is only the autopilots'
+  service's own ``ConvoyTracker`` at the track's rate, and the tracker's
+  estimate (extrapolated between fixes, stale after a pause) goes into the
+  service's own ``RoadMission`` at every step, as the service's control loop
+  hands it. The UAVs fly exactly what they are commanded (sampled from their
+  trajectories). What is left out is only the autopilots'
   tracking error, so this is what the plan promises on that road.
 - Coverage is scored against the convoy's true positions, like the mock's
   ground truth, from the start of protection (or ``score_from``) to the end.
@@ -89,7 +91,7 @@ def fly_road(
             tracker.update(float(ts[k]), float(fn[k]), float(fe[k]))
             k += 1
         est = tracker.estimate(now)
-        if est is not None and k > 0 and ts[k - 1] > now - 1.5 * dt:
+        if est is not None:  # every step, as the service's control loop does
             mission.on_convoy(est)
         if not joined and mission.plan is not None:
             poses = {
