@@ -139,29 +139,29 @@ async def test_streams_on_mission_deadlines_to_flying_and_setting_up_only() -> N
 
 
 async def test_a_fast_simulator_gets_fewer_setpoints_per_mission_second() -> None:
-    """At 80x, 20 Hz of mission time would be 1,600 sends a wall second: halved
-    twice to 5 Hz (400 a wall second), on steady deadlines, none missed."""
+    """At 80x, 20 Hz of mission time would be 1,600 sends a wall second: halved to
+    10 Hz (800 a wall second), on steady deadlines, none missed."""
     vehicle = FakeVehicle(1)
     async with autopilot_clock(80.0) as clock:
         streamer = SetpointStreamer([vehicle], setpoint, clock, rate_hz=20.0)
         async with streaming(streamer):
-            await mission_sleep(clock, 40.0)
-    assert streamer.rate == 5.0 and streamer.period == pytest.approx(0.2)
+            await mission_sleep(clock, 30.0)
+    assert streamer.rate == 10.0 and streamer.period == pytest.approx(0.1)
     # (one wall millisecond of timer jitter is 0.08 mission s at 80x: the mean, not
     # the median, is the rate)
     stats = streamer.stats[1]
-    assert stats.mission.mean == pytest.approx(0.2, rel=0.05)
-    assert stats.mission.max < 2 * 0.2
+    assert stats.mission.mean == pytest.approx(0.1, rel=0.05)
+    assert stats.mission.max < 3 * 0.1
     assert 1.0 / stats.wall.mean <= MAX_WALL_HZ
-    assert len(vehicle.sent) >= 5.0 * 40.0 - streamer.missed - 3
+    assert len(vehicle.sent) >= 10.0 * 30.0 - streamer.missed - 3
 
 
 @pytest.mark.parametrize(
     ("rate_hz", "speedup", "expected"),
     [
         (20.0, 1.0, 20.0),  # a real autopilot: as configured
-        (20.0, 20.0, 20.0),  # 400 a wall second
-        (20.0, 40.0, 10.0),
+        (20.0, 40.0, 20.0),  # 800 a wall second
+        (20.0, 80.0, 10.0),
         (20.0, 1000.0, MIN_RATE_HZ),  # never below 5 Hz of mission time
         (2.0, 1000.0, 2.0),  # nor below a slower configured rate
         (100.0, 1.0, 100.0),
@@ -179,14 +179,14 @@ def test_the_rate_is_halved_only_while_a_vehicle_would_get_too_many(
 
 
 def test_the_rate_comes_back_only_with_room_to_spare() -> None:
-    """Halved at 40x; 26x still keeps it halved (20 Hz would be 520 a wall
-    second, over the cap), 18x doubles it back (360: under 75 % of the cap)."""
+    """Halved at 80x; 52x still keeps it halved (20 Hz would be 1,040 a wall
+    second, over the cap), 36x doubles it back (720: under 75 % of the cap)."""
     streamer = SetpointStreamer([], setpoint, MissionClock(), rate_hz=20.0)
-    streamer.rate = streamer.rate_for(40.0)
+    streamer.rate = streamer.rate_for(80.0)
     assert streamer.rate == 10.0
-    assert streamer.rate_for(26.0) == 10.0
-    assert streamer.rate_for(24.0) == 10.0  # 480: under the cap, not with room
-    assert streamer.rate_for(18.0) == 20.0
+    assert streamer.rate_for(52.0) == 10.0
+    assert streamer.rate_for(48.0) == 10.0  # 960: under the cap, not with room
+    assert streamer.rate_for(36.0) == 20.0
     with pytest.raises(ValueError, match="max_wall_hz"):
         SetpointStreamer([], setpoint, MissionClock(), max_wall_hz=0.0)
 
