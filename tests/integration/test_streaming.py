@@ -147,13 +147,12 @@ async def test_a_fast_simulator_gets_fewer_setpoints_per_mission_second() -> Non
         async with streaming(streamer):
             await mission_sleep(clock, 30.0)
     assert streamer.rate == 10.0 and streamer.period == pytest.approx(0.1)
-    # (one wall millisecond of timer jitter is 0.08 mission s at 80x: the mean, not
-    # the median, is the rate)
-    stats = streamer.stats[1]
-    assert stats.mission.mean == pytest.approx(0.1, rel=0.05)
-    assert stats.mission.max < 3 * 0.1
-    assert 1.0 / stats.wall.mean <= MAX_WALL_HZ
-    assert len(vehicle.sent) >= 10.0 * 30.0 - streamer.missed - 3
+    # Deadlines every 0.1 mission s, each sent or (on a loaded host) skipped. (One
+    # wall millisecond of timer jitter is 0.08 mission s at 80x: single intervals
+    # say little.)
+    assert streamer.ticks + streamer.missed == pytest.approx(30.0 / 0.1, abs=5)
+    assert len(vehicle.sent) == streamer.ticks
+    assert 1.0 / streamer.stats[1].wall.mean <= MAX_WALL_HZ
 
 
 @pytest.mark.parametrize(
