@@ -180,7 +180,7 @@ def _build_parser() -> argparse.ArgumentParser:
 def _add_mock_flight_options(
     parser: argparse.ArgumentParser, duration: float | None, duration_help: str
 ) -> None:
-    """The options ``demo`` and ``replay`` share (flying against the in-process mock)."""
+    """The options ``demo`` and ``replay`` share (flying against the mock in its own process)."""
     parser.add_argument("--duration", type=float, default=duration, metavar="S",
                         help=duration_help)  # fmt: skip
     parser.add_argument(
@@ -215,7 +215,7 @@ def _add_mock_flight_options(
 
 
 MAX_MOCK_UAVS = 200
-"""The most aircraft demo/replay fly: the in-process mock runs 200 in real time on a core,
+"""The most aircraft demo/replay fly: the mock runs 200 in real time on a core of its own,
 and the ground vehicles take the system ids after the aircraft (255 in all)."""
 
 
