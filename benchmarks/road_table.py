@@ -3,6 +3,7 @@
     .venv/bin/python benchmarks/road_table.py            # the planner's own simulation (~3 min)
     .venv/bin/python benchmarks/road_table.py --mock     # + flown against sitl_mock (~20 min)
     .venv/bin/python benchmarks/road_table.py --unseen   # random roads, other grids (~2 min)
+    .venv/bin/python benchmarks/road_table.py --unseen --mock  # + against sitl_mock
 
 Simulation: the service's ``RoadMission`` fed the convoy's fixes through its own
 ``ConvoyTracker``, UAVs flying exactly what they are sent (``fly_road``), coverage
@@ -64,35 +65,48 @@ def _simulate(track: GeoTrack, req: PlanRequest, truth: Truth, known: bool) -> t
     return f"{100 * run.coverage:.1f} % / {run.longest_gap_s:.0f} s / {start} s", run.coverage
 
 
-def _mock(name: str, req: PlanRequest, known: bool) -> str:
+def _mock(
+    name: str, req: PlanRequest, known: bool, track: GeoTrack | None = None
+) -> tuple[str, float]:
     """``convoy-mav replay`` of the road in a process of its own, as a user runs it.
 
     One process per mission: run after run in one process, every mission's
     leftovers (the mock's ground truth among them) sit in the heap the
     collector walks, and a late mission in the table stalled for seconds at 40x.
+    A ``track`` (an unseen road) is replayed from a CSV of its fixes.
     """
     cmd = [sys.executable, "-m", "convoy_mav", "replay", "--speedup", "40", "-q"]
-    cmd += [str(TRACKS / name)] if name.endswith(".gpx") else ["--road", name]
     if req == FAST:
         cmd += ["--config", str(ROOT / "configs" / "rehearse_fast_planes.toml")]
     if known:
         cmd.append("--route-known")
     with tempfile.TemporaryDirectory() as tmp:
+        if track is not None:
+            csv = Path(tmp) / "track.csv"
+            rows = zip(track.times, track.lats, track.lons, strict=True)
+            csv.write_text(
+                "time,lat,lon\n" + "".join(f"{t:.3f},{a:.8f},{o:.8f}\n" for t, a, o in rows)
+            )
+            cmd.append(str(csv))
+        elif name.endswith(".gpx"):
+            cmd.append(str(TRACKS / name))
+        else:
+            cmd += ["--road", name]
         out = Path(tmp) / "report.json"
         subprocess.run([*cmd, "--report", str(out)], check=False, capture_output=True)
         if not out.exists():
-            return "never protected"
+            return "never protected", 0.0
         report = json.loads(out.read_text())
     truth = report.get("truth_coverage_fraction")
     if truth is None:
-        return "never protected"
+        return "never protected", 0.0
     predicted = report.get("predicted_coverage")
     pred = "-" if predicted is None else f"{100 * predicted:.1f}"
-    return f"{100 * truth:.1f} % (pred. {pred}) / {report['truth_longest_gap_s']:.0f} s"
+    return f"{100 * truth:.1f} % (pred. {pred}) / {report['truth_longest_gap_s']:.0f} s", truth
 
 
 def _unseen() -> list[tuple[str, GeoTrack, PlanRequest, Truth]]:
-    """Roads the planner was not tuned on: random roads and other urban grids (sim only)."""
+    """Roads the planner was not tuned on: random roads and other urban grids."""
     out: list[tuple[str, GeoTrack, PlanRequest, Truth]] = []
     drives = [(f"random seed {s}", random_road(np.random.default_rng(s))) for s in range(1, 9)]
     drives += [(f"urban seed {s}", road_kind("urban", seed=s)) for s in (1, 2)]
@@ -109,18 +123,23 @@ def main() -> None:
     )
     args = parser.parse_args()
     if args.unseen:
-        print("| road | route known | no route |\n|---|---|---|")
-        means: dict[bool, list[float]] = {True: [], False: []}
+        head = "| road | route known | no route |"
+        if args.mock:
+            head += " mock, route known | mock, no route |"
+        print(head + "\n|" + "---|" * (head.count("|") - 1))
+        means: dict[tuple[bool, bool], list[float]] = {}  # (mock, route known) -> coverages
         for name, track, req, truth in _unseen():
             cells = []
-            for known in (True, False):
-                cell, coverage = _simulate(track, req, truth, known)
-                means[known].append(coverage)
+            runs = [(False, k) for k in (True, False)] + [(True, k) for k in (True, False)]
+            for mock, known in runs[: 4 if args.mock else 2]:
+                if mock:
+                    cell, coverage = _mock(name, req, known, track)
+                else:
+                    cell, coverage = _simulate(track, req, truth, known)
+                means.setdefault((mock, known), []).append(coverage)
                 cells.append(cell)
-            print(f"| {name} | {cells[0]} | {cells[1]} |", flush=True)
-        print(
-            f"| mean | {100 * np.mean(means[True]):.1f} % | {100 * np.mean(means[False]):.1f} % |"
-        )
+            print(f"| {name} | " + " | ".join(cells) + " |", flush=True)
+        print("| mean | " + " | ".join(f"{100 * np.mean(v):.1f} %" for v in means.values()) + " |")
         return
     head = "| road | UAVs | route known: coverage / longest gap / protected from | no route |"
     if args.mock:
@@ -131,7 +150,7 @@ def main() -> None:
         uavs = road_fleet(req.turn_radius, req.sensor_radius)
         row = [name, str(uavs)] + [_simulate(track, req, truth, k)[0] for k in (True, False)]
         if args.mock:
-            row += [_mock(name, req, k) for k in (True, False)]
+            row += [_mock(name, req, k)[0] for k in (True, False)]
         print("| " + " | ".join(row) + " |", flush=True)
 
 
