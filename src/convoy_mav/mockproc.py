@@ -23,6 +23,7 @@ import signal
 import traceback
 from collections.abc import Mapping
 from multiprocessing.connection import Connection
+from multiprocessing.process import BaseProcess
 from types import TracebackType
 from typing import Any
 
@@ -61,7 +62,7 @@ class MockProcess:
         self.endpoints: tuple[Endpoint, ...] = ()
         self.history: TruthRecorder | None = None
         self._conn: Connection | None = None
-        self._proc: Any = None
+        self._proc: BaseProcess | None = None
 
     async def __aenter__(self) -> MockProcess:
         ctx = multiprocessing.get_context("spawn")  # never fork a process with threads and a loop
@@ -90,13 +91,15 @@ class MockProcess:
     ) -> None:
         conn = self._conn
         try:
-            if conn is not None and self._proc.is_alive():
+            if conn is None:
+                return
+            with contextlib.suppress(OSError):  # gone already: its last word, or EOF, says why
                 conn.send("stop")
-                reply = await self._receive(_STOP_S)
-                if reply[0] == "truth":
-                    self.history = reply[1]
-                elif exc is None:
-                    raise MockProcessError(f"sitl_mock failed: {reply[1]}")
+            try:
+                _, self.history = await self._receive(_STOP_S)
+            except MockProcessError:
+                if exc is None:
+                    raise
         finally:
             self._kill()
 
@@ -110,7 +113,8 @@ class MockProcess:
             try:
                 reply: tuple[Any, ...] = conn.recv()
             except EOFError:
-                raise MockProcessError(f"sitl_mock exited (code {self._proc.exitcode})") from None
+                code = None if self._proc is None else self._proc.exitcode
+                raise MockProcessError(f"sitl_mock exited (code {code})") from None
             if reply[0] == "error":
                 raise MockProcessError(f"sitl_mock failed:\n{reply[1]}")
             return reply

@@ -56,6 +56,15 @@ async def test_a_mock_that_cannot_start_says_why_in_the_parent() -> None:
                 pass
 
 
+async def test_a_mock_that_died_in_flight_says_so_instead_of_a_missing_truth() -> None:
+    mapping = mock_mapping(SCENARIOS["moving"], 1, speedup=40.0, duration=60.0)
+    with pytest.raises(MockProcessError, match="exited"):
+        async with MockProcess(mapping) as mock:
+            assert mock._proc is not None
+            mock._proc.kill()
+            mock._proc.join()
+
+
 def test_a_bad_mock_config_is_refused_before_any_process_starts() -> None:
     mapping = mock_mapping(SCENARIOS["moving"], 1, speedup=40.0, duration=60.0)
     mapping["speedup"] = -1.0
