@@ -1393,11 +1393,11 @@ class ConvoyService:
     def _stream_health(self, sysid: int) -> dict[str, float | None]:
         streamer = getattr(self, "streamer", None)
         stats = None if streamer is None else streamer.stats.get(sysid)
-        if stats is None or stats.count < 2:
+        if streamer is None or stats is None or stats.count < 2:
             return dict.fromkeys(("setpoint_rate_hz", "setpoint_gap_max_s", "setpoint_gap_p99_s"))
         return {
             # (halved at a speedup that would feed a simulator faster than it can use)
-            "setpoint_rate_hz": streamer.rate if streamer is not None else None,
+            "setpoint_rate_hz": streamer.rate,
             "setpoint_gap_max_s": round(stats.mission.max, 3),
             "setpoint_gap_p99_s": round(stats.mission.percentile(99.0), 3),
         }

@@ -183,7 +183,6 @@ class SetpointStreamer:
         ticks: Rounds (deadlines) served.
         missed: Rounds skipped because the loop was late.
         rate: Setpoints per mission second now (``rate_hz``, or it halved).
-        period: Mission seconds between rounds now, ``1 / rate``.
         errors: Source calls that raised.
         stats: Per-uid :class:`SendStats`.
     """
@@ -213,7 +212,6 @@ class SetpointStreamer:
             raise ValueError(f"max_wall_hz must be finite and > 0, got {max_wall_hz!r}")
         self.rate_hz = self.rate = rate_hz
         self.max_wall_hz = max_wall_hz
-        self.period = 1.0 / rate_hz
         self.slice_size = slice_size
         self.max_slices = max_slices
         self._wall = wall
@@ -276,7 +274,11 @@ class SetpointStreamer:
                 self.clock.rate,
             )
         self.rate = rate
-        self.period = 1.0 / rate
+
+    @property
+    def period(self) -> float:
+        """Mission seconds between rounds now."""
+        return 1.0 / self.rate
 
     async def _round(self, k: int) -> int:
         """Send round ``k`` slice by slice; returns the round to continue from."""
