@@ -92,9 +92,12 @@ _RESIDUAL_FLOOR = 0.005
 """s of mission time: residuals below this are never outliers (``time_boot_ms`` is in ms)."""
 _REBOOT_CONFIRM = 5
 """Consecutive packets on a new, earlier timeline that make a reboot."""
-_OFFSET_SAMPLES = 32
 _OFFSET_REFRESH = 1.0
 """Wall s between recomputations of a vehicle's offset to the reference."""
+_OFFSET_BIN = 0.1
+"""Wall s of one bin of the offset estimate (each vehicle's soonest packet in it)."""
+_OFFSET_BINS = 100
+"""Bins kept per vehicle (10 wall s): a median over them outlasts a host's stalls."""
 _REFIT_INTERVAL = 0.1
 """Wall s between refits once the rate is trusted (the fit costs ~0.2 ms)."""
 _STEP_CONFIRM = 8
@@ -156,6 +159,10 @@ class _Track:
     # would each be an object for the garbage collector to walk.
     walls: deque[float] = field(default_factory=deque)
     times: deque[float] = field(default_factory=deque)  # unwrapped, at those walls
+    # Per wall bin of _OFFSET_BIN: its index and the soonest packet's unwrapped time
+    # less the rate times its wall time into the bin (the clock at the bin's start).
+    bins: deque[int] = field(default_factory=deque)
+    bin_times: deque[float] = field(default_factory=deque)
     offset: float = 0.0  # mission = unwrapped + offset
     offset_wall: float = -math.inf  # wall time the offset was last computed
     behind: _Timeline | None = None  # a possible reboot, awaiting confirmation
@@ -329,6 +336,7 @@ class MissionClock:
             track.behind = None
         track.last_boot = max(track.last_boot, boot)
         track.last_wall = wall
+        self._bin(track, wall, boot + track.epoch)
         if self._resync_due and track.reanchored_wall < self._silence_wall:
             if sysid != self._ref:  # (a clock rebooted since says nothing of the silence)
                 self._resync(sysid, track, wall, boot + track.epoch)
@@ -408,6 +416,8 @@ class MissionClock:
         predicted = track.last_unwrapped + self._rate * (wall - track.last_wall)
         track.epoch = predicted - boot
         track.last_boot = boot
+        track.bins.clear()  # (its new clock's offset is a guess until measured anew)
+        track.bin_times.clear()
         track.behind = None
         track.reanchored_wall = wall
         self.reboots += 1
@@ -485,20 +495,49 @@ class MissionClock:
 
     def _offset(self, sysid: int, track: _Track, *, force: bool = False) -> float:
         """mission - unwrapped time of a vehicle: for the reference a constant; for
-        the others the median of (fitted line - their time) over their latest
-        samples, refreshed about once a wall second (offsets only change slowly)."""
+        the others measured against the reference bin by bin (``_bin``), refreshed
+        about once a wall second (offsets only change slowly)."""
         if sysid == self._ref and not force:
             return track.offset
         wall = self._wall()
         every = _OFFSET_REFRESH if self._rate_trusted else 0.1 * _OFFSET_REFRESH
-        if (force or wall - track.offset_wall >= every) and track.walls:
-            self._refit()
-            n = len(track.walls)
-            recent = range(max(0, n - _OFFSET_SAMPLES), n)
-            walls, times = track.walls, track.times
-            track.offset = statistics.median(self._line(walls[i]) - times[i] for i in recent)
+        if force or wall - track.offset_wall >= every:
+            assert self._ref is not None
+            ref = self._tracks[self._ref]
+            gaps = _matched_differences(ref.bins, ref.bin_times, track.bins, track.bin_times)
+            if gaps:
+                track.offset = statistics.median(gaps) + ref.offset
             track.offset_wall = wall
         return track.offset
+
+    def _bin(self, track: _Track, wall: float, unwrapped: float) -> None:
+        """Keep the soonest packet of each wall bin: where the vehicle's clock stood
+        at the bin's start, as near as its packets tell.
+
+        Two vehicles' clocks are compared bin by bin, each at its least-delayed
+        packet in the bin (the newest of a backlog read after a stall), and the
+        offset is the median over the last ``_OFFSET_BINS`` bins both have. Delays
+        only ever add and a loaded host adds them unevenly (the sockets read after
+        a stall deliver some vehicles' backlogs later than others'), and a
+        simulator pausing moves every clock at once: a bin compares the vehicles
+        across the same moments, so neither reaches the offset. (The median of
+        each packet against the reference's fitted line, over its last 1.6 wall s,
+        was 0.2-0.5 mission s off for tens of seconds on a busy host at 40x: 10 m
+        of a plane.)
+        """
+        index = math.floor(wall / _OFFSET_BIN)
+        at_start = unwrapped - self._rate * (wall - index * _OFFSET_BIN)
+        bins, times = track.bins, track.bin_times
+        if bins and bins[-1] == index:
+            times[-1] = max(times[-1], at_start)
+            return
+        if bins and index < bins[-1]:
+            return  # (the wall clock never goes back; a test's might)
+        bins.append(index)
+        times.append(at_start)
+        if len(bins) > _OFFSET_BINS:
+            bins.popleft()
+            times.popleft()
 
     def _refit(self, *, force: bool = False) -> None:
         if not (self._dirty or force) or self._ref is None:
@@ -564,6 +603,22 @@ class MissionClock:
             return 0.0
         chunk = _MAX_SLEEP_CHUNK if self.rate_trusted else _GUESS_SLEEP_CHUNK
         return min(remaining / self._rate, chunk)
+
+
+def _matched_differences(
+    ref_bins: deque[int], ref_times: deque[float], bins: deque[int], times: deque[float]
+) -> list[float]:
+    """Reference time less this vehicle's, in each bin both have (both in bin order)."""
+    out: list[float] = []
+    i, n = 0, len(ref_bins)
+    for b, t in zip(bins, times, strict=True):
+        while i < n and ref_bins[i] < b:
+            i += 1
+        if i == n:
+            break
+        if ref_bins[i] == b:
+            out.append(ref_times[i] - t)
+    return out
 
 
 def _robust_line(ws: list[float], ms: list[float]) -> tuple[float, float, float]:
