@@ -868,6 +868,7 @@ class ConvoyService:
         else:
             await stop.wait()
         self._end_t = self.clock.now()
+        self.monitor.end(self._end_t)
         self._stopping = True
         action = self.config.end
         told = {"loiter": "loiter where it is", "rtl": "return home", "land": "land"}[action]
@@ -1321,6 +1322,7 @@ class ConvoyService:
 
     def _report(self) -> ServiceReport:
         end_t = getattr(self, "_end_t", self.clock.now())
+        self.monitor.finish()
         est = self._last_est
         return ServiceReport(
             config=self.config,

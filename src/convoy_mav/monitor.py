@@ -197,6 +197,20 @@ class Monitor:
         assert self._stamped is not None
         self._stamped.fix(tel.sysid, tel.t, tel.north, tel.east, tel.vn, tel.ve)
 
+    def end(self, t: float) -> None:
+        """The mission ends at ``t``: coverage is counted up to it and no further."""
+        assert self._stamped is not None
+        self._stamped.end(t)
+
+    def finish(self) -> None:
+        """Count the instants up to the end still waiting for their fixes (the stamped
+        monitor decides a few seconds behind): the report spans the whole protect phase."""
+        assert self._stamped is not None
+        if self._tracker is None:
+            return
+        for decided in self._stamped.flush():
+            self._tracker.update(decided.t, decided.convoy, decided.uavs)
+
     def restart_protect(self, t: float, predicted_coverage: float) -> None:
         """A replan changed the promise: keep the totals, compare against the new figure."""
         self.predicted_coverage = predicted_coverage

@@ -20,6 +20,9 @@ from the fixes around it instead:
   convoy's position are those of the first control tick at or after ``tau``,
   the convoy interpolated between ticks.
 
+At the mission's end no later instant is decided, and the report's ``flush``
+decides the last few seconds on the fixes that have come in by then.
+
 Decided instants are handed to the :class:`~convoy_mav.coverage.CoverageTracker`
 as evenly spaced samples, so the totals, gaps and per-UAV times follow, a few
 seconds behind at most. Pure and synchronous; mission seconds throughout.
@@ -113,6 +116,7 @@ class StampedCoverage:
     _origin: float = 0.0  # the grid is origin + k * step (no drift of summed steps)
     _frontier: float = -math.inf  # the latest stamp of any fix: how far telemetry has come
     _k: int = 0
+    _end: float = math.inf  # no instant past it is decided (the mission's end)
 
     def start(self, t: float) -> None:
         """Decide instants from ``t`` on (the protect phase's start)."""
@@ -131,6 +135,18 @@ class StampedCoverage:
         fixes.add(t, (north, east, vn, ve), keep)
         self._frontier = max(self._frontier, t)
 
+    def end(self, t: float) -> None:
+        """The mission ends at ``t``: no later instant is decided (ticks go on meanwhile,
+        for the convoy's position up to ``t``)."""
+        self._end = t
+
+    def flush(self) -> list[StampedSample]:
+        """Decide every instant left up to the end on what is known now (the report's:
+        the fixes of the last seconds have come in by then)."""
+        if not self._ticks or not math.isfinite(self._end):
+            return []
+        return self._decide(self._end, force=True)
+
     def tick(self, t: float, convoy: Point, counted: frozenset[int]) -> list[StampedSample]:
         """A control tick at ``t``: the convoy and the UAVs counted then; returns the
         instants decided now, in order."""
@@ -138,6 +154,11 @@ class StampedCoverage:
         if ticks and t <= ticks[-1][0]:
             return []
         ticks.append((t, convoy, counted))
+        return self._decide(min(t, self._end), force=False)
+
+    def _decide(self, t: float, *, force: bool) -> list[StampedSample]:
+        """Instants up to ``t`` that can be decided (all of them if ``force``)."""
+        ticks = self._ticks
         out: list[StampedSample] = []
         tau = self._next
         if tau is None:
@@ -159,8 +180,10 @@ class StampedCoverage:
             settled = all((f := self._fixes.get(s)) is not None and f.after(tau) for s in nxt[2])
             later = len(ticks) - (1 if first[0] <= tau else 0)
             forced = (
-                self._frontier - tau >= self.horizon and later >= _TICKS_AFTER
-            ) or t - tau >= _LONGEST_WAIT_S
+                force
+                or (self._frontier - tau >= self.horizon and later >= _TICKS_AFTER)
+                or ticks[-1][0] - tau >= _LONGEST_WAIT_S
+            )
             if not (covered or settled or forced):
                 break  # (fixes of this instant may still be on their way)
             out.append(StampedSample(tau, centre, positions))

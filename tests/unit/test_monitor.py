@@ -82,6 +82,30 @@ def test_a_host_stall_is_scored_from_the_fixes_that_come_after_it() -> None:
     assert stats.fraction == pytest.approx(1.0) and stats.elapsed_s >= 9.5
 
 
+def test_the_report_spans_the_protect_phase_to_its_end_and_no_further() -> None:
+    """The mission ends at 7 s while the fixes of its last 2 s are still on their way
+    (decided a few seconds behind, the monitor had counted 6 s); they come in as the
+    UAVs are told to loiter, one of them leaving the convoy at 8.5 s. The report
+    counts 0-7 s, all of it covered, and nothing after."""
+    m = Monitor(sensor_radius=10.0, prediction_grace=1e9)
+    m.start_protect(0.0)
+
+    def north(t: float) -> float:
+        return 3.0 if t < 8.5 else 30.0
+
+    _fly(m, _grid(0.0, 5.0), north, ticks=_grid(0.0, 7.0))
+    m.end(7.0)
+    counted = m.snapshot(7.0).stats.elapsed_s
+    for t in _grid(5.1, 10.0):
+        m.fix(tel(1, t, north(t), 0.0))
+    m.finish()
+    stats = m.snapshot(7.0).stats
+    assert counted < 6.5
+    assert stats.elapsed_s == pytest.approx(7.0) and stats.fraction == pytest.approx(1.0)
+    m.finish()  # (twice: nothing more)
+    assert m.snapshot(7.0).stats.elapsed_s == pytest.approx(7.0)
+
+
 def test_a_uav_silent_longer_than_the_interpolation_gap_sees_nothing_meanwhile() -> None:
     """Fixes stop from 5 s to 11 s (longer than the 5 s interpolated over): carried
     along for a second, then unknown (nothing is claimed without telemetry); a short
