@@ -16,7 +16,9 @@ Design rules:
       heard). Each vehicle's boot time is first *unwrapped* (a reboot, seen as
       ``time_boot_ms`` jumping back, re-anchors that vehicle so its unwrapped
       time continues where it was) and every other vehicle is mapped onto mission
-      time with an offset (median of its recent differences to the fit).
+      time with an offset: its clock less the reference's, compared in 0.1-s wall
+      bins at each one's soonest packet, median over the last 10 s of bins (one-sided
+      delays and simulator pauses cancel; see ``_bin``).
     * The fit is a least-squares line over a sliding window of the reference's
       observations (sub-sampled in wall time so its cost does not grow with the
       message rate), with outliers beyond 4 MADs dropped and the line refitted.
