@@ -877,7 +877,8 @@ class ConvoyService:
             *(v.finish(action) for v in self.vehicles.values()), return_exceptions=True
         )
         try:  # (wall seconds: mission time stands still if every autopilot went quiet)
-            await asyncio.wait_for(ending, _FINISH_WALL_S)
+            async with asyncio.timeout(_FINISH_WALL_S):
+                await ending
         except TimeoutError:
             self._note(f"shutdown: not every UAV confirmed within {_FINISH_WALL_S:g} s")
         self._stopped = True

@@ -38,7 +38,8 @@ async def provision_signing(connection: str, sysid: int, key: bytes, timeout: fl
 
     async with MavLink(connection, on_message, name=f"sign-setup[{sysid}]") as link:
         try:
-            first = await asyncio.wait_for(heard.get(), timeout)
+            async with asyncio.timeout(timeout):  # (see eventloop.wait_set)
+                first = await heard.get()
         except TimeoutError:
             raise AutopilotError(f"{connection}: no HEARTBEAT from sysid {sysid}") from None
         link.send(
@@ -50,7 +51,8 @@ async def provision_signing(connection: str, sysid: int, key: bytes, timeout: fl
         while not heard.empty():
             heard.get_nowait()
         try:
-            await asyncio.wait_for(heard.get(), timeout)
+            async with asyncio.timeout(timeout):
+                await heard.get()
         except TimeoutError:
             raise AutopilotError(
                 f"{connection}: sysid {sysid} sent no HEARTBEAT signed with the key after "

@@ -27,7 +27,6 @@ Design rules:
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import errno
 import logging
 import os
@@ -39,6 +38,7 @@ from types import TracebackType
 from typing import BinaryIO
 
 from convoy_mav.errors import ConfigError
+from convoy_mav.eventloop import wait_set
 
 __all__ = ["LINK_SENT", "TlogRecorder"]
 
@@ -190,8 +190,7 @@ class TlogRecorder:
 
     async def _flush_loop(self) -> None:
         while not self._stop.is_set():
-            with contextlib.suppress(TimeoutError):
-                await asyncio.wait_for(self._stop.wait(), self._flush_interval)
+            await wait_set(self._stop, self._flush_interval)
             await self.flush()
 
 

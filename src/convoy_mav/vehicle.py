@@ -59,6 +59,7 @@ from pymavlink.dialects.v20 import common as mavlink
 from convoy_mav.clock import MissionClock, Observed
 from convoy_mav.contest import ControlWatch
 from convoy_mav.errors import AutopilotError
+from convoy_mav.eventloop import wait_set
 from convoy_mav.geo import GeoPoint, LocalFrame, no_position_yet
 from convoy_mav.mavlink.autopilots import (
     DEFAULT_STREAM_RATES,
@@ -705,7 +706,8 @@ class Vehicle:
                 break
             self._send(hb)
             with contextlib.suppress(TimeoutError):
-                await asyncio.wait_for(clock.wait_synced(), 0.5)  # (wall s)
+                async with asyncio.timeout(0.5):  # (wall s; see eventloop.wait_set)
+                    await clock.wait_synced()
         if self._heard_t > -math.inf:  # heard before mission time began: heard at its start
             self._heard_t = max(self._heard_t, clock.now())
         while True:
@@ -1074,8 +1076,7 @@ class Vehicle:
             wall = self.clock.wall_until(deadline)
             if wall <= 0.0:
                 return False
-            with contextlib.suppress(TimeoutError):
-                await asyncio.wait_for(self._changed.wait(), wall)
+            await wait_set(self._changed, wall)
 
     # ============================================================ geofence
     async def upload_fence(

@@ -10,7 +10,7 @@ import uvloop
 
 from convoy_mav.cli import main
 from convoy_mav.errors import ConfigError
-from convoy_mav.eventloop import LOOP_ENV, loop_factory, loop_name, run
+from convoy_mav.eventloop import LOOP_ENV, loop_factory, loop_name, run, wait_set
 
 
 async def _which() -> str:
@@ -55,3 +55,44 @@ def test_the_command_line_reports_a_bad_loop_and_exits_2(
     monkeypatch.setenv(LOOP_ENV, "trio")
     assert main(["demo", "--duration", "10"]) == 2
     assert f"{LOOP_ENV} = 'trio'" in capsys.readouterr().err
+
+
+async def _waits_in_a_loop(event: asyncio.Event, rounds: list[int]) -> None:
+    """A vehicle's wait: until the event, re-armed each time, bounded each time."""
+    while True:
+        event.clear()
+        await wait_set(event, 10.0)
+        rounds.append(1)
+        await asyncio.sleep(0)
+
+
+@pytest.mark.parametrize("choice", ["asyncio", "uvloop"])
+def test_a_cancel_that_comes_as_the_event_is_set_ends_the_wait(choice: str) -> None:
+    """The event set and the task cancelled in one turn of the loop (a message in as
+    the mission's task group ends): the task ends. (``asyncio.wait_for`` on 3.11
+    returns instead, and the loop around it never ends.)"""
+
+    async def scenario() -> tuple[bool, list[int]]:
+        event, rounds = asyncio.Event(), []
+        task = asyncio.create_task(_waits_in_a_loop(event, rounds))
+        for _ in range(3):
+            await asyncio.sleep(0)
+        event.set()
+        task.cancel()
+        done, _ = await asyncio.wait({task}, timeout=1.0)
+        if not done:
+            task.cancel()
+        return task in done and task.cancelled(), rounds
+
+    cancelled, rounds = run(scenario(), choice=choice)
+    assert cancelled and rounds == []
+
+
+def test_wait_set_says_whether_the_event_came() -> None:
+    async def scenario() -> tuple[bool, bool]:
+        event = asyncio.Event()
+        asyncio.get_running_loop().call_later(0.01, event.set)
+        came = await wait_set(event, 5.0)
+        return came, await wait_set(asyncio.Event(), 0.01)
+
+    assert run(scenario(), choice="asyncio") == (True, False)
