@@ -73,7 +73,7 @@ def test_a_cancel_that_comes_as_the_event_is_set_ends_the_wait(choice: str) -> N
     returns instead, and the loop around it never ends.)"""
 
     async def scenario() -> tuple[bool, list[int]]:
-        event, rounds = asyncio.Event(), []
+        event, rounds = asyncio.Event(), list[int]()
         task = asyncio.create_task(_waits_in_a_loop(event, rounds))
         for _ in range(3):
             await asyncio.sleep(0)
