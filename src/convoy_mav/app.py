@@ -1034,6 +1034,9 @@ class ConvoyService:
         autopilots fly on or stand still with their clocks), so each UAV flies its
         own slot again when it is heard, without re-phasing the others. Once one
         speaks, the others have ``lost_after_s`` more to do so before they are lost.
+        The UAVs' watchdogs fire a tick or so apart: while every live UAV not yet
+        declared lost has been quiet for half of ``lost_after_s``, the ones declared
+        are held back (the fleet is going silent together, not one UAV lost).
         """
         lost = [
             sysid
@@ -1046,6 +1049,15 @@ class ConvoyService:
         ]
         live = [s for s in self.vehicles if s not in view.lost]
         silent = [s for s in live if self.vehicles[s].status is VehicleStatus.LOST]
+        quiet_since = t - 0.5 * self.config.lost_after_s
+        if (
+            silent
+            and len(silent) < len(live)
+            and all(
+                s in silent or -math.inf < self.vehicles[s].heard_t <= quiet_since for s in live
+            )
+        ):
+            return [s for s in lost if s not in silent]  # (the rest a tick behind)
         if live and len(silent) == len(live):
             if self._silence is None:
                 self._silence = (t, None)

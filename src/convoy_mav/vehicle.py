@@ -739,6 +739,11 @@ class Vehicle:
                 due = min(due, look)
             await clock.sleep_until(due)
 
+    @property
+    def heard_t(self) -> float:
+        """Mission time this vehicle was last heard (-inf: never)."""
+        return self._heard_t
+
     def _check_liveness(self, now: float) -> None:
         if self.status in (_S.CONNECTING, _S.LOST) or self.firmware is None:
             return
