@@ -1050,16 +1050,10 @@ class ConvoyService:
         live = [s for s in self.vehicles if s not in view.lost]
         silent = [s for s in live if self.vehicles[s].status is VehicleStatus.LOST]
         quiet_since = t - 0.5 * self.config.lost_after_s
-        if (
-            silent
-            and len(silent) < len(live)
-            and all(
-                s in silent or -math.inf < self.vehicles[s].heard_t <= quiet_since for s in live
-            )
-        ):
-            return [s for s in lost if s not in silent]  # (the rest a tick behind)
-        if live and len(silent) == len(live):
-            if self._silence is None:
+        if silent and all(
+            s in silent or -math.inf < self.vehicles[s].heard_t <= quiet_since for s in live
+        ):  # (every one silent, or the rest a tick behind)
+            if len(silent) == len(live) and self._silence is None:
                 self._silence = (t, None)
                 self._note("every UAV silent at once: keeping the plan until they speak")
             return [s for s in lost if s not in silent]

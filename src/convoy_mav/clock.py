@@ -506,9 +506,9 @@ class MissionClock:
         if force or wall - track.offset_wall >= every:
             assert self._ref is not None
             ref = self._tracks[self._ref]
-            gaps = _matched_differences(ref.bins, ref.bin_times, track.bins, track.bin_times)
-            if gaps:
-                track.offset = statistics.median(gaps) + ref.offset
+            differences = _matched_differences(ref.bins, ref.bin_times, track.bins, track.bin_times)
+            if differences:
+                track.offset = statistics.median(differences) + ref.offset
             track.offset_wall = wall
         return track.offset
 
@@ -610,17 +610,9 @@ class MissionClock:
 def _matched_differences(
     ref_bins: deque[int], ref_times: deque[float], bins: deque[int], times: deque[float]
 ) -> list[float]:
-    """Reference time less this vehicle's, in each bin both have (both in bin order)."""
-    out: list[float] = []
-    i, n = 0, len(ref_bins)
-    for b, t in zip(bins, times, strict=True):
-        while i < n and ref_bins[i] < b:
-            i += 1
-        if i == n:
-            break
-        if ref_bins[i] == b:
-            out.append(ref_times[i] - t)
-    return out
+    """Reference time less this vehicle's, in each bin both have."""
+    ref = dict(zip(ref_bins, ref_times, strict=True))
+    return [ref[b] - t for b, t in zip(bins, times, strict=True) if b in ref]
 
 
 def _robust_line(ws: list[float], ms: list[float]) -> tuple[float, float, float]:

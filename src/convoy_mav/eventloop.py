@@ -79,7 +79,7 @@ async def wait_set(event: asyncio.Event, timeout: float) -> bool:
     Not ``asyncio.wait_for``: on 3.11, a cancel that comes as the event is set is
     swallowed, and the vehicles' waits loop on every message. On a busy host at
     40x that kept a mission's task group from ever ending (the service flying on
-    past its duration, 3 runs in 30).
+    past its duration, 3 runs in about 35).
     """
     try:
         async with asyncio.timeout(timeout):

@@ -28,8 +28,15 @@ from collections import Counter
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
-from convoy_mav.coverage import CoverageSample, CoverageStats, CoverageTracker, GapClosed, GapOpened
-from convoy_mav.stamped import StampedCoverage
+from convoy_mav.coverage import (
+    CoverageEvent,
+    CoverageSample,
+    CoverageStats,
+    CoverageTracker,
+    GapClosed,
+    GapOpened,
+)
+from convoy_mav.stamped import StampedCoverage, StampedSample
 from convoy_mav.types import ConvoyEstimate, Telemetry
 
 __all__ = ["Alarm", "Monitor", "MonitorSnapshot", "VehicleScore", "sees", "why_not_counted"]
@@ -208,8 +215,7 @@ class Monitor:
         assert self._stamped is not None
         if self._tracker is None:
             return
-        for decided in self._stamped.flush():
-            self._tracker.update(decided.t, decided.convoy, decided.uavs)
+        self._count(self._stamped.flush())
 
     def restart_protect(self, t: float, predicted_coverage: float) -> None:
         """A replan changed the promise: keep the totals, compare against the new figure."""
@@ -257,10 +263,7 @@ class Monitor:
             return alarms
         self._last = tracker.observe(t, centre, positions)
         assert self._stamped is not None
-        events = []
-        for decided in self._stamped.tick(t, centre, frozenset(telemetry)):
-            events += tracker.update(decided.t, decided.convoy, decided.uavs)[1]
-        for ev in events:
+        for ev in self._count(self._stamped.tick(t, centre, frozenset(telemetry))):
             if isinstance(ev, GapOpened):
                 alarms.append(Alarm(ev.t, "gap", True, "convoy not seen by any UAV"))
                 self._active.add("gap")
@@ -282,6 +285,14 @@ class Monitor:
                 alarms,
             )
         return alarms
+
+    def _count(self, decided: list[StampedSample]) -> list[CoverageEvent]:
+        """Decided instants into the protect phase's totals; the gap events they make."""
+        assert self._tracker is not None
+        events: list[CoverageEvent] = []
+        for d in decided:
+            events += self._tracker.update(d.t, d.convoy, d.uavs)[1]
+        return events
 
     def track(self, tel: Telemetry, north: float, east: float) -> float | None:
         """Score one position update against where the plan wanted the UAV then.
