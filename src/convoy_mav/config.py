@@ -501,7 +501,8 @@ def _convoy(data: Mapping[str, Any]) -> ConvoyConfig:
 def _mqtt(data: Mapping[str, Any]) -> MqttConfig | None:
     if "mqtt" not in data:
         return None
-    if "password" in data["mqtt"]:  # (never echoed: it is a secret in a config file)
+    raw = data["mqtt"]  # (never echoed: a password in it is a secret in a config file)
+    if isinstance(raw, Mapping) and "password" in raw:
         raise ConfigError(
             "mqtt.password", "***", "must not be in a config file: give password_env or "
             "password_file",

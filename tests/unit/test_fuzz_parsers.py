@@ -12,7 +12,7 @@ import json
 from collections.abc import Callable
 from typing import Any
 
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from pymavlink.dialects.v20 import common as mavlink
 
@@ -80,6 +80,8 @@ _keys = st.sampled_from(["mission", "aircraft", "convoy", "uav", "mqtt", "safety
 
 @FUZZ
 @given(st.dictionaries(_keys, _json, max_size=5), st.floats(allow_nan=True))
+@example({"mqtt": None}, 1.0)  # (once a TypeError: "password" looked for in None)
+@example({"mqtt": "password"}, 1.0)  # (once refused as a password in the file)
 def test_config_refuses_with_a_config_error(data: dict[str, Any], radius: float) -> None:
     doc: dict[str, Any] = {"mission": {"sensor_radius_m": radius}, **data}
     try:
