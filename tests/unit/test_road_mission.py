@@ -113,6 +113,41 @@ def test_parked_and_straight_convoys_are_covered_throughout(speed: float) -> Non
     assert run.predicted_coverage == pytest.approx(run.coverage, abs=0.01)
 
 
+def test_consecutive_meetings_come_from_alternate_sides_of_the_convoy() -> None:
+    """Every other UAV flies the mirror image of the paper's arc (``_offset``): the UAVs
+    come back to the convoy from alternate sides, never three in a row from one (the
+    paper's phasing brings a whole half-cycle of them, six here, from the same side)."""
+    t = np.arange(0.0, 700.0, 1.0)
+    mission, streams = _fly(t, 8.0 * t, 0.0 * t, 6, until=600.0)
+    assert mission.protect_start is not None
+    meetings = []
+    for stream in streams.values():
+        sps = [sp for sp in stream if sp.t >= mission.protect_start]
+        dist = np.array([math.hypot(sp.north - 8.0 * sp.t, sp.east) for sp in sps])
+        for k in range(50, len(sps) - 1):
+            if dist[k] < 30.0 and dist[k] <= dist[k - 1] and dist[k] < dist[k + 1]:
+                meetings.append((sps[k].t, sps[k - 50].east > 0.0))  # side 5 s before
+    meetings.sort()
+    sides = [side for _, side in meetings]
+    assert len(sides) >= 40 and 0 < sum(sides) < len(sides)
+    assert all(len(set(sides[i : i + 3])) == 2 for i in range(len(sides) - 2))
+
+
+@pytest.mark.parametrize("turn_deg", [-90.0, 90.0])
+def test_a_sudden_corner_either_way_leaves_no_long_gap(turn_deg: float) -> None:
+    """No route: the convoy turns 90 deg at a corner nobody foresaw. With every UAV
+    coming back from one side for a half-cycle, the turn away from it left the convoy
+    unseen for 29 s (the other way: under 12); with alternate sides, 7 s either way."""
+    t = np.arange(0.0, 520.0, 1.0)
+    course = np.where(t <= 300.0, 0.0, math.radians(turn_deg))
+    step = np.stack([np.cos(course), np.sin(course)]) * 8.0
+    north, east = (np.concatenate([[0.0], np.cumsum(axis[:-1])]) for axis in step)
+    run = fly_road(t, north, east, REQUEST, road_fleet(R, r))
+    assert run.protect_start is not None and run.protect_start < 240.0
+    assert run.longest_gap_s <= 12.0
+    assert run.coverage >= 0.97
+
+
 @pytest.mark.parametrize("kind", ["gentle", "bends", "stop-and-go"])
 def test_roads_with_a_known_route_are_covered(kind: str) -> None:
     rt = road_kind(kind)

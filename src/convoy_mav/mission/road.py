@@ -2,8 +2,11 @@
 
 Design rules:
 - What each UAV should fly is the moving-convoy pattern of Section IV
-  (``planning.pattern``) around the convoy: ``c(t) + Rot(course) q(phase + i/N;
-  beta)``, with the course and ``beta`` from the convoy's velocity
+  (``planning.pattern``) around the convoy: ``c(t) + Rot(course) q(phase + i/N
+  + (i mod 2); beta)`` (every other UAV a half-cycle on: the mirror image, meeting
+  at the same times, so consecutive meetings alternate sides of the convoy and a
+  sudden turn either way finds every other UAV coming back from the side it
+  turned to; ``_offset``), with the course and ``beta`` from the convoy's velocity
   low-passed over ``course_tau_s`` (``PatternClock``), so curves, stops and
   speed changes reshape it gradually and a stop is the ``beta -> pi`` limit
   of the same family: nothing ever forces a re-join.
@@ -232,6 +235,7 @@ class RoadMission(Roster):
         self.model = ConvoyModel(route)
         self._down = down
         self._slots: dict[int, int] = {}  # uav -> slot index in 0..N-1
+        self._side = 0  # which parity of slots flies the mirrored arcs (``_offset``)
         self._trajectories: dict[int, Trajectory] = {}
         self._starts: dict[int, Pose] = {}  # joined, not yet planned: where it was
         self._arrival: dict[int, float] = {}
@@ -434,7 +438,7 @@ class RoadMission(Roster):
         ahead = t + 30.0
         cost = {}
         for i in free:
-            px, py = forecast.pattern(i / n)(np.array([ahead]))
+            px, py = forecast.pattern(self._offset(i, n))(np.array([ahead]))
             for u in order:
                 cost[u, i] = math.hypot(starts[u].x - float(px[0]), starts[u].y - float(py[0]))
         for uav, slot in zip(order, best_assignment(order, free, cost), strict=True):
@@ -483,11 +487,31 @@ class RoadMission(Roster):
             self._clock.advance(t, vx, vy, self.pattern_radius, self.request.uav_speed)
 
     def _respread(self) -> None:
-        """Slots 0..N-1 for the slotted UAVs, in their present order (N = live UAVs)."""
+        """Slots 0..N-1 for the slotted UAVs, in their present order (N = live UAVs),
+        each UAV kept on the side of the convoy it flies when one choice of sides can."""
         ranked = sorted(self._slots, key=self._slots.__getitem__)
         n = len(self._live)
         step = n / max(len(ranked), 1)  # (pending UAVs keep gaps to join into)
+        before = {u: (slot + self._side) % 2 for u, slot in self._slots.items()}
         self._slots = {u: min(round(k * step), n - 1) for k, u in enumerate(ranked)}
+        kept = sum(before[u] == slot % 2 for u, slot in self._slots.items())
+        self._side = 0 if 2 * kept >= len(self._slots) else 1
+
+    def _offset(self, slot: int, n: int) -> float:
+        """Pattern phase of ``slot`` of ``n``: ``slot / n`` half-cycles behind slot 0
+        (Corollary 4.3), and one more half-cycle on every other slot.
+
+        With the paper's phasing every meeting of a half-cycle ends the same arc:
+        for a whole half-cycle the UAVs come back to the convoy from one side, and
+        a sudden turn away from it makes each of them late in turn (one 60-deg
+        corner: 23 s unseen turning one way, none the other). A half-cycle later
+        a UAV flies the mirror image of its arc and meets at the same times, so
+        on a straight road the plan is the paper's; consecutive meetings then
+        come from alternate sides (at most two in a row from one side with an
+        even N), and whichever way the convoy turns, every other UAV comes back
+        from the side it turned to.
+        """
+        return slot / n + (slot + self._side) % 2
 
     def _forecast(self, t: float, horizon: float) -> _Forecast:
         assert self._clock is not None
@@ -531,12 +555,13 @@ class RoadMission(Roster):
             self._planned_at[uav] = t
             if pose is None:
                 continue
-            pattern = forecast.pattern(slot / n)
+            offset = self._offset(slot, n)
+            pattern = forecast.pattern(offset)
             close = self.settings.on_pattern_m or 0.5 * self.request.sensor_radius
             joining = uav not in self._arrival
             weight = self.settings.join_heading_weight if joining else 0.0
             how = join_limits if joining else limits
-            legs = self._legs(pose, t, pattern, forecast.meetings(slot / n, t), how, weight)
+            legs = self._legs(pose, t, pattern, forecast.meetings(offset, t), how, weight)
             if not legs:
                 continue
             first_leg = legs[0]
@@ -660,11 +685,13 @@ class RoadMission(Roster):
         mine_alone = watch.seconds(mine & ~others)
         if watch.seconds(watch.sees(self._path(t, [to_convoy])) & ~others) <= mine_alone:
             return None
-        slot = self._slots[uav] / len(self._live)
-        after = forecast.meetings(slot, to_convoy.t_end)
+        offset = self._offset(self._slots[uav], len(self._live))
+        after = forecast.meetings(offset, to_convoy.t_end)
         legs = [
             to_convoy,
-            *self._legs(to_convoy.end, to_convoy.t_end, forecast.pattern(slot), after, limits, 0.0),
+            *self._legs(
+                to_convoy.end, to_convoy.t_end, forecast.pattern(offset), after, limits, 0.0
+            ),
         ]
         alt = self._path(t, legs)
         gain = watch.seconds(watch.sees(alt) & ~others) - mine_alone
