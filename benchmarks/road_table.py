@@ -4,6 +4,7 @@
     .venv/bin/python benchmarks/road_table.py --mock     # + flown against sitl_mock (~20 min)
     .venv/bin/python benchmarks/road_table.py --unseen   # random roads, other grids (~2 min)
     .venv/bin/python benchmarks/road_table.py --unseen --mock  # + against sitl_mock
+    .venv/bin/python benchmarks/road_table.py --corners  # sudden corners, no route (~1 min)
 
 Simulation: the service's ``RoadMission`` fed the convoy's fixes through its own
 ``ConvoyTracker``, UAVs flying exactly what they are sent (``fly_road``), coverage
@@ -115,13 +116,49 @@ def _unseen() -> list[tuple[str, GeoTrack, PlanRequest, Truth]]:
     return out
 
 
+CORNERS_DEG = (-120.0, -90.0, -60.0, -30.0, 30.0, 60.0, 90.0, 120.0)  # + turns right
+CORNER_AT_S = (300.0, 311.0, 323.0)  # a third of the meet period apart at 8 m/s
+
+
+def _corners() -> None:
+    """A convoy at 8 m/s that turns once, at a corner nobody foresaw (no route), for
+    each angle and three times of the turn (the formation's phase then): coverage
+    of the protect phase to 200 s past the turn, and the longest gap."""
+    print("| corner | " + " | ".join(f"turn at {t:.0f} s" for t in CORNER_AT_S) + " |")
+    print("|" + "---|" * (len(CORNER_AT_S) + 1))
+    coverages, gaps = [], []
+    for angle in CORNERS_DEG:
+        cells = []
+        for at in CORNER_AT_S:
+            t = np.arange(0.0, at + 200.0, 1.0)
+            course = np.where(t <= at, 0.0, np.radians(angle))
+            north = np.concatenate([[0.0], np.cumsum(8.0 * np.cos(course[:-1]))])
+            east = np.concatenate([[0.0], np.cumsum(8.0 * np.sin(course[:-1]))])
+            run = fly_road(t, north, east, DEFAULT, road_fleet(150.0, 100.0))
+            coverages.append(run.coverage)
+            gaps.append(run.longest_gap_s)
+            cells.append(f"{100 * run.coverage:.1f} % / {run.longest_gap_s:.0f} s")
+        side = "right" if angle > 0 else "left"
+        print(f"| {abs(angle):.0f}° {side} | " + " | ".join(cells) + " |", flush=True)
+    print(
+        f"mean {100 * np.mean(coverages):.1f} %, worst {100 * min(coverages):.1f} %, "
+        f"longest gap {max(gaps):.0f} s"
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--mock", action="store_true", help="also fly them against sitl_mock")
     parser.add_argument(
         "--unseen", action="store_true", help="the simulation on random roads and other grids"
     )
+    parser.add_argument(
+        "--corners", action="store_true", help="the simulation of single unforeseen corners"
+    )
     args = parser.parse_args()
+    if args.corners:
+        _corners()
+        return
     if args.unseen:
         head = "| road | route known | no route |"
         if args.mock:

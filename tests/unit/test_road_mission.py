@@ -166,6 +166,7 @@ def test_joins_lost_and_returned_uavs() -> None:
     mission, _ = _fly(t, 8.0 * t, 0.0 * t, 6, until=200.0)
     assert mission.protect_start is not None
     assert all(mission.phase(u, 200.0) == "protect" for u in range(1, 7))
+    sides = {u: int(mission._offset(slot, 6)) for u, slot in mission._slots.items()}
     events = mission.on_lost(3, 200.0)
     assert any(
         isinstance(e, Replanned) and e.reason == "uav_lost" and e.uav_count == 5 for e in events
@@ -173,6 +174,9 @@ def test_joins_lost_and_returned_uavs() -> None:
     assert mission.phase(3, 200.0) == "lost" and mission.setpoint(3, 200.0) is None
     slots = sorted(mission._slots.values())
     assert slots == [0, 1, 2, 3, 4]  # the others re-spread over five slots
+    # ... and most of them keep the side of the convoy they flew (the choice that does)
+    kept = [int(mission._offset(slot, 5)) == sides[u] for u, slot in mission._slots.items()]
+    assert sum(kept) >= 3
     events = mission.on_returned(3, 210.0)
     assert mission.phase(3, 210.0) == "pending"
     events = mission.join(3, 0.0, 1500.0, 0.0, 210.0)
