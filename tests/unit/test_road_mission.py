@@ -161,6 +161,20 @@ def test_roads_with_a_known_route_are_covered(kind: str) -> None:
     assert run.min_turn_radius >= R * (1 - 1e-9)
 
 
+def test_protection_begins_within_four_minutes_on_a_grid_that_stops_and_drives_off() -> None:
+    """Joining UAVs protect from their first meeting on time within r of their slot on
+    the way. Within r/2, the last UAV to join a convoy that stops at junctions and
+    drives off again chased meetings that moved at every re-plan, on time but 60-200 m
+    off its slot, and protection began at 265 s (now 164 s)."""
+    rt = road_kind("urban", seed=2)
+    run = fly_road(
+        rt.t, rt.north, rt.east, REQUEST, road_fleet(R, r),
+        true_north=rt.true_north, true_east=rt.true_east, route_known=True,
+    )  # fmt: skip
+    assert run.protect_start is not None and run.protect_start < 240.0
+    assert run.coverage >= 0.85
+
+
 def test_joins_lost_and_returned_uavs() -> None:
     t = np.arange(0.0, 600.0, 1.0)
     mission, _ = _fly(t, 8.0 * t, 0.0 * t, 6, until=200.0)
