@@ -16,12 +16,12 @@ from convoy_mav.errors import PlanningError
 from convoy_mav.mission.choose import choose_planner, road_fleet
 from convoy_mav.mission.events import PhaseChanged, Replanned
 from convoy_mav.mission.road import RoadMission, _Watch
-from convoy_mav.mission.simulate import fly_road
+from convoy_mav.mission.simulate import RoadRun, fly_road
 from convoy_mav.planning import PlanRequest
 from convoy_mav.planning.dubins import Pose, Segment, Turn, wrap_angle
 from convoy_mav.planning.plan import Trajectory
 from convoy_mav.planning.road import Road
-from convoy_mav.tracks.roads import random_road, road_kind
+from convoy_mav.tracks.roads import RoadTrack, random_road, road_kind
 from convoy_mav.types import Setpoint
 
 R, r, V = 150.0, 100.0, 18.0
@@ -148,13 +148,17 @@ def test_a_sudden_corner_either_way_leaves_no_long_gap(turn_deg: float) -> None:
     assert run.coverage >= 0.97
 
 
-@pytest.mark.parametrize("kind", ["gentle", "bends", "stop-and-go"])
-def test_roads_with_a_known_route_are_covered(kind: str) -> None:
-    rt = road_kind(kind)
-    run = fly_road(
+def _fly_known_route(rt: RoadTrack) -> RoadRun:
+    """``fly_road`` over a generated road, its path given as the route."""
+    return fly_road(
         rt.t, rt.north, rt.east, REQUEST, road_fleet(R, r),
         true_north=rt.true_north, true_east=rt.true_east, route_known=True,
     )  # fmt: skip
+
+
+@pytest.mark.parametrize("kind", ["gentle", "bends", "stop-and-go"])
+def test_roads_with_a_known_route_are_covered(kind: str) -> None:
+    run = _fly_known_route(road_kind(kind))
     assert run.protect_start is not None and run.protect_start < 240.0
     assert run.coverage >= 0.95
     assert run.predicted_coverage == pytest.approx(run.coverage, abs=0.01)
@@ -166,11 +170,7 @@ def test_protection_begins_within_four_minutes_on_a_grid_that_stops_and_drives_o
     the way. Within r/2, the last UAV to join a convoy that stops at junctions and
     drives off again chased meetings that moved at every re-plan, on time but 60-200 m
     off its slot, and protection began at 265 s (now 164 s)."""
-    rt = road_kind("urban", seed=2)
-    run = fly_road(
-        rt.t, rt.north, rt.east, REQUEST, road_fleet(R, r),
-        true_north=rt.true_north, true_east=rt.true_east, route_known=True,
-    )  # fmt: skip
+    run = _fly_known_route(road_kind("urban", seed=2))
     assert run.protect_start is not None and run.protect_start < 240.0
     assert run.coverage >= 0.85
 
