@@ -32,7 +32,7 @@ from convoy_mav.mission.choose import road_fleet
 from convoy_mav.mission.simulate import fly_road
 from convoy_mav.planning import PlanRequest
 from convoy_mav.tracks import GeoTrack, load_track
-from convoy_mav.tracks.roads import KINDS, random_road, road_kind
+from convoy_mav.tracks.roads import KINDS, corner, random_road, road_kind
 
 ROOT = Path(__file__).resolve().parents[1]
 TRACKS = ROOT.parent / "shared" / "tracks"
@@ -130,11 +130,9 @@ def _corners() -> None:
     for angle in CORNERS_DEG:
         cells = []
         for at in CORNER_AT_S:
-            t = np.arange(0.0, at + 200.0, 1.0)
-            course = np.where(t <= at, 0.0, np.radians(angle))
-            north = np.concatenate([[0.0], np.cumsum(8.0 * np.cos(course[:-1]))])
-            east = np.concatenate([[0.0], np.cumsum(8.0 * np.sin(course[:-1]))])
-            run = fly_road(t, north, east, DEFAULT, road_fleet(150.0, 100.0))
+            t, north, east = corner(angle, at)
+            uavs = road_fleet(DEFAULT.turn_radius, DEFAULT.sensor_radius)
+            run = fly_road(t, north, east, DEFAULT, uavs)
             coverages.append(run.coverage)
             gaps.append(run.longest_gap_s)
             cells.append(f"{100 * run.coverage:.1f} % / {run.longest_gap_s:.0f} s")

@@ -21,7 +21,7 @@ from convoy_mav.planning import PlanRequest
 from convoy_mav.planning.dubins import Pose, Segment, Turn, wrap_angle
 from convoy_mav.planning.plan import Trajectory
 from convoy_mav.planning.road import Road
-from convoy_mav.tracks.roads import RoadTrack, random_road, road_kind
+from convoy_mav.tracks.roads import RoadTrack, corner, random_road, road_kind
 from convoy_mav.types import Setpoint
 
 R, r, V = 150.0, 100.0, 18.0
@@ -138,11 +138,7 @@ def test_a_sudden_corner_either_way_leaves_no_long_gap(turn_deg: float) -> None:
     """No route: the convoy turns 90 deg at a corner nobody foresaw. With every UAV
     coming back from one side for a half-cycle, the turn away from it left the convoy
     unseen for 29 s (the other way: under 12); with alternate sides, 7 s either way."""
-    t = np.arange(0.0, 520.0, 1.0)
-    course = np.where(t <= 300.0, 0.0, math.radians(turn_deg))
-    step = np.stack([np.cos(course), np.sin(course)]) * 8.0
-    north, east = (np.concatenate([[0.0], np.cumsum(axis[:-1])]) for axis in step)
-    run = fly_road(t, north, east, REQUEST, road_fleet(R, r))
+    run = fly_road(*corner(turn_deg, 300.0, then_s=220.0), REQUEST, road_fleet(R, r))
     assert run.protect_start is not None and run.protect_start < 240.0
     assert run.longest_gap_s <= 12.0
     assert run.coverage >= 0.97

@@ -24,7 +24,7 @@ import numpy.typing as npt
 from convoy_mav.geo import GeoPoint, LocalFrame
 from convoy_mav.tracks.geotrack import GeoTrack
 
-__all__ = ["KINDS", "Drive", "Piece", "RoadTrack", "drive", "random_road", "road_kind"]
+__all__ = ["KINDS", "Drive", "Piece", "RoadTrack", "corner", "drive", "random_road", "road_kind"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -206,6 +206,19 @@ def _urban(rng: np.random.Generator, blocks: int) -> tuple[list[Piece], list[tup
             pieces.append(corner)
             s += corner.arc_length
     return pieces, stops
+
+
+def corner(
+    angle_deg: float, at_s: float, *, speed: float = 8.0, then_s: float = 200.0
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """(t, north, east), 1-Hz fixes of a convoy driving north at ``speed`` that turns
+    ``angle_deg`` at once (positive: right) at ``at_s`` and drives on ``then_s``: the
+    corner nobody foresaw, for the formation's answer to it alone."""
+    t = np.arange(0.0, at_s + then_s, 1.0)
+    course = np.where(t <= at_s, 0.0, math.radians(angle_deg))
+    north = np.concatenate([[0.0], np.cumsum(speed * np.cos(course[:-1]))])
+    east = np.concatenate([[0.0], np.cumsum(speed * np.sin(course[:-1]))])
+    return t, north, east
 
 
 def road_kind(kind: str, *, seed: int = 0) -> RoadTrack:
