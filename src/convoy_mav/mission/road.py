@@ -58,6 +58,7 @@ from convoy_mav.errors import PlanningError
 from convoy_mav.mission.assign import Roster, best_assignment
 from convoy_mav.mission.convoy_model import ConvoyModel, RoadMotion
 from convoy_mav.mission.events import MissionEvent, Phase, PhaseChanged, Replanned, phase_at
+from convoy_mav.planning.detours import best_detour
 from convoy_mav.planning.dubins import Pose, Segment, Turn
 from convoy_mav.planning.meets import Leg, LegLimits, Where, plan_leg
 from convoy_mav.planning.pattern import (
@@ -578,10 +579,14 @@ class RoadMission(Roster):
                 )
                 others = self._others_see(uav, t, watch)
                 mine = watch.sees(path)
-                if self._keeps(uav, mine, watch, others):
+                kept = self._keeps(uav, mine, watch, others)
+                # A detour is weighed against what the UAV will fly otherwise:
+                # the path it keeps, or its new legs.
+                flown = watch.sees(self._trajectories[uav]) if kept else mine
+                filled = self._fill(uav, t, pose, flown, forecast, watch, others, limits)
+                if filled is None and kept:
                     self.plans_kept += 1
                     continue
-                filled = self._fill(uav, t, pose, mine, forecast, watch, others, limits)
                 if filled is not None:
                     self.fills += 1
                     legs, path = filled
@@ -646,17 +651,21 @@ class RoadMission(Roster):
         others: npt.NDArray[np.bool_],
         limits: LegLimits,
     ) -> tuple[list[Leg], Trajectory] | None:
-        """Legs that fly to the forecast convoy first, then back to the pattern, when
-        they see it ``fill_margin_s`` longer than the UAV's new legs (which see ``mine``
-        of ``watch``) while no other UAV does.
+        """Legs that first fly to the forecast convoy, or a detour that keeps it in
+        sight, then back to the pattern, when they see it ``fill_margin_s`` longer
+        than what the UAV flies otherwise (which sees ``mine`` of ``watch``) while no
+        other UAV does.
 
         The pattern's meetings are laid for the convoy's course low-passed; after a
         sudden turn or stop every UAV's next meetings can fall where the convoy is
         not, and the fleet leaves it unseen until the pattern has swung round. A
         UAV that can reach the convoy in that hole closes it; the others stay on
-        the pattern. Only tried once protection has begun (before, the fleet's
-        holes are those of UAVs still joining) and when the fleet's paths leave
-        a hole.
+        the pattern. Often the one that can is the UAV that has just met the
+        convoy and is flying away from it: meeting it again takes a turn round,
+        while turning back (``planning.detours``) keeps it in the sensor disk
+        (sudden corners of 30-120 deg: longest gap 16 -> 7 s). Only tried once
+        protection has begun (before, the fleet's holes are those of UAVs still
+        joining) and when the fleet's paths leave a hole.
         """
         settings = self.settings
         if self._protect_start is None or settings.fill_margin_s <= 0.0:
@@ -664,42 +673,67 @@ class RoadMission(Roster):
         holes = watch.times[~(others | mine)]
         if len(holes) == 0:
             return None
-        # It sees the convoy from about r out: arriving past the last hole, it fills
-        # none. Cheap tests first (a re-plan runs beside the setpoint stream): too
-        # far to get there in time at the fastest speed; its first leg alone (then a
-        # circle) not seeing enough.
+        # It sees the convoy from about r out: too far to get there before the last
+        # hole at the fastest speed, it fills none (a cheap test first: a re-plan
+        # runs beside the setpoint stream).
         r = self.request.sensor_radius
         hi = limits.speeds[1]
-        reach = 2.0 * r / self.request.uav_speed
         gap = math.hypot(pose.x - forecast.cx[0], pose.y - forecast.cy[0])  # (from t)
         step = np.hypot(np.diff(forecast.cx), np.diff(forecast.cy))
         closing = hi + float(np.max(step, initial=0.0)) / _FORECAST_STEP
         if gap - r > (holes[-1] - t) * closing:
             return None
+        mine_alone = watch.seconds(mine & ~others)
+        offset = self._offset(self._slots[uav], len(self._live))
+        best: tuple[float, list[Leg], Trajectory] | None = None
+        for first in self._fill_starts(t, pose, mine, holes[-1], forecast, watch, others, limits):
+            after = forecast.meetings(offset, first.t_end)
+            pattern = forecast.pattern(offset)
+            legs = [first, *self._legs(first.end, first.t_end, pattern, after, limits, 0.0)]
+            alt = self._path(t, legs)
+            gain = watch.seconds(watch.sees(alt) & ~others) - mine_alone
+            if gain > settings.fill_margin_s and (best is None or gain > best[0]):
+                best = (gain, legs, alt)
+        return None if best is None else (best[1], best[2])
+
+    def _fill_starts(
+        self,
+        t: float,
+        pose: Pose,
+        mine: npt.NDArray[np.bool_],
+        last_hole: float,
+        forecast: _Forecast,
+        watch: _Watch,
+        others: npt.NDArray[np.bool_],
+        limits: LegLimits,
+    ) -> list[Leg]:
+        """The first legs a fill may take: to the forecast convoy (met on time, before
+        the last hole, and seeing more of it than ``mine`` on its own), and the
+        detour that sees the holes longest."""
+        settings = self.settings
+        r = self.request.sensor_radius
+        reach = 2.0 * r / self.request.uav_speed
+        mine_alone = watch.seconds(mine & ~others)
+        starts: list[Leg] = []
         to_convoy = plan_leg(
             pose,
             t,
             forecast.convoy,
             t + settings.min_lead_s,
-            replace(limits, late_max_s=max(holes[-1] + reach - t - settings.min_lead_s, 0.0)),
+            replace(limits, late_max_s=max(last_hole + reach - t - settings.min_lead_s, 0.0)),
             heading_weight=settings.join_heading_weight,
         )
-        if not to_convoy.on_time or to_convoy.t_end - reach > holes[-1]:
-            return None
-        mine_alone = watch.seconds(mine & ~others)
-        if watch.seconds(watch.sees(self._path(t, [to_convoy])) & ~others) <= mine_alone:
-            return None
-        offset = self._offset(self._slots[uav], len(self._live))
-        after = forecast.meetings(offset, to_convoy.t_end)
-        legs = [
-            to_convoy,
-            *self._legs(
-                to_convoy.end, to_convoy.t_end, forecast.pattern(offset), after, limits, 0.0
-            ),
-        ]
-        alt = self._path(t, legs)
-        gain = watch.seconds(watch.sees(alt) & ~others) - mine_alone
-        return (legs, alt) if gain > settings.fill_margin_s else None
+        if (
+            to_convoy.on_time
+            and to_convoy.t_end - reach <= last_hole
+            and watch.seconds(watch.sees(self._path(t, [to_convoy])) & ~others) > mine_alone
+        ):
+            starts.append(to_convoy)
+        detour = best_detour(pose, t, watch.times, (watch.cx, watch.cy), ~others, mine, r, limits)
+        if detour is not None:
+            # (Not a leg to the pattern: it has no offset from it to speak of.)
+            starts.append(Leg(detour.segments, t, detour.t_end, detour.speed, True, math.nan))
+        return starts
 
     def _legs(
         self,

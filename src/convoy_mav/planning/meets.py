@@ -39,7 +39,7 @@ import numpy as np
 import numpy.typing as npt
 
 from convoy_mav.errors import PlanningError
-from convoy_mav.planning.dubins import Pose, Segment, Turn
+from convoy_mav.planning.dubins import Pose, Segment, Turn, arc_points
 
 __all__ = ["Leg", "LegLimits", "Where", "plan_leg"]
 
@@ -267,12 +267,7 @@ def _candidates(
     kinds = np.array(limits.steer_curvatures)
     k1 = np.repeat(kinds, len(lengths))
     l1 = np.tile(lengths, len(kinds))
-    h0 = pose.heading
-    h1 = h0 + k1 * l1
-    turning = k1 != 0.0
-    safe = np.where(turning, k1, 1.0)
-    x1 = np.where(turning, pose.x + (np.sin(h1) - math.sin(h0)) / safe, pose.x + l1 * math.cos(h0))
-    y1 = np.where(turning, pose.y - (np.cos(h1) - math.cos(h0)) / safe, pose.y + l1 * math.sin(h0))
+    x1, y1, h1 = arc_points(pose.x, pose.y, pose.heading, k1, l1)
     gx, gy = (np.asarray(g, dtype=np.float64) for g in target)
     if gx.ndim:
         gx, gy = gx[:, None], gy[:, None]
@@ -297,23 +292,9 @@ def _positions(
 ) -> tuple[FloatArray, FloatArray]:
     """Where each candidate (rows) is ``taus`` seconds after it starts (columns)."""
     dist = speed[:, None] * taus[None, :]
-    h0 = pose.heading
-    k1c, l1c = k1[:, None], l1[:, None]
-    k2c = np.where(np.isfinite(k2), k2, 0.0)[:, None]
+    l1c = l1[:, None]
     s1 = np.minimum(dist, l1c)
-    turning1 = k1c != 0.0
-    safe1 = np.where(turning1, k1c, 1.0)
-    h1 = h0 + k1c * s1
-    x1 = np.where(
-        turning1, pose.x + (np.sin(h1) - math.sin(h0)) / safe1, pose.x + s1 * math.cos(h0)
-    )
-    y1 = np.where(
-        turning1, pose.y - (np.cos(h1) - math.cos(h0)) / safe1, pose.y + s1 * math.sin(h0)
-    )
-    s2 = np.maximum(dist - l1c, 0.0)
-    turning2 = np.abs(k2c) > 1e-12
-    safe2 = np.where(turning2, k2c, 1.0)
-    h2 = h1 + k2c * s2
-    x2 = np.where(turning2, x1 + (np.sin(h2) - np.sin(h1)) / safe2, x1 + s2 * np.cos(h1))
-    y2 = np.where(turning2, y1 - (np.cos(h2) - np.cos(h1)) / safe2, y1 + s2 * np.sin(h1))
+    x1, y1, h1 = arc_points(pose.x, pose.y, pose.heading, k1[:, None], s1)
+    k2c = np.where(np.isfinite(k2), k2, 0.0)[:, None]
+    x2, y2, _ = arc_points(x1, y1, h1, k2c, np.maximum(dist - l1c, 0.0))
     return x2, y2

@@ -27,6 +27,7 @@ Design rules:
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Iterable, Sequence
 from functools import cache
@@ -64,17 +65,32 @@ def beta_for_speed(convoy_speed: float, uav_speed: float) -> float:
     Lemma 4.1's exact roots (``_BETA_TABLE``, error below 1e-6 rad): the road
     mission asks for it thousands of times a plan.
     """
-    ratio = max(convoy_speed, 0.0) / uav_speed
-    if not math.isfinite(ratio) or ratio <= _STOPPED_RATIO:
+    table, slopes = _beta_steps()
+    per_step = 1.0 / (uav_speed * _BETA_STEP)  # (as the clock computes it: bit for bit)
+    return _beta_at(max(convoy_speed, 0.0) * per_step, table, slopes)
+
+
+def _beta_at(steps: float, table: list[float], slopes: list[float]) -> float:
+    """``beta`` at a speed ratio of ``steps`` table steps (``_beta_steps``' table)."""
+    if not _STOPPED_STEPS < steps < math.inf:
         return math.pi
-    ratio = min(ratio, MAX_SPEED_RATIO)
-    ratios, betas = _beta_table()
-    i = min(int(ratio / _BETA_STEP), len(ratios) - 2)
-    f = (ratio - ratios[i]) / _BETA_STEP
-    return betas[i] + f * (betas[i + 1] - betas[i])
+    i = min(int(steps), len(table) - 1)
+    return table[i] + (min(steps, _MAX_STEPS) - i) * slopes[i]
 
 
 _BETA_STEP = 5e-4
+
+
+_STOPPED_STEPS = _STOPPED_RATIO / _BETA_STEP
+_MAX_STEPS = MAX_SPEED_RATIO / _BETA_STEP
+
+
+@cache
+def _beta_steps() -> tuple[list[float], list[float]]:
+    """``_beta_table``'s betas and the slope to the next one, per step (the last: 0)."""
+    _, betas = _beta_table()
+    slopes = [b1 - b0 for b0, b1 in itertools.pairwise(betas)] + [0.0]
+    return betas, slopes
 
 
 @cache
@@ -237,6 +253,12 @@ class PatternClock:
         a_step = 1.0 - math.exp(-_CLOCK_STEP / tau)
         s_step = 1.0 - math.exp(-_CLOCK_STEP / speed_tau)
         hypot = math.hypot
+        # beta_for_speed, its table fetched once (some 400 steps a forecast).
+        table, slopes = _beta_steps()
+        per_step = 1.0 / (uav_speed * _BETA_STEP)
+        rate = uav_speed / (2.0 * radius)
+        speed = min(hypot(fx, fy), fs)
+        beta = _beta_at(speed * per_step, table, slopes)
         phases: list[float] = []
         courses: list[float] = []
         betas: list[float] = []
@@ -248,17 +270,18 @@ class PatternClock:
                     a, b = a_step, s_step
                 else:
                     a, b = 1.0 - math.exp(-dt / tau), 1.0 - math.exp(-dt / speed_tau)
-                beta = beta_for_speed(min(hypot(fx, fy), fs), uav_speed)
-                phase += uav_speed / (2.0 * radius * beta) * dt
+                phase += rate / beta * dt
                 fx += (vxk - fx) * a
                 fy += (vyk - fy) * a
                 fs += (vk - fs) * b
-                if min(hypot(fx, fy), fs) > _COURSE_MIN_SPEED:
+                speed = min(hypot(fx, fy), fs)
+                if speed > _COURSE_MIN_SPEED:
                     course = math.atan2(fy, fx)
+                beta = _beta_at(speed * per_step, table, slopes)
                 t += dt
             phases.append(phase)
             courses.append(course)
-            betas.append(beta_for_speed(min(hypot(fx, fy), fs), uav_speed))
+            betas.append(beta)
         if keep:
             self.t, self.fx, self.fy, self.fs, self.phase, self.course = (
                 t,
