@@ -5,6 +5,7 @@
     .venv/bin/python benchmarks/road_table.py --unseen   # random roads, other grids (~2 min)
     .venv/bin/python benchmarks/road_table.py --unseen --mock  # + against sitl_mock
     .venv/bin/python benchmarks/road_table.py --corners  # sudden corners, no route (~1 min)
+    .venv/bin/python benchmarks/road_table.py --junctions  # a stop, then a turn (~2 min)
 
 Simulation: the service's ``RoadMission`` fed the convoy's fixes through its own
 ``ConvoyTracker``, UAVs flying exactly what they are sent (``fly_road``), coverage
@@ -32,7 +33,7 @@ from convoy_mav.mission.choose import road_fleet
 from convoy_mav.mission.simulate import fly_road
 from convoy_mav.planning import PlanRequest
 from convoy_mav.tracks import GeoTrack, load_track
-from convoy_mav.tracks.roads import KINDS, corner, random_road, road_kind
+from convoy_mav.tracks.roads import KINDS, corner, junction, random_road, road_kind
 
 ROOT = Path(__file__).resolve().parents[1]
 TRACKS = ROOT.parent / "shared" / "tracks"
@@ -144,6 +145,40 @@ def _corners() -> None:
     )
 
 
+JUNCTION_AT_M = (2400.0, 2488.0, 2576.0)  # a third of the meet period apart at 8 m/s
+JUNCTION_STOPS_S = (10.0, 25.0, 45.0)
+
+
+def _junctions() -> None:
+    """A convoy at 8 m/s that stops at a junction for 10-45 s, then turns 90 deg either
+    way, at three phases of the formation, with the route known and without: coverage
+    of the protect phase and the longest gap."""
+    print("| stop, then turn | " + " | ".join(f"at {m:.0f} m" for m in JUNCTION_AT_M) + " |")
+    print("|" + "---|" * (len(JUNCTION_AT_M) + 1))
+    coverages: dict[bool, list[float]] = {True: [], False: []}
+    uavs = road_fleet(DEFAULT.turn_radius, DEFAULT.sensor_radius)
+    for angle in (90.0, -90.0):
+        for stop in JUNCTION_STOPS_S:
+            cells = []
+            for at in JUNCTION_AT_M:
+                rt = junction(stop, angle, at)
+                pair = []
+                for known in (True, False):
+                    run = fly_road(
+                        rt.t, rt.north, rt.east, DEFAULT, uavs, true_north=rt.true_north,
+                        true_east=rt.true_east, route_known=known,
+                    )  # fmt: skip
+                    coverages[known].append(run.coverage)
+                    pair.append(f"{100 * run.coverage:.1f} % / {run.longest_gap_s:.0f} s")
+                cells.append(" · ".join(pair))
+            side = "left" if angle > 0 else "right"
+            print(f"| {stop:.0f} s, 90° {side} | " + " | ".join(cells) + " |", flush=True)
+    print("(each cell: route known · no route)")
+    for known, label in ((True, "route known"), (False, "no route")):
+        values = coverages[known]
+        print(f"{label}: mean {100 * np.mean(values):.1f} %, worst {100 * min(values):.1f} %")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--mock", action="store_true", help="also fly them against sitl_mock")
@@ -153,9 +188,15 @@ def main() -> None:
     parser.add_argument(
         "--corners", action="store_true", help="the simulation of single unforeseen corners"
     )
+    parser.add_argument(
+        "--junctions", action="store_true", help="the simulation of a stop, then a turn"
+    )
     args = parser.parse_args()
     if args.corners:
         _corners()
+        return
+    if args.junctions:
+        _junctions()
         return
     if args.unseen:
         head = "| road | route known | no route |"

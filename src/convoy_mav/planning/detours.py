@@ -57,12 +57,6 @@ class Detour:
     seen: int
     score: int
 
-    @property
-    def end(self) -> Pose:
-        """Pose at the end of the detour."""
-        last = self.segments[-1]
-        return last.at(last.duration)
-
 
 def best_detour(
     pose: Pose,

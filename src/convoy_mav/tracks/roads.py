@@ -24,7 +24,17 @@ import numpy.typing as npt
 from convoy_mav.geo import GeoPoint, LocalFrame
 from convoy_mav.tracks.geotrack import GeoTrack
 
-__all__ = ["KINDS", "Drive", "Piece", "RoadTrack", "corner", "drive", "random_road", "road_kind"]
+__all__ = [
+    "KINDS",
+    "Drive",
+    "Piece",
+    "RoadTrack",
+    "corner",
+    "drive",
+    "junction",
+    "random_road",
+    "road_kind",
+]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -219,6 +229,14 @@ def corner(
     north = np.concatenate([[0.0], np.cumsum(speed * np.cos(course[:-1]))])
     east = np.concatenate([[0.0], np.cumsum(speed * np.sin(course[:-1]))])
     return t, north, east
+
+
+def junction(stop_s: float, angle_deg: float, at_m: float, *, speed: float = 8.0) -> RoadTrack:
+    """A convoy at ``speed`` that brakes to a stop at ``at_m``, waits ``stop_s`` and then
+    turns ``angle_deg`` (12-m corner, positive: left) and drives 1.6 km on: the urban
+    grid's junction alone, for how the fleet meets a stop before a turn."""
+    pieces = [Piece(at_m), Piece(radius=12.0, angle_deg=angle_deg), Piece(1600.0)]
+    return drive("junction", pieces, Drive(((0.0, speed),), stops=((at_m, stop_s),)))
 
 
 def road_kind(kind: str, *, seed: int = 0) -> RoadTrack:
