@@ -729,7 +729,9 @@ class RoadMission(Roster):
             and watch.seconds(watch.sees(self._path(t, [to_convoy])) & ~others) > mine_alone
         ):
             starts.append(to_convoy)
-        detour = best_detour(pose, t, watch.times, (watch.cx, watch.cy), ~others, mine, r, limits)
+        detour = best_detour(
+            pose, t, watch.times, (watch.cx, watch.cy), ~others, mine, watch.r, limits
+        )
         if detour is not None:
             # (Not a leg to the pattern: it has no offset from it to speak of.)
             starts.append(Leg(detour.segments, t, detour.t_end, detour.speed, True, math.nan))
