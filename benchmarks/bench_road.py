@@ -68,8 +68,9 @@ def test_replan_one_uav(benchmark: BenchmarkFixture) -> None:
 
 def test_replan_one_uav_filling_a_hole(benchmark: BenchmarkFixture) -> None:
     """One protecting UAV's re-plan when the fleet leaves the convoy unseen: its legs,
-    the path in force to keep or not, and the detour to the convoy (``_fill``), all
-    tried. The other five UAVs' paths are moved far off so that every re-plan does."""
+    the path in force to keep or not, the leg to the convoy and the detour that keeps
+    it in sight (``_fill``), all tried. The other five UAVs' paths are moved far off
+    so that every re-plan does."""
     request = PlanRequest(150.0, 100.0, 18.0)
     mission = RoadMission(request, [1, 2, 3, 4, 5, 6], down=lambda _u: -100.0)
     tracker = ConvoyTracker(window=4.0)
