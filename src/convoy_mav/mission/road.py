@@ -20,10 +20,11 @@ Design rules:
   the road with.
 - The fleet's coverage, not each UAV's, decides between plans: a
   protecting UAV keeps its path in force over a re-plan, or first flies to
-  the convoy, when that sees the forecast convoy longer while no other UAV
-  does (``_keeps``, ``_fill``). The pattern is laid for the convoy's course
-  low-passed; after a sudden turn or stop its meetings can all fall where
-  the convoy is not, and the UAV that can close the hole does.
+  the convoy or a detour that keeps it in sight (``planning.detours``), when
+  that sees the forecast convoy longer while no other UAV does (``_keeps``,
+  ``_fill``). The pattern is laid for the convoy's course low-passed; after a
+  sudden turn or stop its meetings can all fall where the convoy is not, and
+  the UAV that can close the hole does.
 - A joining UAV takes a free slot and flies legs from where it is; it is
   ``protect`` from its first meeting on time, within r of the pattern on its
   way there on average (its sensor disk over its slot's). Half of r held a
