@@ -15,7 +15,8 @@ from convoy_mav.convoy import ConvoyTracker
 from convoy_mav.errors import PlanningError
 from convoy_mav.mission.choose import choose_planner, road_fleet
 from convoy_mav.mission.events import PhaseChanged, Replanned
-from convoy_mav.mission.road import RoadMission, _Watch
+from convoy_mav.mission.forecast import Watch
+from convoy_mav.mission.road import RoadMission
 from convoy_mav.mission.simulate import RoadRun, fly_road
 from convoy_mav.planning import PlanRequest
 from convoy_mav.planning.dubins import Pose, Segment, Turn, wrap_angle
@@ -271,7 +272,7 @@ def _far(t0: float) -> Trajectory:
 def test_a_replan_never_throws_away_a_pass_no_other_uav_makes() -> None:
     t = np.arange(0.0, 600.0, 1.0)
     mission, _ = _fly(t, 8.0 * t, 0.0 * t, 6, until=200.0)
-    watch = _Watch(mission._forecast(200.0, 60.0), 40.0, r)
+    watch = Watch(mission._forecast(200.0, 60.0), 40.0, r)
     covering = []
     for u in range(1, 7):
         path = mission.trajectory(u)
@@ -302,7 +303,7 @@ def test_a_hole_the_pattern_leaves_is_filled_by_a_uav_flying_to_the_convoy() -> 
     mission, _ = _fly(t, 8.0 * t, 0.0 * t, 6, until=200.0)
     now = 200.0
     forecast = mission._forecast(now, 240.0)
-    watch = _Watch(forecast, 40.0, r)
+    watch = Watch(forecast, 40.0, r)
     limits = mission._limits()
     nobody = np.zeros(len(watch.times), dtype=bool)
     filled = detours = 0

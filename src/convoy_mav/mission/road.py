@@ -59,6 +59,7 @@ from convoy_mav.errors import PlanningError
 from convoy_mav.mission.assign import Roster, best_assignment
 from convoy_mav.mission.convoy_model import ConvoyModel, RoadMotion
 from convoy_mav.mission.events import MissionEvent, Phase, PhaseChanged, Replanned, phase_at
+from convoy_mav.mission.forecast import FORECAST_STEP, Forecast, Watch
 from convoy_mav.planning.detours import best_detour
 from convoy_mav.planning.dubins import Pose, Segment, Turn
 from convoy_mav.planning.meets import Leg, LegLimits, Where, plan_leg
@@ -68,7 +69,6 @@ from convoy_mav.planning.pattern import (
     half_cycle_rate,
     min_uavs_road,
     pattern_radius,
-    relative_offsets,
 )
 from convoy_mav.planning.plan import PlanRequest, Trajectory
 from convoy_mav.planning.road import Road
@@ -79,9 +79,7 @@ __all__ = ["RoadMission", "RoadSettings"]
 
 FloatArray = npt.NDArray[np.float64]
 
-_FORECAST_STEP = 0.5  # s
 _SCORE_STEP = 0.5  # s: resolution of the planned-coverage score
-_KEEP_STEP = 1.0  # s: resolution of the comparison of a path in force with its re-plan
 _REPLAN_BATCHES = 8  # a fleet's re-plans are spread over this many mission steps at least
 _RECENT_GAPS = 24  # re-plans the recent re-plan interval is the median of
 
@@ -137,79 +135,6 @@ class RoadPlanInfo:
     pattern_radius: float
     uavs: int
     min_uavs: int
-
-
-class _Forecast:
-    """The pattern's clock and the convoy's path over a horizon, on a grid (interpolated)."""
-
-    def __init__(
-        self,
-        clock: PatternClock,
-        model: ConvoyModel,
-        t: float,
-        horizon: float,
-        radius: float,
-        V: float,
-    ) -> None:
-        n = max(2, math.ceil(horizon / _FORECAST_STEP) + 1)
-        self.t: FloatArray = (t + _FORECAST_STEP * np.arange(n)).astype(np.float64)
-        self.cx, self.cy = model.positions(self.t)
-        vx = np.gradient(self.cx, _FORECAST_STEP)
-        vy = np.gradient(self.cy, _FORECAST_STEP)
-        phase, course, beta = clock.forecast(self.t.tolist(), vx.tolist(), vy.tolist(), radius, V)
-        self.phase = np.array(phase)
-        self.course = np.unwrap(np.array(course))
-        self.beta = np.array(beta)
-        self.radius = radius
-
-    def pattern(self, offset: float) -> Where:
-        """Where the pattern puts the UAV of phase ``offset`` at given times (vectorised)."""
-
-        def where(times: FloatArray) -> tuple[FloatArray, FloatArray]:
-            t = self.t
-            cx, cy = self.convoy(times)
-            ph = np.interp(times, t, self.phase) + offset
-            co = np.interp(times, t, self.course)
-            be = np.interp(times, t, self.beta)
-            qx, qy = relative_offsets(ph, be, self.radius)
-            c, s = np.cos(co), np.sin(co)
-            return cx + c * qx - s * qy, cy + s * qx + c * qy
-
-        return where
-
-    def convoy(self, times: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """Where the convoy is forecast at given times (vectorised, a ``Where``)."""
-        return np.interp(times, self.t, self.cx), np.interp(times, self.t, self.cy)
-
-    def meetings(self, offset: float, after: float) -> list[float]:
-        """Times after ``after`` at which ``phase + offset`` crosses a whole number."""
-        ph = self.phase + offset
-        whole = np.floor(ph)
-        k = np.nonzero(whole[1:] > whole[:-1])[0] + 1  # steps that cross one
-        # The crossing, interpolated inside its step.
-        f = (whole[k] - ph[k - 1]) / np.maximum(ph[k] - ph[k - 1], 1e-12)
-        times = self.t[k - 1] + f * _FORECAST_STEP
-        return [float(tm) for tm in times if tm > after]
-
-
-class _Watch:
-    """The forecast convoy over the next ``horizon`` seconds, sampled every ``_KEEP_STEP``,
-    and which of those samples a path sees."""
-
-    def __init__(self, forecast: _Forecast, horizon: float, sensor_radius: float) -> None:
-        k = min(len(forecast.t), int(horizon / _FORECAST_STEP) + 1)
-        every = max(1, round(_KEEP_STEP / _FORECAST_STEP))
-        self.times, self.cx, self.cy = (a[:k:every] for a in (forecast.t, forecast.cx, forecast.cy))
-        self.r = sensor_radius
-
-    def sees(self, path: Trajectory) -> npt.NDArray[np.bool_]:
-        """Samples of the convoy within the sensor radius of ``path``."""
-        s = path.sample_array(self.times)
-        return np.asarray(np.hypot(s.x - self.cx, s.y - self.cy) <= self.r)
-
-    def seconds(self, seen: npt.NDArray[np.bool_]) -> float:
-        """Seconds of convoy ``seen`` covers."""
-        return _KEEP_STEP * float(np.count_nonzero(seen))
 
 
 class RoadMission(Roster):
@@ -519,9 +444,9 @@ class RoadMission(Roster):
         """
         return slot / n + (slot + self._side) % 2
 
-    def _forecast(self, t: float, horizon: float) -> _Forecast:
+    def _forecast(self, t: float, horizon: float) -> Forecast:
         assert self._clock is not None
-        return _Forecast(
+        return Forecast(
             self._clock, self.model, t, horizon, self.pattern_radius, self.request.uav_speed
         )
 
@@ -549,7 +474,7 @@ class RoadMission(Roster):
         # arrive, as before the scan: it protects once a leg meets the pattern close,
         # and the earliest-meeting legs the scan gives a protecting UAV skirt it.
         join_limits = replace(limits, late_max_s=0.0)
-        watch: _Watch | None = None
+        watch: Watch | None = None
         for uav in self._slots if uavs is None else uavs:
             slot = self._slots[uav]
             pose = self._pose_at(uav, t)
@@ -575,7 +500,7 @@ class RoadMission(Roster):
             if self._arrival.get(uav, math.inf) <= t and uav in self._trajectories:
                 # A protecting UAV: its path in force, or a detour to the convoy, may
                 # see more of it than the new legs do.
-                watch = watch or _Watch(
+                watch = watch or Watch(
                     forecast, self.settings.keep_horizon_s, self.request.sensor_radius
                 )
                 others = self._others_see(uav, t, watch)
@@ -602,7 +527,7 @@ class RoadMission(Roster):
         if self._replan_gaps:  # (one assignment: the service reads it from another thread)
             self.replan_interval_s = float(np.median(self._replan_gaps))
 
-    def _others_see(self, uav: int, t: float, watch: _Watch) -> npt.NDArray[np.bool_]:
+    def _others_see(self, uav: int, t: float, watch: Watch) -> npt.NDArray[np.bool_]:
         """Samples of ``watch`` some other protecting UAV's path in force sees."""
         seen = np.zeros(len(watch.times), dtype=bool)
         for other, traj in self._trajectories.items():
@@ -614,7 +539,7 @@ class RoadMission(Roster):
         self,
         uav: int,
         mine: npt.NDArray[np.bool_],
-        watch: _Watch,
+        watch: Watch,
         others: npt.NDArray[np.bool_],
     ) -> bool:
         """Whether a protecting UAV keeps its path in force over its new legs (which see
@@ -647,8 +572,8 @@ class RoadMission(Roster):
         t: float,
         pose: Pose,
         mine: npt.NDArray[np.bool_],
-        forecast: _Forecast,
-        watch: _Watch,
+        forecast: Forecast,
+        watch: Watch,
         others: npt.NDArray[np.bool_],
         limits: LegLimits,
     ) -> tuple[list[Leg], Trajectory] | None:
@@ -681,7 +606,7 @@ class RoadMission(Roster):
         hi = limits.speeds[1]
         gap = math.hypot(pose.x - forecast.cx[0], pose.y - forecast.cy[0])  # (from t)
         step = np.hypot(np.diff(forecast.cx), np.diff(forecast.cy))
-        closing = hi + float(np.max(step, initial=0.0)) / _FORECAST_STEP
+        closing = hi + float(np.max(step, initial=0.0)) / FORECAST_STEP
         if gap - r > (holes[-1] - t) * closing:
             return None
         mine_alone = watch.seconds(mine & ~others)
@@ -703,8 +628,8 @@ class RoadMission(Roster):
         pose: Pose,
         mine: npt.NDArray[np.bool_],
         last_hole: float,
-        forecast: _Forecast,
-        watch: _Watch,
+        forecast: Forecast,
+        watch: Watch,
         others: npt.NDArray[np.bool_],
         limits: LegLimits,
     ) -> list[Leg]:
