@@ -278,11 +278,12 @@ def test_a_replan_never_throws_away_a_pass_no_other_uav_makes() -> None:
         path = mission.trajectory(u)
         assert path is not None
         others = mission._others_see(u, 200.0, watch)
-        assert not mission._keeps(u, watch.sees(path), watch, others)  # the same path: taken
-        covering.append(mission._keeps(u, watch.sees(_far(200.0)), watch, others))
+        in_force = watch.sees(path)
+        assert not mission._keeps(in_force, in_force, watch, others)  # the same path: taken
+        covering.append(mission._keeps(in_force, watch.sees(_far(200.0)), watch, others))
         # With the convoy seen by every other UAV all the time, nothing is kept.
         everywhere = np.ones(len(watch.times), dtype=bool)
-        assert not mission._keeps(u, watch.sees(_far(200.0)), watch, everywhere)
+        assert not mission._keeps(in_force, watch.sees(_far(200.0)), watch, everywhere)
     # Six UAVs tiling the convoy's time between them: most of them see some of it
     # alone over the next 40 s, and keep their pass.
     assert sum(covering) >= 4

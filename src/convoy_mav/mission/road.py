@@ -505,10 +505,11 @@ class RoadMission(Roster):
                 )
                 others = self._others_see(uav, t, watch)
                 mine = watch.sees(path)
-                kept = self._keeps(uav, mine, watch, others)
+                in_force = watch.sees(self._trajectories[uav])
+                kept = self._keeps(in_force, mine, watch, others)
                 # A detour is weighed against what the UAV will fly otherwise:
                 # the path it keeps, or its new legs.
-                flown = watch.sees(self._trajectories[uav]) if kept else mine
+                flown = in_force if kept else mine
                 filled = self._fill(uav, t, pose, flown, forecast, watch, others, limits)
                 if filled is None and kept:
                     self.plans_kept += 1
@@ -537,15 +538,15 @@ class RoadMission(Roster):
 
     def _keeps(
         self,
-        uav: int,
+        in_force: npt.NDArray[np.bool_],
         mine: npt.NDArray[np.bool_],
         watch: Watch,
         others: npt.NDArray[np.bool_],
     ) -> bool:
-        """Whether a protecting UAV keeps its path in force over its new legs (which see
-        ``mine`` of ``watch``): it does when the path in force sees the convoy, as
-        forecast, ``keep_margin_s`` longer over the next ``keep_horizon_s`` while no
-        other UAV (``others``) does.
+        """Whether a protecting UAV keeps its path in force (which sees ``in_force`` of
+        ``watch``) over its new legs (which see ``mine``): it does when the path in force
+        sees the convoy, as forecast, ``keep_margin_s`` longer over the next
+        ``keep_horizon_s`` while no other UAV (``others``) does.
 
         A re-plan follows the forecast of the moment. When the convoy turns or
         stops unforeseen, the new plan can throw away a pass that is about to
@@ -553,7 +554,7 @@ class RoadMission(Roster):
         other UAV sees counts: a pass another UAV makes too is not worth keeping
         the pattern's next meeting waiting for.
         """
-        old = watch.sees(self._trajectories[uav]) & ~others
+        old = in_force & ~others
         new = mine & ~others
         return watch.seconds(old) > watch.seconds(new) + self.settings.keep_margin_s
 
@@ -589,7 +590,7 @@ class RoadMission(Roster):
         the pattern. Often the one that can is the UAV that has just met the
         convoy and is flying away from it: meeting it again takes a turn round,
         while turning back (``planning.detours``) keeps it in the sensor disk
-        (sudden corners of 30-120 deg: longest gap 16 -> 7 s). Only tried once
+        (sudden corners of 30-120 deg: longest gap 16 -> 8 s). Only tried once
         protection has begun (before, the fleet's holes are those of UAVs still
         joining) and when the fleet's paths leave a hole.
         """
@@ -611,10 +612,13 @@ class RoadMission(Roster):
             return None
         mine_alone = watch.seconds(mine & ~others)
         offset = self._offset(self._slots[uav], len(self._live))
+        pattern = forecast.pattern(offset)
         best: tuple[float, list[Leg], Trajectory] | None = None
-        for first in self._fill_starts(t, pose, mine, holes[-1], forecast, watch, others, limits):
+        starts = self._fill_starts(
+            t, pose, mine, mine_alone, holes[-1], forecast, watch, others, limits
+        )
+        for first in starts:
             after = forecast.meetings(offset, first.t_end)
-            pattern = forecast.pattern(offset)
             legs = [first, *self._legs(first.end, first.t_end, pattern, after, limits, 0.0)]
             alt = self._path(t, legs)
             gain = watch.seconds(watch.sees(alt) & ~others) - mine_alone
@@ -627,6 +631,7 @@ class RoadMission(Roster):
         t: float,
         pose: Pose,
         mine: npt.NDArray[np.bool_],
+        mine_alone: float,
         last_hole: float,
         forecast: Forecast,
         watch: Watch,
@@ -634,12 +639,10 @@ class RoadMission(Roster):
         limits: LegLimits,
     ) -> list[Leg]:
         """The first legs a fill may take: to the forecast convoy (met on time, before
-        the last hole, and seeing more of it than ``mine`` on its own), and the
-        detour that sees the holes longest."""
+        the last hole, and seeing more of it than the ``mine_alone`` seconds ``mine``
+        sees that no other UAV does), and the detour that sees the holes longest."""
         settings = self.settings
-        r = self.request.sensor_radius
-        reach = 2.0 * r / self.request.uav_speed
-        mine_alone = watch.seconds(mine & ~others)
+        reach = 2.0 * watch.r / self.request.uav_speed
         starts: list[Leg] = []
         to_convoy = plan_leg(
             pose,

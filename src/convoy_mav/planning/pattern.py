@@ -62,7 +62,7 @@ def beta_for_speed(convoy_speed: float, uav_speed: float) -> float:
     """Half arc angle ``beta`` for a convoy speed (Lemma 4.1); pi when stopped.
 
     The ratio is capped at :data:`MAX_SPEED_RATIO`. Interpolated in a table of
-    Lemma 4.1's exact roots (``_BETA_TABLE``, error below 1e-6 rad): the road
+    Lemma 4.1's exact roots (``_beta_steps``, error below 1e-6 rad): the road
     mission asks for it thousands of times a plan.
     """
     table, slopes = _beta_steps()
@@ -71,7 +71,7 @@ def beta_for_speed(convoy_speed: float, uav_speed: float) -> float:
 
 
 def _beta_at(steps: float, table: list[float], slopes: list[float]) -> float:
-    """``beta`` at a speed ratio of ``steps`` table steps (``_beta_steps``' table)."""
+    """``beta`` at a speed ratio of ``steps`` grid steps (``_beta_steps``' table)."""
     if not _STOPPED_STEPS < steps < math.inf:
         return math.pi
     i = min(int(steps), len(table) - 1)
@@ -87,18 +87,12 @@ _MAX_STEPS = MAX_SPEED_RATIO / _BETA_STEP
 
 @cache
 def _beta_steps() -> tuple[list[float], list[float]]:
-    """``_beta_table``'s betas and the slope to the next one, per step (the last: 0)."""
-    _, betas = _beta_table()
+    """Lemma 4.1 solved on a grid of speed ratios, 0 to ``MAX_SPEED_RATIO`` every
+    ``_BETA_STEP``: the betas, and the slope from each to the next (the last: 0)."""
+    n = round(MAX_SPEED_RATIO / _BETA_STEP) + 1
+    betas = [math.pi] + [beta_from_speed_ratio(i * _BETA_STEP) for i in range(1, n)]
     slopes = [b1 - b0 for b0, b1 in itertools.pairwise(betas)] + [0.0]
     return betas, slopes
-
-
-@cache
-def _beta_table() -> tuple[list[float], list[float]]:
-    """Lemma 4.1 solved on a grid of speed ratios, 0 to ``MAX_SPEED_RATIO``."""
-    n = round(MAX_SPEED_RATIO / _BETA_STEP) + 1
-    ratios = [i * _BETA_STEP for i in range(n)]
-    return ratios, [math.pi] + [beta_from_speed_ratio(x) for x in ratios[1:]]
 
 
 def half_cycle_rate(beta: float, turn_radius: float, uav_speed: float) -> float:
