@@ -16,14 +16,14 @@ from convoy_mav.errors import PlanningError
 from convoy_mav.mission.choose import choose_planner, road_fleet
 from convoy_mav.mission.events import PhaseChanged, Replanned
 from convoy_mav.mission.forecast import Watch
-from convoy_mav.mission.road import RoadMission
+from convoy_mav.mission.road import RoadMission, RoadSettings
 from convoy_mav.mission.simulate import RoadRun, fly_road
 from convoy_mav.planning import PlanRequest
 from convoy_mav.planning.dubins import Pose, Segment, Turn, wrap_angle
 from convoy_mav.planning.plan import Trajectory
 from convoy_mav.planning.road import Road
 from convoy_mav.tracks.roads import RoadTrack, corner, junction, random_road, road_kind
-from convoy_mav.types import Setpoint
+from convoy_mav.types import ConvoyEstimate, Setpoint
 
 R, r, V = 150.0, 100.0, 18.0
 REQUEST = PlanRequest(R, r, V)
@@ -370,3 +370,46 @@ def test_the_replan_interval_says_when_the_planner_falls_behind() -> None:
             mission.on_convoy(est)
     assert mission.replan_interval_s == pytest.approx(6 * 3.0, abs=0.5)
     assert mission.report()["replan_interval_s"] > every
+
+
+def test_a_convoy_whose_feed_pauses_is_held_where_last_seen() -> None:
+    """A logger that records only on the move (the recorded drive's pauses 1400 s of
+    4900): the convoy drives 300 s, parks for 120 s with no fix, drives on."""
+    drive = np.arange(0.0, 301.0, 1.0)
+    t = np.concatenate([drive, 420.0 + drive[:-1]])
+    s = np.concatenate([8.0 * drive, 2400.0 + 8.0 * drive[:-1]])
+    held = fly_road(t, 0.6 * s, 0.8 * s, REQUEST, road_fleet(R, r))
+    assert held.coverage >= 0.98 and held.longest_gap_s <= 4.0
+    assert held.predicted_coverage == pytest.approx(held.coverage, abs=0.01)
+    # Flying on the plans in force instead: round hold circles where the legs end.
+    never = RoadSettings(hold_after_s=math.inf)
+    frozen = fly_road(t, 0.6 * s, 0.8 * s, REQUEST, road_fleet(R, r), settings=never)
+    assert frozen.coverage < 0.9 and frozen.longest_gap_s > 30.0
+
+
+def test_a_held_convoy_is_planned_for_as_stopped_and_released_by_a_fresh_fix() -> None:
+    mission = RoadMission(REQUEST, [1, 2, 3, 4, 5, 6], down=lambda _u: -100.0)
+    for k in range(60):
+        mission.on_convoy(ConvoyEstimate(float(k), 0.0, 8.0 * k, 0.0, 8.0))
+        mission.tick(float(k))
+    mission.join_many({u: (300.0, 300.0 * u, 0.0) for u in range(1, 7)}, 59.0)
+    last = mission.model.position(59.0)
+    stale = ConvoyEstimate(59.0, 0.0, 8.0 * 59, 0.0, 8.0, stale=True)
+    for now in np.arange(59.5, 63.9, 0.5).tolist():  # silent, not yet for hold_after_s
+        mission.on_convoy(stale)
+        mission.tick(now)
+    assert mission.holds == 0
+    assert mission.model.position(100.0)[0] > last[0] + 300.0  # still driving on
+    for now in np.arange(64.0, 120.0, 0.5).tolist():
+        mission.on_convoy(stale)
+        mission.tick(now)
+    assert mission.holds == 1 and mission.report()["convoy_holds"] == 1
+    assert mission.model.position(200.0) == pytest.approx(last)  # parked where last seen
+    assert mission.uav_replans > 6 * 10  # re-planned all along (every 4 s)
+    assert mission.plan is not None
+    mission.on_convoy(ConvoyEstimate(120.0, 0.0, 8.0 * 59 + 5.0, 0.0, 0.5))
+    mission.tick(120.5)
+    assert mission.model.position(130.0)[0] == pytest.approx(8.0 * 59 + 10.0)
+    for now in np.arange(121.0, 140.0, 0.5).tolist():
+        mission.tick(now)
+    assert mission.holds == 2  # silent again after the one fix: a second hold

@@ -33,6 +33,9 @@ Design rules:
   pattern (the recorded drive: protection from 353 s, now 161 s). A UAV
   lost or back changes N:
   the others' offsets are re-spread, and their legs re-planned.
+- A convoy feed silent for ``hold_after_s`` (a logger that records only on the
+  move, a dropped link) is planned for as a convoy stopped where last seen,
+  re-planned as usual, until a fresh estimate comes (``tick``).
 - ``predicted_coverage`` is the coverage the commanded paths give against
   the convoy as estimated, over the protect phase so far: what the UAVs
   will have delivered if they fly what they are sent.
@@ -111,6 +114,8 @@ class RoadSettings:
         fill_margin_s: A protecting UAV flies to the forecast convoy first when that sees
             it this much longer than its legs do while no other UAV does (``_fill``;
             0: never).
+        hold_after_s: Seconds without a fresh convoy estimate after which the convoy
+            is planned for as stopped where last seen (``tick``).
     """
 
     speed_band: tuple[float, float] = (0.85, 1.15)
@@ -126,6 +131,7 @@ class RoadSettings:
     keep_horizon_s: float = 40.0
     keep_margin_s: float = 0.5
     fill_margin_s: float = 1.5
+    hold_after_s: float = 5.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -191,6 +197,12 @@ class RoadMission(Roster):
         self.replan_interval_s: float | None = None  # median of the recent ones
         self._margins: dict[int, tuple[float, float, float]] = {}  # radius, slowest, fastest
         self._convoy_speeds: tuple[float, float] | None = None
+        # The convoy feed: the latest fresh estimate's time and place, and since when
+        # the convoy has been held there (``tick``).
+        self._fresh_t: float | None = None
+        self._held_at = (0.0, 0.0)
+        self._held_since: float | None = None
+        self.holds = 0
 
     # ------------------------------------------------------------------ state
 
@@ -278,7 +290,34 @@ class RoadMission(Roster):
     # --------------------------------------------------------------- inputs
 
     def tick(self, t: float) -> list[MissionEvent]:
-        """Report UAVs that reached their first meeting; note when protection began."""
+        """Report UAVs that reached their first meeting; note when protection began; with
+        the convoy feed silent ``hold_after_s``, plan for the convoy held where last seen.
+
+        A feed goes silent when a convoy's logger records only while it moves,
+        or its link drops. Planning on for a convoy stopped where it was last
+        seen keeps the fleet's figure eights over it; flying on the plans in
+        force takes every UAV to the end of its legs and round a hold circle
+        there, hundreds of metres off (the recorded drive, whose logger paused
+        1400 s of its 4900, flown on its raw fixes: 90.1 -> 96.6 % with the route
+        known, 85.9 -> 91.4 % without).
+        """
+        events = self._announce(t)
+        fresh = self._fresh_t
+        if (
+            self._clock is not None
+            and fresh is not None
+            and t - fresh >= self.settings.hold_after_s
+            and t > self._clock.t
+        ):
+            if self._held_since is None:
+                self._held_since = t
+                self.holds += 1
+            x, y = self._held_at
+            events += self._fold(ConvoyEstimate(t, y, x, 0.0, 0.0))
+        return events
+
+    def _announce(self, t: float) -> list[MissionEvent]:
+        """``PhaseChanged(.., "protect", ..)`` for UAVs at their first meeting by ``t``."""
         events: list[MissionEvent] = []
         due = sorted(
             (a, u)
@@ -296,14 +335,22 @@ class RoadMission(Roster):
 
     def on_convoy(self, est: ConvoyEstimate) -> list[MissionEvent]:
         """Fold in a convoy estimate; re-plan every UAV's legs when due."""
-        events = self.tick(est.t)
+        events = self._announce(est.t)
         if est.stale or not all(map(math.isfinite, (est.t, est.north, est.east, est.vn, est.ve))):
             return events
-        self.model.observe(est)
-        self._history.append((est.t, est.east, est.north))
+        self._fresh_t = max(est.t, self._fresh_t or -math.inf)
+        self._held_since = None
+        self._held_at = (est.east, est.north)
         if self._protect_start is not None:
             lo, hi = self._convoy_speeds or (math.inf, 0.0)
             self._convoy_speeds = (min(lo, est.speed), max(hi, est.speed))
+        return events + self._fold(est)
+
+    def _fold(self, est: ConvoyEstimate) -> list[MissionEvent]:
+        """Fold in a finite estimate, fresh or held; re-plan every UAV's legs when due."""
+        events: list[MissionEvent] = []
+        self.model.observe(est)
+        self._history.append((est.t, est.east, est.north))
         V = self.request.uav_speed
         if self._clock is None:
             if self._first_fix is None:
@@ -331,7 +378,7 @@ class RoadMission(Roster):
         if due:
             batch = max(1, math.ceil(len(self._slots) / _REPLAN_BATCHES))
             self._plan_paths(est.t, [u for _, u in due[:batch]])
-        return events + self.tick(est.t)
+        return events + self._announce(est.t)
 
     def join(self, uav: int, north: float, east: float, yaw: float, t: float) -> list[MissionEvent]:
         """``join_many`` for one UAV."""
@@ -724,6 +771,7 @@ class RoadMission(Roster):
             "legs_late": self.legs_late,
             "plans_kept": self.plans_kept,
             "fills": self.fills,
+            "convoy_holds": self.holds,
             "flyability": {
                 str(u): {
                     "min_turn_radius_m": round(radius, 1),
