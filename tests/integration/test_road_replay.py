@@ -10,9 +10,15 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
+from convoy_mav.app import ConvoyService
 from convoy_mav.cli import main
+from convoy_mav.config import DEFAULT_ORIGIN
+from convoy_mav.demo import replay_scenario, run_demo, score_fleet
+from convoy_mav.tracks.roads import road_kind
+from sitl_mock import MockFleet
 
 pytestmark = pytest.mark.integration
 
@@ -48,3 +54,53 @@ def test_a_road_is_protected_as_predicted(
     assert truth >= 0.90
     assert report["predicted_coverage"] == pytest.approx(truth, abs=0.015)
     assert report["coverage_fraction"] == pytest.approx(truth, abs=0.015)
+
+
+async def test_a_convoy_whose_feed_falls_silent_while_parked_is_held_in_sight() -> None:
+    """The ground vehicles stop reporting for 80 s of a 120-s stop (a logger that records
+    only on the move): the fleet plans on for the convoy held where last seen, and the
+    truth, parked there, stays covered (flying on the plans in force instead: 80 % over
+    the silence, gaps of 11 s)."""
+    road = road_kind("stop-and-go")
+    speed = np.hypot(np.gradient(road.true_north, road.t), np.gradient(road.true_east, road.t))
+    parked = road.t[speed < 0.01]
+    stop_start = float(parked[parked > 60.0][0])  # the first stop, after the start
+    # (from 30 s in: the pattern has closed into the stop's figure eights by then)
+    silent_from, silent_to = stop_start + 30.0, stop_start + 110.0
+    marks: dict[str, float] = {}
+
+    async def mute_the_convoy(fleet: MockFleet, service: ConvoyService) -> None:
+        ground = [e.sysid for e in fleet.endpoints if e.kind == "ground"]
+        await fleet.wait_until(silent_from)
+        assert service.monitor.protect_start is not None  # (protecting by then)
+        for sysid in ground:
+            fleet.link(sysid).muted = True
+        marks["muted"] = fleet.now
+        await fleet.wait_until(silent_to)
+        for sysid in ground:
+            fleet.link(sysid).muted = False
+        marks["unmuted"] = fleet.now
+
+    fleets: list[MockFleet] = []
+
+    async def script(fleet: MockFleet, service: ConvoyService) -> None:
+        fleets.append(fleet)
+        await mute_the_convoy(fleet, service)
+
+    scenario = replay_scenario(road.geotrack(DEFAULT_ORIGIN))
+    result = await run_demo(scenario, duration=silent_to + 60.0, speedup=40.0, during=script)
+    assert "unmuted" in marks, "the silence never ended"
+    report = result.report.to_dict()
+    assert report["planner"]["convoy_holds"] >= 1
+    assert "uav_lost" not in {r["reason"] for r in report["replans"]}  # (the convoy fell silent)
+    assert any(a["kind"] == "convoy_stale" for a in report["alarms"]), report["alarms"]
+    # The mock's truth over the silence itself (the convoy parked, unheard).
+    silence = score_fleet(fleets[0], result.report.config, marks["muted"], marks["unmuted"])
+    assert result.truth is not None
+    print(
+        f"\nconvoy silent {marks['unmuted'] - marks['muted']:.0f} s while parked: truth over "
+        f"the silence {100 * silence.fraction:.2f} % (longest gap {silence.longest_gap_s:.1f} s), "
+        f"over the protect phase {100 * result.truth.fraction:.2f} %"
+    )
+    assert silence.fraction >= 0.95 and silence.longest_gap_s <= 6.0
+    assert result.truth.fraction >= 0.92
