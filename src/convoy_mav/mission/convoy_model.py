@@ -10,6 +10,10 @@ Design rules:
   then predicted like a convoy with no route until it is back on it.
 - With no route the convoy is predicted to go on at its estimated velocity
   (the tracker's least-squares slope, never a raw difference of fixes).
+- A route says where the road turns, not whether the convoy will stop before
+  it does: at a junction it may stand for a minute first. ``stopping_short``
+  is that other course, the convoy stopped just short of the next sharp
+  corner ahead, for the mission to weigh its choices against both.
 - Pure: estimates carry their time.
 """
 
@@ -27,6 +31,10 @@ from convoy_mav.types import ConvoyEstimate
 __all__ = ["ConvoyModel", "RoadMotion"]
 
 FloatArray = npt.NDArray[np.float64]
+
+_MOVING_MPS = 0.5  # slower along the route, a convoy has no corner to stop short of
+_CORNER_FROM_M = 5.0  # a corner nearer than this ahead: the convoy is turning it
+_CORNER_STEP_M = 2.0  # the route's curvature is searched every ... metres
 
 
 @dataclass(frozen=True, slots=True)
@@ -131,6 +139,35 @@ class ConvoyModel:
         if self.route is None or self.left_route:
             return est.east + est.ve * dt, est.north + est.vn * dt
         x, y, _, _ = self.route.arrays(self._s + self._along * dt)
+        return x, y
+
+    def stopping_short(
+        self, times: npt.NDArray[np.float64], curvature: float, short_m: float
+    ) -> tuple[FloatArray, FloatArray] | None:
+        """:meth:`positions` for a convoy that stops ``short_m`` before the next corner of
+        the route sharper than ``curvature`` (1/m), if it gets there by the last of
+        ``times``; None without a route, off it, (nearly) stopped, or with no such corner
+        within reach.
+        """
+        est = self._est
+        route = self.route
+        if est is None or route is None or self.left_route or self._along < _MOVING_MPS:
+            return None
+        dt = np.maximum(times - est.t, 0.0)
+        s = self._s + self._along * dt
+        ahead = np.arange(self._s, float(s[-1]) + short_m, _CORNER_STEP_M)
+        _, _, _, k = route.arrays(ahead)
+        sharp = np.abs(k) >= curvature
+        if sharp[ahead < self._s + _CORNER_FROM_M].any():
+            # In a corner (or at it) already, the convoy turns it: the next one counts.
+            first = int(np.argmax(sharp))
+            out = np.flatnonzero(~sharp[first:])
+            sharp[: first + (int(out[0]) if len(out) else len(sharp))] = False
+        corners = np.flatnonzero(sharp)
+        if len(corners) == 0:
+            return None
+        stop = float(ahead[corners[0]]) - short_m
+        x, y, _, _ = route.arrays(np.minimum(s, max(stop, self._s)))
         return x, y
 
     def velocity(self) -> tuple[float, float]:

@@ -7,7 +7,12 @@ Design rules:
   reads the same one.
 - A ``Watch`` is the forecast convoy over the next seconds, sampled every
   ``KEEP_STEP``: what the road mission weighs one path against another by
-  (keeping a path in force, filling a hole).
+  (keeping a path in force, filling a hole). With a route and a sharp corner
+  ahead, it holds two convoys, sample by sample: the one that drives round
+  the corner and one that stops short of it (``ConvoyModel.stopping_short``),
+  once they part within its horizon; a path is worth the seconds it sees of
+  each, added. The pattern and the legs follow the first: a hedge in the
+  choices, not in the plan.
 - Pure: values in, arrays out.
 """
 
@@ -42,10 +47,15 @@ class Forecast:
         horizon: float,
         radius: float,
         V: float,
+        *,
+        stopping: tuple[float, float] | None = None,
     ) -> None:
         n = max(2, math.ceil(horizon / FORECAST_STEP) + 1)
         self.t: FloatArray = (t + FORECAST_STEP * np.arange(n)).astype(np.float64)
         self.cx, self.cy = model.positions(self.t)
+        # The convoy stopped short of the next corner sharper than stopping[0] (1/m),
+        # stopping[1] metres before it: the other course a Watch weighs paths on.
+        self.short = None if stopping is None else model.stopping_short(self.t, *stopping)
         vx = np.gradient(self.cx, FORECAST_STEP)
         vy = np.gradient(self.cy, FORECAST_STEP)
         phase, course, beta = clock.forecast(self.t.tolist(), vx.tolist(), vy.tolist(), radius, V)
@@ -92,6 +102,14 @@ class Watch:
         k = min(len(forecast.t), int(horizon / FORECAST_STEP) + 1)
         every = max(1, round(KEEP_STEP / FORECAST_STEP))
         self.times, self.cx, self.cy = (a[:k:every] for a in (forecast.t, forecast.cx, forecast.cy))
+        short = None if forecast.short is None else [a[:k:every] for a in forecast.short]
+        if short is not None and not (
+            np.array_equal(short[0], self.cx) and np.array_equal(short[1], self.cy)
+        ):
+            # Each time twice (still ascending): the convoy driving on, then stopped short.
+            self.times = np.repeat(self.times, 2)
+            self.cx = np.column_stack([self.cx, short[0]]).reshape(-1)
+            self.cy = np.column_stack([self.cy, short[1]]).reshape(-1)
         self.r = sensor_radius
 
     def sees(self, path: Trajectory) -> npt.NDArray[np.bool_]:
@@ -100,5 +118,5 @@ class Watch:
         return np.asarray(np.hypot(s.x - self.cx, s.y - self.cy) <= self.r)
 
     def seconds(self, seen: npt.NDArray[np.bool_]) -> float:
-        """Seconds of convoy ``seen`` covers."""
+        """Seconds of convoy ``seen`` covers (of each course, added, when two)."""
         return KEEP_STEP * float(np.count_nonzero(seen))

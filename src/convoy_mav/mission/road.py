@@ -24,7 +24,10 @@ Design rules:
   that sees the forecast convoy longer while no other UAV does (``_keeps``,
   ``_fill``). The pattern is laid for the convoy's course low-passed; after a
   sudden turn or stop its meetings can all fall where the convoy is not, and
-  the UAV that can close the hole does.
+  the UAV that can close the hole does. With a route, these choices are
+  weighed against the convoy stopped short of the next sharp corner too (a
+  junction it may stand at; ``Watch``): the route says where the road turns,
+  not when the convoy does.
 - A joining UAV takes a free slot and flies legs from where it is; it is
   ``protect`` from its first meeting on time, within r of the pattern on its
   way there on average (its sensor disk over its slot's). Half of r held a
@@ -116,6 +119,10 @@ class RoadSettings:
             0: never).
         hold_after_s: Seconds without a fresh convoy estimate after which the convoy
             is planned for as stopped where last seen (``tick``).
+        corner_curvature: With a route, keeps and fills are also weighed against the
+            convoy stopped short of the next corner sharper than this, 1/m (a
+            junction; ``Watch``; 0: never).
+        corner_short_m: ... this many metres short of it.
     """
 
     speed_band: tuple[float, float] = (0.85, 1.15)
@@ -132,6 +139,8 @@ class RoadSettings:
     keep_margin_s: float = 0.5
     fill_margin_s: float = 1.5
     hold_after_s: float = 5.0
+    corner_curvature: float = 0.04
+    corner_short_m: float = 5.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -491,10 +500,19 @@ class RoadMission(Roster):
         """
         return slot / n + (slot + self._side) % 2
 
-    def _forecast(self, t: float, horizon: float) -> Forecast:
+    def _forecast(self, t: float, horizon: float, *, hedged: bool = False) -> Forecast:
+        """The forecast from ``t``; ``hedged``: with the convoy stopped short of the next
+        sharp corner too, for a ``Watch`` (``corner_curvature``)."""
         assert self._clock is not None
+        k = self.settings.corner_curvature
         return Forecast(
-            self._clock, self.model, t, horizon, self.pattern_radius, self.request.uav_speed
+            self._clock,
+            self.model,
+            t,
+            horizon,
+            self.pattern_radius,
+            self.request.uav_speed,
+            stopping=(k, self.settings.corner_short_m) if hedged and k > 0.0 else None,
         )
 
     def _limits(self) -> LegLimits:
@@ -515,7 +533,7 @@ class RoadMission(Roster):
         beta = beta_for_speed(self._clock.speed, V)
         period = 1.0 / half_cycle_rate(beta, self.pattern_radius, V)
         horizon = (self.settings.legs_ahead + 1.5) * period + 60.0
-        forecast = self._forecast(t, horizon)
+        forecast = self._forecast(t, horizon, hedged=True)
         limits = self._limits()
         # A joining UAV's late legs are planned for where the pattern is when they
         # arrive, as before the scan: it protects once a leg meets the pattern close,

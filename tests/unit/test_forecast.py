@@ -1,0 +1,85 @@
+"""The convoy forecast over a re-plan's horizon, and the watch that weighs paths on it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from convoy_mav.mission.convoy_model import ConvoyModel
+from convoy_mav.mission.forecast import KEEP_STEP, Forecast, Watch
+from convoy_mav.planning.dubins import Pose, Segment, Turn
+from convoy_mav.planning.pattern import PatternClock
+from convoy_mav.planning.plan import Trajectory
+from convoy_mav.planning.road import Road
+from convoy_mav.tracks.roads import junction
+from convoy_mav.types import ConvoyEstimate
+
+CORNER_AT = 600.0  # m up the junction's road (north), where it turns 90 deg left (west)
+JUNCTION = junction(25.0, 90.0, CORNER_AT)
+ROUTE = Road.from_points(JUNCTION.true_east, JUNCTION.true_north)
+SHARP = 0.04  # 1/m: the junction's 12-m corner, not the road's straights
+
+
+def _model(route: Road | None, along: float, speed: float) -> ConvoyModel:
+    """A convoy ``along`` metres up the junction's road (north), at ``speed`` m/s."""
+    model = ConvoyModel(route)
+    model.observe(ConvoyEstimate(0.0, along, 0.0, speed, 0.0))
+    return model
+
+
+def test_a_convoy_may_stop_short_of_the_sharp_corner_ahead() -> None:
+    times = np.arange(0.0, 120.0, 0.5)
+    model = _model(ROUTE, 200.0, 8.0)
+    on_x, on_y = model.positions(times)
+    short = model.stopping_short(times, SHARP, 5.0)
+    assert short is not None
+    sx, sy = short
+    # The same convoy until it reaches the corner, then parked short of it, while the
+    # route's convoy turns it (west) and drives on.
+    before = times < 40.0
+    assert np.allclose(sx[before], on_x[before]) and np.allclose(sy[before], on_y[before])
+    assert np.ptp(sx[times > 60.0]) == 0.0 and np.ptp(sy[times > 60.0]) == 0.0
+    parked = ROUTE.project(float(sx[-1]), float(sy[-1]))
+    assert CORNER_AT - 25.0 < parked < CORNER_AT
+    assert on_x[-1] < -300.0 < sx[-1]
+
+
+def test_no_other_course_without_a_sharp_corner_within_reach() -> None:
+    times = np.arange(0.0, 120.0, 0.5)
+    assert _model(None, 200.0, 8.0).stopping_short(times, SHARP, 5.0) is None  # no route
+    assert _model(ROUTE, 200.0, 0.0).stopping_short(times, SHARP, 5.0) is None  # stopped
+    soon = np.arange(0.0, 20.0, 0.5)  # 160 m: not as far as the corner
+    assert _model(ROUTE, 200.0, 8.0).stopping_short(soon, SHARP, 5.0) is None
+    straight = Road.straight(0.0, 0.0, 0.0, 5000.0)
+    model = ConvoyModel(straight)
+    model.observe(ConvoyEstimate(0.0, 0.0, 100.0, 0.0, 8.0))  # (east, along the road)
+    assert model.stopping_short(times, SHARP, 5.0) is None
+    # In the corner already, the convoy turns it: no other sharp corner follows.
+    inside = _model(ROUTE, CORNER_AT + 2.0, 8.0)
+    assert inside.stopping_short(times, SHARP, 5.0) is None
+
+
+def _forecast(model: ConvoyModel, *, hedged: bool) -> Forecast:
+    clock = PatternClock(0.0, 0.0, 8.0)
+    stopping = (SHARP, 5.0) if hedged else None
+    return Forecast(clock, model, 0.0, 120.0, 183.0, 18.0, stopping=stopping)
+
+
+def test_a_watch_weighs_paths_on_both_courses_once_they_part() -> None:
+    near = _forecast(_model(ROUTE, 500.0, 8.0), hedged=True)  # the corner 12 s ahead
+    assert near.short is not None
+    watch = Watch(near, 40.0, 100.0)
+    assert len(watch.times) == 2 * (round(40.0 / KEEP_STEP) + 1)
+    assert np.all(np.diff(watch.times) >= 0.0)
+    # A UAV circling where the convoy parks sees that course, not the one driving on.
+    x, y = near.short[0][-1], near.short[1][-1]
+    lap = 2.0 * np.pi * 60.0 / 18.0
+    circle = Segment(Pose(float(x) + 60.0, float(y), np.pi / 2), Turn.LEFT, 60.0, 18.0, lap)
+    seen = watch.sees(Trajectory(0.0, (circle,)))
+    parked_course = seen[1::2]
+    assert parked_course[-5:].all() and not seen[0::2][-5:].any()
+    assert watch.seconds(seen) == pytest.approx(KEEP_STEP * int(np.count_nonzero(seen)))
+    # Far from the corner the courses agree over the watch: one course, as without.
+    far = Watch(_forecast(_model(ROUTE, 100.0, 8.0), hedged=True), 40.0, 100.0)
+    plain = Watch(_forecast(_model(ROUTE, 100.0, 8.0), hedged=False), 40.0, 100.0)
+    assert np.array_equal(far.times, plain.times) and np.array_equal(far.cx, plain.cx)
