@@ -206,11 +206,10 @@ class RoadMission(Roster):
         self.replan_interval_s: float | None = None  # median of the recent ones
         self._margins: dict[int, tuple[float, float, float]] = {}  # radius, slowest, fastest
         self._convoy_speeds: tuple[float, float] | None = None
-        # The convoy feed: the latest fresh estimate's time and place, and since when
-        # the convoy has been held there (``tick``).
+        # The convoy feed: the latest fresh estimate's time, and whether the convoy is
+        # held where it was last seen (``tick``; the model's estimate says where).
         self._fresh_t: float | None = None
-        self._held_at = (0.0, 0.0)
-        self._held_since: float | None = None
+        self._holding = False
         self.holds = 0
 
     # ------------------------------------------------------------------ state
@@ -318,11 +317,11 @@ class RoadMission(Roster):
             and t - fresh >= self.settings.hold_after_s
             and t > self._clock.t
         ):
-            if self._held_since is None:
-                self._held_since = t
-                self.holds += 1
-            x, y = self._held_at
-            events += self._fold(ConvoyEstimate(t, y, x, 0.0, 0.0))
+            self.holds += not self._holding
+            self._holding = True
+            last = self.model.estimate
+            assert last is not None  # (a fresh estimate was folded in)
+            events += self._fold(ConvoyEstimate(t, last.north, last.east, 0.0, 0.0))
         return events
 
     def _announce(self, t: float) -> list[MissionEvent]:
@@ -347,9 +346,8 @@ class RoadMission(Roster):
         events = self._announce(est.t)
         if est.stale or not all(map(math.isfinite, (est.t, est.north, est.east, est.vn, est.ve))):
             return events
-        self._fresh_t = max(est.t, self._fresh_t or -math.inf)
-        self._held_since = None
-        self._held_at = (est.east, est.north)
+        self._fresh_t = est.t if self._fresh_t is None else max(est.t, self._fresh_t)
+        self._holding = False
         if self._protect_start is not None:
             lo, hi = self._convoy_speeds or (math.inf, 0.0)
             self._convoy_speeds = (min(lo, est.speed), max(hi, est.speed))
