@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from convoy_mav.mission.convoy_model import ConvoyModel
-from convoy_mav.mission.forecast import KEEP_STEP, Forecast, Watch
+from convoy_mav.mission.forecast import KEEP_STEP, Forecast, Hedge, Watch
 from convoy_mav.planning.dubins import Pose, Segment, Turn
 from convoy_mav.planning.pattern import PatternClock
 from convoy_mav.planning.plan import Trajectory
@@ -59,20 +59,22 @@ def test_no_other_course_without_a_sharp_corner_within_reach() -> None:
     assert inside.stopping_short(times, SHARP, 5.0) is None
 
 
+HEDGE = Hedge(SHARP, 5.0, 1.5, 1.0, 0.5)
+
+
 def _forecast(model: ConvoyModel, *, hedged: bool) -> Forecast:
     clock = PatternClock(0.0, 0.0, 8.0)
-    stopping = (SHARP, 5.0) if hedged else None
-    return Forecast(clock, model, 0.0, 120.0, 183.0, 18.0, stopping=stopping)
+    return Forecast(clock, model, 0.0, 120.0, 183.0, 18.0, hedge=HEDGE if hedged else None)
 
 
 def test_a_watch_weighs_paths_on_both_courses_once_they_part() -> None:
     near = _forecast(_model(ROUTE, 500.0, 8.0), hedged=True)  # the corner 12 s ahead
-    assert near.short is not None
+    assert near.other is not None
     watch = Watch(near, 40.0, 100.0)
     assert len(watch.times) == 2 * (round(40.0 / KEEP_STEP) + 1)
     assert np.all(np.diff(watch.times) >= 0.0)
     # A UAV circling where the convoy parks sees that course, not the one driving on.
-    x, y = near.short[0][-1], near.short[1][-1]
+    x, y = near.other[0][-1], near.other[1][-1]
     lap = 2.0 * np.pi * 60.0 / 18.0
     circle = Segment(Pose(float(x) + 60.0, float(y), np.pi / 2), Turn.LEFT, 60.0, 18.0, lap)
     seen = watch.sees(Trajectory(0.0, (circle,)))
@@ -83,3 +85,44 @@ def test_a_watch_weighs_paths_on_both_courses_once_they_part() -> None:
     far = Watch(_forecast(_model(ROUTE, 100.0, 8.0), hedged=True), 40.0, 100.0)
     plain = Watch(_forecast(_model(ROUTE, 100.0, 8.0), hedged=False), 40.0, 100.0)
     assert np.array_equal(far.times, plain.times) and np.array_equal(far.cx, plain.cx)
+
+
+def test_a_standing_convoy_may_drive_off_along_its_route() -> None:
+    times = np.arange(0.0, 60.0, 0.5)
+    model = _model(ROUTE, 200.0, 8.0)  # driving: its speed is what it drives off back up to
+    model.observe(ConvoyEstimate(10.0, 280.0, 0.0, 0.9, 0.0))  # standing (GPS noise: 0.9 m/s)
+    off = model.driving_off(times + 10.0, 1.5, 1.0)
+    assert off is not None
+    gone = np.array([ROUTE.project(float(x), float(y)) for x, y in zip(*off, strict=True)]) - 280.0
+    # Up to 8 m/s at 1 m/s^2 (32 m in 8 s), then 8 m/s along the route, round its corner.
+    assert gone[times == 8.0][0] == pytest.approx(32.0, abs=0.5)
+    assert gone[-1] == pytest.approx(32.0 + 8.0 * (times[-1] - 8.0), abs=1.0)
+    assert off[0][-1] < -50.0  # west: past the corner at 600 m
+
+
+def test_no_drive_off_course_when_driving_off_route_or_never_seen_driving() -> None:
+    times = np.arange(0.0, 60.0, 0.5)
+    assert _model(ROUTE, 200.0, 8.0).driving_off(times, 1.5, 1.0) is None  # driving
+    assert _model(ROUTE, 200.0, 0.0).driving_off(times, 1.5, 1.0) is None  # never drove
+    assert _model(None, 200.0, 0.0).driving_off(times, 1.5, 1.0) is None  # no route
+
+
+def test_a_watch_weighs_the_drive_off_course_at_its_weight() -> None:
+    model = _model(ROUTE, 200.0, 8.0)
+    model.observe(ConvoyEstimate(0.0, 280.0, 0.0, 0.0, 0.0))  # stopped, 320 m short of the corner
+    hedged = _forecast(model, hedged=True)
+    assert hedged.other is not None and hedged.other_weight == 0.5
+    watch = Watch(hedged, 40.0, 100.0)
+    # A UAV circling over where the convoy stands sees that course throughout and the
+    # drive-off course until it has pulled away: seconds of the second count half.
+    lap = 2.0 * np.pi * 60.0 / 18.0
+    circle = Segment(Pose(60.0, 280.0, np.pi / 2), Turn.LEFT, 60.0, 18.0, lap)
+    seen = watch.sees(Trajectory(0.0, (circle,)))
+    standing, driving = seen[0::2], seen[1::2]
+    assert standing.all() and driving[:5].all() and not driving[-5:].any()
+    half = KEEP_STEP * (np.count_nonzero(standing) + 0.5 * np.count_nonzero(driving))
+    assert watch.seconds(seen) == pytest.approx(half)
+    # Without the hedge: the standing convoy alone, every second whole.
+    plain = Watch(_forecast(model, hedged=False), 40.0, 100.0)
+    assert len(plain.times) == len(watch.times) // 2
+    assert plain.seconds(plain.sees(Trajectory(0.0, (circle,)))) == KEEP_STEP * len(plain.times)

@@ -13,7 +13,9 @@ Design rules:
 - A route says where the road turns, not whether the convoy will stop before
   it does: at a junction it may stand for a minute first. ``stopping_short``
   is that other course, the convoy stopped just short of the next sharp
-  corner ahead, for the mission to weigh its choices against both.
+  corner ahead, for the mission to weigh its choices against both. Nor, once
+  it stands, when it will drive off again: ``driving_off`` is the convoy
+  pulling away along the route now, back up to the speed it last drove at.
 - Pure: estimates carry their time.
 """
 
@@ -35,6 +37,7 @@ FloatArray = npt.NDArray[np.float64]
 _MOVING_MPS = 0.5  # slower along the route, a convoy has no corner to stop short of
 _CORNER_FROM_M = 5.0  # a corner nearer than this ahead: the convoy is turning it
 _CORNER_STEP_M = 2.0  # the route's curvature is searched every ... metres
+_CRUISING_MPS = 3.0  # along the route at least this fast, the convoy is driving (not creeping)
 
 
 @dataclass(frozen=True, slots=True)
@@ -64,6 +67,7 @@ class ConvoyModel:
         self._est: ConvoyEstimate | None = None
         self._s = 0.0  # arc length on the route
         self._along = 0.0  # speed along the route
+        self._cruise: float | None = None  # the last speed along it while driving
         self._off_since: float | None = None
         self.left_route = False
         self.counters = {"left_route": 0, "back_on_route": 0}
@@ -107,6 +111,8 @@ class ConvoyModel:
         p = route.point(self._s)
         off = math.hypot(p.x - x, p.y - y)
         self._along = max(0.0, est.ve * math.cos(p.heading) + est.vn * math.sin(p.heading))
+        if self._along >= _CRUISING_MPS:
+            self._cruise = self._along
         if off > self.off_route_m:
             if self._off_since is None:
                 self._off_since = est.t
@@ -168,6 +174,29 @@ class ConvoyModel:
             return None
         stop = float(ahead[corners[0]]) - short_m
         x, y, _, _ = route.arrays(np.minimum(s, max(stop, self._s)))
+        return x, y
+
+    def driving_off(
+        self, times: npt.NDArray[np.float64], below_mps: float, accel: float
+    ) -> tuple[FloatArray, FloatArray] | None:
+        """:meth:`positions` for a convoy slower than ``below_mps`` along its route that
+        pulls away now, at ``accel`` (m/s^2) up to the speed it last drove at; None
+        without a route, off it, faster, or never seen driving.
+
+        ``below_mps`` is well above zero: in 3 m of GPS noise the tracker's velocity of
+        a parked convoy is about 1 m/s.
+        """
+        est = self._est
+        route = self.route
+        cruise = self._cruise
+        if est is None or route is None or self.left_route or cruise is None:
+            return None
+        if self._along >= below_mps:
+            return None
+        dt = np.maximum(times - est.t, 0.0)
+        ramp = cruise / accel  # s to cruise
+        gone = np.where(dt < ramp, 0.5 * accel * dt**2, 0.5 * cruise * ramp + cruise * (dt - ramp))
+        x, y, _, _ = route.arrays(self._s + gone)
         return x, y
 
     def velocity(self) -> tuple[float, float]:

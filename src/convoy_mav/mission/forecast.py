@@ -7,18 +7,21 @@ Design rules:
   reads the same one.
 - A ``Watch`` is the forecast convoy over the next seconds, sampled every
   ``KEEP_STEP``: what the road mission weighs one path against another by
-  (keeping a path in force, filling a hole). With a route and a sharp corner
-  ahead, it holds two convoys, sample by sample: the one that drives round
-  the corner and one that stops short of it (``ConvoyModel.stopping_short``),
-  once they part within its horizon; a path is worth the seconds it sees of
-  each, added. The pattern and the legs follow the first: a hedge in the
-  choices, not in the plan.
+  (keeping a path in force, filling a hole). With a route it can hold two
+  convoys, sample by sample, once they part within its horizon (``Hedge``):
+  the forecast one and the other course the route leaves open. Driving
+  towards a sharp corner, the convoy may stop short of it (a junction,
+  ``ConvoyModel.stopping_short``); standing, it may drive off along the
+  route (``ConvoyModel.driving_off``). A path is worth the seconds it sees
+  of the first, plus those of the other at the other's weight. The pattern
+  and the legs follow the first: a hedge in the choices, not in the plan.
 - Pure: values in, arrays out.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
@@ -28,12 +31,33 @@ from convoy_mav.planning.meets import Where
 from convoy_mav.planning.pattern import PatternClock, relative_offsets
 from convoy_mav.planning.plan import Trajectory
 
-__all__ = ["FORECAST_STEP", "KEEP_STEP", "Forecast", "Watch"]
+__all__ = ["FORECAST_STEP", "KEEP_STEP", "Forecast", "Hedge", "Watch"]
 
 FloatArray = npt.NDArray[np.float64]
 
 FORECAST_STEP = 0.5  # s
 KEEP_STEP = 1.0  # s: resolution of the comparison of a path in force with its re-plan
+
+
+@dataclass(frozen=True, slots=True)
+class Hedge:
+    """The other course a ``Watch`` weighs paths on, with a route (``RoadSettings``).
+
+    Attributes:
+        corner_curvature: Moving, the convoy may stop short of the next corner sharper
+            than this, 1/m (0: never) ...
+        corner_short_m: ... this many metres short of it; weighed as the forecast is.
+        drive_off_below_mps: Slower than this along the route, the convoy may drive off
+            (0: never) ...
+        drive_off_accel: ... at this acceleration, m/s^2, up to its last driving speed;
+        drive_off_weight: ... a second of it is worth this many of the forecast's.
+    """
+
+    corner_curvature: float
+    corner_short_m: float
+    drive_off_below_mps: float
+    drive_off_accel: float
+    drive_off_weight: float
 
 
 class Forecast:
@@ -48,14 +72,16 @@ class Forecast:
         radius: float,
         V: float,
         *,
-        stopping: tuple[float, float] | None = None,
+        hedge: Hedge | None = None,
     ) -> None:
         n = max(2, math.ceil(horizon / FORECAST_STEP) + 1)
         self.t: FloatArray = (t + FORECAST_STEP * np.arange(n)).astype(np.float64)
         self.cx, self.cy = model.positions(self.t)
-        # The convoy stopped short of the next corner sharper than stopping[0] (1/m),
-        # stopping[1] metres before it: the other course a Watch weighs paths on.
-        self.short = None if stopping is None else model.stopping_short(self.t, *stopping)
+        # The other course a Watch weighs paths on, and what a second of it is worth.
+        self.other: tuple[FloatArray, FloatArray] | None = None
+        self.other_weight = 1.0
+        if hedge is not None:
+            self._hedge(model, hedge)
         vx = np.gradient(self.cx, FORECAST_STEP)
         vy = np.gradient(self.cy, FORECAST_STEP)
         phase, course, beta = clock.forecast(self.t.tolist(), vx.tolist(), vy.tolist(), radius, V)
@@ -63,6 +89,15 @@ class Forecast:
         self.course = np.unwrap(np.array(course))
         self.beta = np.array(beta)
         self.radius = radius
+
+    def _hedge(self, model: ConvoyModel, hedge: Hedge) -> None:
+        if hedge.drive_off_below_mps > 0.0 and hedge.drive_off_weight > 0.0:
+            off = model.driving_off(self.t, hedge.drive_off_below_mps, hedge.drive_off_accel)
+            if off is not None:
+                self.other, self.other_weight = off, hedge.drive_off_weight
+                return
+        if hedge.corner_curvature > 0.0:
+            self.other = model.stopping_short(self.t, hedge.corner_curvature, hedge.corner_short_m)
 
     def pattern(self, offset: float) -> Where:
         """Where the pattern puts the UAV of phase ``offset`` at given times (vectorised)."""
@@ -102,14 +137,18 @@ class Watch:
         k = min(len(forecast.t), int(horizon / FORECAST_STEP) + 1)
         every = max(1, round(KEEP_STEP / FORECAST_STEP))
         self.times, self.cx, self.cy = (a[:k:every] for a in (forecast.t, forecast.cx, forecast.cy))
-        short = None if forecast.short is None else [a[:k:every] for a in forecast.short]
-        if short is not None and not (
-            np.array_equal(short[0], self.cx) and np.array_equal(short[1], self.cy)
+        # What a sample is worth, seconds (None: KEEP_STEP each).
+        self.worth: FloatArray | None = None
+        other = None if forecast.other is None else [a[:k:every] for a in forecast.other]
+        if other is not None and not (
+            np.array_equal(other[0], self.cx) and np.array_equal(other[1], self.cy)
         ):
-            # Each time twice (still ascending): the convoy driving on, then stopped short.
+            # Each time twice (still ascending): the forecast convoy, then the other.
             self.times = np.repeat(self.times, 2)
-            self.cx = np.column_stack([self.cx, short[0]]).reshape(-1)
-            self.cy = np.column_stack([self.cy, short[1]]).reshape(-1)
+            self.cx = np.column_stack([self.cx, other[0]]).reshape(-1)
+            self.cy = np.column_stack([self.cy, other[1]]).reshape(-1)
+            if forecast.other_weight != 1.0:
+                self.worth = np.tile([KEEP_STEP, KEEP_STEP * forecast.other_weight], len(other[0]))
         self.r = sensor_radius
 
     def sees(self, path: Trajectory) -> npt.NDArray[np.bool_]:
@@ -118,5 +157,7 @@ class Watch:
         return np.asarray(np.hypot(s.x - self.cx, s.y - self.cy) <= self.r)
 
     def seconds(self, seen: npt.NDArray[np.bool_]) -> float:
-        """Seconds of convoy ``seen`` covers (of each course, added, when two)."""
-        return KEEP_STEP * float(np.count_nonzero(seen))
+        """Seconds of convoy ``seen`` covers (of each course at its weight, added, when two)."""
+        if self.worth is None:
+            return KEEP_STEP * float(np.count_nonzero(seen))
+        return float(np.sum(self.worth[seen]))

@@ -65,7 +65,7 @@ from convoy_mav.errors import PlanningError
 from convoy_mav.mission.assign import Roster, best_assignment
 from convoy_mav.mission.convoy_model import ConvoyModel, RoadMotion
 from convoy_mav.mission.events import MissionEvent, Phase, PhaseChanged, Replanned, phase_at
-from convoy_mav.mission.forecast import FORECAST_STEP, Forecast, Watch
+from convoy_mav.mission.forecast import FORECAST_STEP, Forecast, Hedge, Watch
 from convoy_mav.planning.detours import best_detour
 from convoy_mav.planning.dubins import Pose, Segment, Turn
 from convoy_mav.planning.meets import Leg, LegLimits, Where, plan_leg
@@ -123,6 +123,10 @@ class RoadSettings:
             convoy stopped short of the next corner sharper than this, 1/m (a
             junction; ``Watch``; 0: never).
         corner_short_m: ... this many metres short of it.
+        drive_off_below_mps: With a route, a convoy slower than this along it is also
+            weighed driving off along it (0: never) ...
+        drive_off_accel: ... at this acceleration, m/s^2, up to its last driving speed;
+        drive_off_weight: ... a second of it worth this many of the forecast's (0: never).
     """
 
     speed_band: tuple[float, float] = (0.85, 1.15)
@@ -141,6 +145,9 @@ class RoadSettings:
     hold_after_s: float = 5.0
     corner_curvature: float = 0.04
     corner_short_m: float = 5.0
+    drive_off_below_mps: float = 1.5
+    drive_off_accel: float = 1.0
+    drive_off_weight: float = 0.5
 
 
 @dataclass(frozen=True, slots=True)
@@ -499,10 +506,17 @@ class RoadMission(Roster):
         return slot / n + (slot + self._side) % 2
 
     def _forecast(self, t: float, horizon: float, *, hedged: bool = False) -> Forecast:
-        """The forecast from ``t``; ``hedged``: with the convoy stopped short of the next
-        sharp corner too, for a ``Watch`` (``corner_curvature``)."""
+        """The forecast from ``t``; ``hedged``: with the other course the route leaves open
+        too, for a ``Watch`` (``Hedge``)."""
         assert self._clock is not None
-        k = self.settings.corner_curvature
+        s = self.settings
+        hedge = Hedge(
+            s.corner_curvature,
+            s.corner_short_m,
+            s.drive_off_below_mps,
+            s.drive_off_accel,
+            s.drive_off_weight,
+        )
         return Forecast(
             self._clock,
             self.model,
@@ -510,7 +524,7 @@ class RoadMission(Roster):
             horizon,
             self.pattern_radius,
             self.request.uav_speed,
-            stopping=(k, self.settings.corner_short_m) if hedged and k > 0.0 else None,
+            hedge=hedge if hedged else None,
         )
 
     def _limits(self) -> LegLimits:
