@@ -21,10 +21,11 @@ from convoy_mav.app import ConvoyService
 from convoy_mav.demo import SCENARIOS, run_demo, score_fleet
 from convoy_mav.types import VehicleStatus
 from sitl_mock import MockFleet
+from tests.hostspeed import host_speedup
 
 pytestmark = pytest.mark.integration
 
-SPEEDUP = 25.0
+SPEEDUP = host_speedup(25.0)
 
 
 async def test_a_second_service_backs_off_and_the_first_is_warned() -> None:

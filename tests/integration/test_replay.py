@@ -20,6 +20,7 @@ from convoy_mav.demo import mock_mapping, replay_scenario
 from convoy_mav.geo import GeoPoint, LocalFrame
 from convoy_mav.tracks import load_track, parse_tlog_track, track_speeds
 from sitl_mock.config import config_from_mapping
+from tests.hostspeed import host_speedup
 
 pytestmark = pytest.mark.integration
 
@@ -27,7 +28,7 @@ START = GeoPoint(52.0, 4.3)  # far from the mock's default origin: the origin mu
 SPEED = 8.0
 HEADING_DEG = 60.0
 DURATION = 360.0
-SPEEDUP = 25.0
+SPEEDUP = host_speedup(25.0)
 
 
 def _write_gpx(path: Path) -> None:

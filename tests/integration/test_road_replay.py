@@ -19,7 +19,9 @@ from convoy_mav.config import DEFAULT_ORIGIN
 from convoy_mav.demo import replay_scenario, run_demo, score_fleet
 from convoy_mav.tracks.roads import road_kind
 from sitl_mock import MockFleet
+from tests.hostspeed import host_speedup
 
+SPEEDUP = host_speedup(40.0)  # (>= 20 on a host as fast as the reference)
 pytestmark = pytest.mark.integration
 
 
@@ -31,7 +33,7 @@ def test_a_road_is_protected_as_predicted(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], road: str, personality: str, known: bool
 ) -> None:
     report_path = tmp_path / "r.json"
-    argv = ["replay", "--road", road, "--duration", "500", "--speedup", "40"]
+    argv = ["replay", "--road", road, "--duration", "500", "--speedup", str(SPEEDUP)]
     argv += ["--personality", personality, "--report", str(report_path), "--quiet"]
     assert main(argv + (["--route-known"] if known else [])) == 0
     out = capsys.readouterr().out
@@ -88,7 +90,7 @@ async def test_a_convoy_whose_feed_falls_silent_while_parked_is_held_in_sight() 
         await mute_the_convoy(fleet, service)
 
     scenario = replay_scenario(road.geotrack(DEFAULT_ORIGIN))
-    result = await run_demo(scenario, duration=silent_to + 60.0, speedup=40.0, during=script)
+    result = await run_demo(scenario, duration=silent_to + 60.0, speedup=SPEEDUP, during=script)
     assert "unmuted" in marks, "the silence never ended"
     report = result.report.to_dict()
     assert report["planner"]["convoy_holds"] >= 1

@@ -21,10 +21,11 @@ from convoy_mav.demo import SCENARIOS, run_demo
 from convoy_mav.fence import fence_from
 from convoy_mav.geo import GeoPoint, LocalFrame
 from sitl_mock import MockFleet
+from tests.hostspeed import host_speedup
 
 pytestmark = pytest.mark.integration
 
-SPEEDUP = 25.0
+SPEEDUP = host_speedup(25.0)
 DURATION = 260.0
 
 

@@ -1,9 +1,10 @@
 """The service end to end against sitl_mock over real UDP, scored from ground truth.
 
-Each test starts the mock in-process (speedup >= 20), connects the service to
-its aircraft and the convoy's ground vehicles exactly as it would to PX4 or
-ArduPilot SITL, flies, and compares three numbers: what the plan predicted,
-what the service's own monitor measured, and what the mock's ground truth says.
+Each test starts the mock in-process (25x; slower on a slower host,
+``tests/hostspeed.py``), connects the service to its aircraft and the convoy's
+ground vehicles exactly as it would to PX4 or ArduPilot SITL, flies, and compares
+three numbers: what the plan predicted, what the service's own monitor measured,
+and what the mock's ground truth says.
 """
 
 from __future__ import annotations
@@ -16,10 +17,11 @@ import pytest
 from convoy_mav import eventloop
 from convoy_mav.demo import SCENARIOS, DemoResult, run_demo
 from convoy_mav.planning import make_plan
+from tests.hostspeed import host_speedup
 
 pytestmark = pytest.mark.integration
 
-SPEEDUP = 25.0
+SPEEDUP = host_speedup(25.0)
 
 
 def _check_agreement(result: DemoResult, *, within: float = 0.005) -> None:

@@ -19,10 +19,11 @@ from convoy_mav.app import ConvoyService
 from convoy_mav.demo import SCENARIOS, run_demo, score_fleet
 from convoy_mav.planning import make_plan
 from sitl_mock import MockFleet
+from tests.hostspeed import host_speedup
 
 pytestmark = pytest.mark.integration
 
-SPEEDUP = 25.0
+SPEEDUP = host_speedup(25.0)
 PAUSE_AT = 140.0  # sim s: well into the protect phase (about 80 s in)
 DURATION = 420.0
 

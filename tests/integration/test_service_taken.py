@@ -17,10 +17,11 @@ from pymavlink.dialects.v20 import common as mavlink
 from convoy_mav.app import ConvoyService
 from convoy_mav.demo import SCENARIOS, run_demo
 from sitl_mock import MockFleet
+from tests.hostspeed import host_speedup
 
 pytestmark = pytest.mark.integration
 
-SPEEDUP = 25.0
+SPEEDUP = host_speedup(25.0)
 TAKE_AT = 150.0  # sim s: into the protect phase
 RESUME_AT = 260.0
 DURATION = 420.0

@@ -24,11 +24,12 @@ from convoy_mav.mavlink.signing import load_key
 from convoy_mav.provision import provision_signing
 from sitl_mock import MockFleet
 from tests.conftest import StartMock
+from tests.hostspeed import host_speedup
 from tests.mavclient import MavClient
 
 pytestmark = pytest.mark.integration
 
-SPEEDUP = 25.0
+SPEEDUP = host_speedup(25.0)
 DURATION = 300.0
 
 
