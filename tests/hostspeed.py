@@ -32,9 +32,11 @@ _ROUNDS = 41
 def slowdown() -> float:
     """How many times slower than the reference host this one folds a convoy fix (>= 1).
 
-    The median of short rounds, as the benchmark's figure is: a host whose speed comes
-    and goes (one here took 11 us at best and 26 us in the median) is as slow as it
-    mostly is, and a flight needs its time every mission second.
+    The slowest tenth of short rounds, against the benchmark's median: a host whose
+    speed comes and goes (one took 11 us at best and 26 us in the median) is as slow as
+    its slow spells, and a flight needs its time every mission second, late in a long
+    test session too (with the median, 1.6-2.9 there, the muted convoy still flew 42 %
+    in the suite and 100 % alone).
     """
     rounds = []
     tracker = ConvoyTracker(window=4.0)
@@ -45,7 +47,7 @@ def slowdown() -> float:
             t += 0.1
             tracker.update(t, 8.0 * t, 0.0, 5)
         rounds.append((time.perf_counter() - start) / _FIXES)
-    return max(1.0, statistics.median(rounds) / REFERENCE_FIX_S)
+    return max(1.0, statistics.quantiles(rounds, n=10)[-1] / REFERENCE_FIX_S)
 
 
 def host_speedup(speedup: float) -> float:
