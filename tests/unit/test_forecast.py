@@ -105,6 +105,8 @@ def test_no_drive_off_course_when_driving_off_route_or_never_seen_driving() -> N
     assert _model(ROUTE, 200.0, 8.0).driving_off(times, 1.5, 1.0) is None  # driving
     assert _model(ROUTE, 200.0, 0.0).driving_off(times, 1.5, 1.0) is None  # never drove
     assert _model(None, 200.0, 0.0).driving_off(times, 1.5, 1.0) is None  # no route
+    with pytest.raises(ValueError, match="accel"):
+        _model(ROUTE, 200.0, 0.0).driving_off(times, 1.5, 0.0)
 
 
 def test_a_watch_weighs_the_drive_off_course_at_its_weight() -> None:

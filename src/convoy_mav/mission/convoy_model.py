@@ -185,7 +185,12 @@ class ConvoyModel:
 
         ``below_mps`` is well above zero: in 3 m of GPS noise the tracker's velocity of
         a parked convoy is about 1 m/s.
+
+        Raises:
+            ValueError: If ``accel`` is not positive.
         """
+        if not accel > 0.0:
+            raise ValueError(f"accel must be positive, got {accel!r}")
         est = self._est
         route = self.route
         cruise = self._cruise

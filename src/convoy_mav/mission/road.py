@@ -26,8 +26,9 @@ Design rules:
   sudden turn or stop its meetings can all fall where the convoy is not, and
   the UAV that can close the hole does. With a route, these choices are
   weighed against the convoy stopped short of the next sharp corner too (a
-  junction it may stand at; ``Watch``): the route says where the road turns,
-  not when the convoy does.
+  junction it may stand at), and, while it stands, against it driving off
+  along the route (``Hedge``, ``Watch``): the route says where the road
+  turns, not when the convoy stops or goes.
 - A joining UAV takes a free slot and flies legs from where it is; it is
   ``protect`` from its first meeting on time, within r of the pattern on its
   way there on average (its sensor disk over its slot's). Half of r held a
