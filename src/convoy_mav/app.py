@@ -84,6 +84,7 @@ _REFLY_FAILSAFE_S = 30.0  # mission s after flying again in which a hold is our 
 _TAKEN_CONFIRM_S = 3.0  # mission s a mode change must stand (no reboot) to be a pilot's
 _STALL_TICKS = 3  # a control tick this many periods late is a stall of the host
 _PLANNER_BEHIND = 1.5  # re-plans this many times rarer than planned: the planner is behind
+_SETPOINTS_LATE_S = 0.5  # mission s between setpoint rounds: half PX4's COM_OF_LOSS_T (1 s)
 _FINISH_WALL_S = 15.0  # wall s the end-of-mission commands are waited for at most
 _JOINABLE = frozenset({"pending", "protect"})
 """Phases a join starts from: a UAV without a slot, or one far off its slot (``_off_slot``)."""
@@ -298,6 +299,7 @@ class ConvoyService:
         self._stop_event: asyncio.Event | None = None
         self._stalled_s = 0.0  # mission s the control loop was held up (a loaded host)
         self._planner_behind = False
+        self._setpoints_late = False
         self._fence_clear_until: dict[int, tuple[float, float]] = {}  # (from, to) mission s
         self.history = History(interval=history_interval)
         self.monitor = Monitor(config.sensor_radius_m, step=1.0 / control_rate_hz)
@@ -661,6 +663,36 @@ class ConvoyService:
             self._note(f"planner caught up: re-plans every {lag:.1f} mission s")
         self._planner_behind = behind
 
+    def _check_setpoints(self) -> None:
+        """Say when setpoint rounds go out too far apart in mission time, and when they
+        are on time again.
+
+        On a host short of CPU for the speedup (a simulator at 40x on a slow machine,
+        the mock in the service's own process) the event loop falls behind mission
+        time, and each round it skips is a mission second and more without a setpoint:
+        PX4 leaves OFFBOARD after ``COM_OF_LOSS_T`` (1 s by default), and coverage
+        pays while the service takes it back. Said at half that, with the remedy,
+        before the autopilots' failsafes say it their way.
+        """
+        streamer = getattr(self, "streamer", None)
+        if streamer is None:
+            return
+        gap = streamer.take_widest_gap()
+        late = gap > _SETPOINTS_LATE_S
+        if gap == 0.0:  # no round since the last look (the mission clock stood)
+            return
+        if late and not self._setpoints_late:
+            text = (
+                f"setpoints late: {gap:.2f} mission s between two rounds at "
+                f"{self.clock.rate:.3g}x (PX4 leaves OFFBOARD after 1 s without one); "
+                "the host is short of CPU at this speedup: lower it"
+            )
+            log.warning("%s", text)
+            self._note(text, logged=True)
+        elif self._setpoints_late and not late:
+            self._note(f"setpoints on time again: rounds at most {gap:.2f} mission s apart")
+        self._setpoints_late = late
+
     def _check_links(self, t: float) -> None:
         """Alarm on strangers at a UAV's link: a second peer refused, or frames that
         claim another vehicle's system id (a GCS's own heartbeats are only counted)."""
@@ -886,10 +918,13 @@ class ConvoyService:
         raise _Stop
 
     async def _ground_streams(self, links: list[MavLink]) -> None:
-        """Ask ground vehicles for positions until they send some (ArduPilot is silent)."""
+        """Ask ground vehicles for positions until they send some (ArduPilot is silent),
+        and to stop the local positions nobody reads (PX4 streams them unasked, and
+        ArduPilot's position group brings them along)."""
         interval = set_message_interval(
             _GROUND_POSITION_HZ, mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT
         )
+        unread = set_message_interval(0.0, mavlink.MAVLINK_MSG_ID_LOCAL_POSITION_NED)
         while True:
             now = self.clock.now() if self.clock.synced else 0.0
             for link, g in zip(links, self.config.convoy.vehicles, strict=True):
@@ -905,6 +940,7 @@ class ConvoyService:
                             1,
                         )
                     )
+                    link.send(unread.message(g.sysid, 1))
             await asyncio.sleep(1.0 / max(1.0, self.clock.rate))
 
     def _scripted_convoy(self, t: float) -> None:
@@ -938,6 +974,7 @@ class ConvoyService:
                 self._progress(t)
                 self._check_links(t)
                 self._check_planner()
+                self._check_setpoints()
             await self.clock.sleep_until(t + self._control_dt)
 
     async def _control_step(self, t: float) -> None:
@@ -1331,6 +1368,7 @@ class ConvoyService:
         end_t = getattr(self, "_end_t", self.clock.now())
         self.monitor.finish()
         est = self._last_est
+        streamer: SetpointStreamer | None = getattr(self, "streamer", None)
         return ServiceReport(
             config=self.config,
             snapshot=self.monitor.snapshot(end_t),
@@ -1368,6 +1406,10 @@ class ConvoyService:
                 # Mission s the control loop ran late (a loaded or stalled host); coverage
                 # meanwhile is scored from telemetry stamped then, never assumed.
                 "host_stalled_s": round(self._stalled_s, 2),
+                # Widest mission-time gap between two setpoint rounds (``_check_setpoints``).
+                "setpoint_round_gap_max_s": None
+                if streamer is None
+                else round(streamer.widest_gap_s, 3),
             },
         )
 

@@ -27,6 +27,11 @@ keep both bursts short, so every vehicle's own deadline is met. (It also spares
 a shared radio or MAVLink router a thousand-packet burst.) A fleet of up to
 ``slice_size`` vehicles is one slice: the whole round at its deadline.
 
+A host too slow for the speedup shows as rounds far apart in mission time:
+``take_widest_gap`` returns the widest gap between two rounds since it was last
+called, so the service can say so (PX4 leaves OFFBOARD after ``COM_OF_LOSS_T``,
+1 s by default, without a setpoint) before an autopilot's failsafe does.
+
 ``stats`` keeps, per vehicle, the intervals between consecutive sends in wall
 and in mission seconds (count, mean, max and the last few thousand samples for
 percentiles): the benchmark's setpoint-rate accuracy and jitter.
@@ -182,6 +187,7 @@ class SetpointStreamer:
     Attributes:
         ticks: Rounds (deadlines) served.
         missed: Rounds skipped because the loop was late.
+        widest_gap_s: Widest mission-time gap between two rounds over the whole run.
         rate: Setpoints per mission second now (``rate_hz``, or it halved).
         errors: Source calls that raised.
         stats: Per-uid :class:`SendStats`.
@@ -219,6 +225,9 @@ class SetpointStreamer:
         self.ticks = 0
         self.missed = 0
         self.errors = 0
+        self.widest_gap_s = 0.0
+        self._recent_gap_s = 0.0  # widest since ``take_widest_gap``
+        self._last_round_t: float | None = None
         self.stats: dict[int, SendStats] = {}
 
     async def run(self) -> None:
@@ -245,7 +254,21 @@ class SetpointStreamer:
                 self.missed += late
                 k += late
             self.ticks += 1
+            self._gap_to(clock.now())
             k = await self._round(k) + 1
+
+    def _gap_to(self, t: float) -> None:
+        """Count the gap from the last round to one at mission time ``t``."""
+        last, self._last_round_t = self._last_round_t, t
+        if last is not None and t > last:  # (a clock stepped back is no gap)
+            gap = t - last
+            self.widest_gap_s = max(self.widest_gap_s, gap)
+            self._recent_gap_s = max(self._recent_gap_s, gap)
+
+    def take_widest_gap(self) -> float:
+        """The widest mission-time gap between two rounds since the last call (0 if none)."""
+        gap, self._recent_gap_s = self._recent_gap_s, 0.0
+        return gap
 
     def rate_for(self, speedup: float) -> float:
         """Setpoints per mission second at ``speedup`` (mission per wall second).

@@ -239,6 +239,24 @@ async def test_a_stalled_loop_skips_ticks_instead_of_bursting() -> None:
     assert len(vehicle.sent) - before >= 15
 
 
+async def test_a_stall_shows_as_the_widest_gap_between_rounds_until_taken() -> None:
+    vehicle = FakeVehicle(1)
+    async with autopilot_clock(10.0) as clock:
+        streamer = SetpointStreamer([vehicle], setpoint, clock, rate_hz=10.0)
+        async with streaming(streamer):
+            await mission_sleep(clock, 1.0)
+            on_time = streamer.take_widest_gap()
+            time.sleep(0.15)  # the loop is blocked for 1.5 mission s
+            await mission_sleep(clock, 0.5)
+            stalled = streamer.take_widest_gap()
+            await mission_sleep(clock, 0.5)
+            after = streamer.take_widest_gap()
+    assert 0.05 <= on_time < 0.5  # rounds a period (0.1 s) apart, give or take the loop
+    assert stalled >= 1.4
+    assert 0.05 <= after < 0.5  # taken: the stall is not reported twice
+    assert streamer.widest_gap_s == pytest.approx(stalled)
+
+
 async def test_a_paused_simulator_steps_the_clock_and_streaming_goes_on() -> None:
     """The simulator stands still (its host stalled) while we keep running."""
     vehicle = FakeVehicle(1)

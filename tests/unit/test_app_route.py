@@ -6,6 +6,8 @@ an hour before, a route timed from boot would start 3600 s x speed down the road
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import pytest
 
 from convoy_mav.app import ConvoyService
@@ -60,4 +62,31 @@ def test_a_planner_falling_behind_is_said_once_and_its_catching_up_too(
     assert [e.split(" ", 1)[1].split(":")[0] for e in service.events[-2:]] == [
         "planner behind",
         "planner caught up",
+    ]
+
+
+def test_setpoint_rounds_far_apart_are_said_once_with_the_remedy_and_their_end_too(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    uavs = [{"connection": f"udpin:127.0.0.1:{14560 + i}", "sysid": i + 1} for i in range(2)]
+    cfg = parse_config(
+        {
+            "mission": {"sensor_radius_m": 100.0},
+            "aircraft": {"airspeed_mps": 18.0, "turn_radius_m": 150.0},
+            "uav": uavs,
+        }
+    )
+    service = ConvoyService(cfg, rate_hint=40.0)
+    service._check_setpoints()  # (not streaming yet: nothing to say)
+    gaps = iter([0.05, 1.2, 0.9, 0.0, 0.1, 0.05])
+    service.streamer = SimpleNamespace(take_widest_gap=lambda: next(gaps))  # type: ignore[assignment]
+    for _ in range(6):
+        service._check_setpoints()
+    warned = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
+    assert len(warned) == 1
+    assert warned[0].startswith("setpoints late: 1.20 mission s between two rounds at 40x")
+    assert warned[0].endswith("the host is short of CPU at this speedup: lower it")
+    assert [e.split(" ", 1)[1].split(":")[0] for e in service.events[-2:]] == [
+        "setpoints late",
+        "setpoints on time again",
     ]

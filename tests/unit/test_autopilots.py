@@ -8,6 +8,7 @@ ArduPilot do with them: the mock is the independent reader here.
 from __future__ import annotations
 
 import math
+from collections import Counter
 from dataclasses import replace
 from typing import Any, Literal
 
@@ -28,6 +29,7 @@ from convoy_mav.mavlink.autopilots import (
     phase_corrected_speed,
 )
 from convoy_mav.mavlink.autopilots.base import (
+    FLIGHT_STREAM_RATES,
     SETPOINT_POS_VEL_YAW,
     SETPOINT_POSITION_ONLY,
     global_setpoint,
@@ -225,8 +227,13 @@ def test_commands_carry_retry_count_and_target() -> None:
 def test_stream_requests() -> None:
     rates = {M.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: 10.0, M.MAVLINK_MSG_ID_SYS_STATUS: 0.5}
     px4 = strategy(M.MAV_AUTOPILOT_PX4, FW).stream_requests(rates)
-    assert [m.get_type() for m in px4] == ["COMMAND_LONG", "COMMAND_LONG"]
-    assert {(m.param1, m.param2) for m in px4} == {(33.0, 100_000.0), (1.0, 2_000_000.0)}
+    assert {m.get_type() for m in px4} == {"COMMAND_LONG"}
+    asked = {(m.param1, m.param2) for m in px4}
+    assert {(33.0, 100_000.0), (1.0, 2_000_000.0)} <= asked
+    # ... and the high-rate streams of its profiles the service never reads, stopped
+    stopped = {int(m.param1) for m in px4 if m.param2 == -1.0}
+    assert {M.MAVLINK_MSG_ID_LOCAL_POSITION_NED, M.MAVLINK_MSG_ID_HIGHRES_IMU} <= stopped
+    assert stopped.isdisjoint(rates)
     # ArduPilot: every group stopped (SRn_* stream them unasked), then message intervals
     ap = strategy(M.MAV_AUTOPILOT_ARDUPILOTMEGA, QUAD)
     stop, *intervals = ap.stream_requests(rates)
@@ -243,6 +250,19 @@ def test_stream_requests() -> None:
     groups = {(m.req_stream_id, m.req_message_rate) for m in ardu if m.get_type() != "COMMAND_LONG"}
     assert groups == {(M.MAV_DATA_STREAM_POSITION, 10), (M.MAV_DATA_STREAM_EXTENDED_STATUS, 1)}
     assert sum(m.get_type() == "COMMAND_LONG" for m in ardu) == 3
+
+
+def test_px4_stops_the_streams_the_service_never_reads() -> None:
+    gcs = Gcs(make_vehicle(MOCK_PX4, "plane"))
+    before = Counter(m.get_type() for m in gcs.run(1.0))
+    assert before["LOCAL_POSITION_NED"] >= 9 and before["VFR_HUD"] >= 3
+    px4 = strategy(M.MAV_AUTOPILOT_PX4, FW)
+    for msg in px4.stream_requests(FLIGHT_STREAM_RATES):
+        gcs.send(msg)
+    after = Counter(m.get_type() for m in gcs.run(1.0))
+    assert after["LOCAL_POSITION_NED"] == after["VFR_HUD"] == 0
+    assert 9 <= after["GLOBAL_POSITION_INT"] <= 11  # (what it reads, as asked)
+    assert sum(after.values()) < 0.6 * sum(before.values())
 
 
 def test_ardupilot_streams_start_on_request() -> None:

@@ -9,10 +9,19 @@ NAV_TAKEOFF (param7 AMSL) and the climb to the flight altitude, after which PX4
 loiters; then setpoints, then OFFBOARD. Modes are packed in HEARTBEAT.custom_mode
 as ``main << 16 | sub << 24`` (``px4_custom_mode.h``). Hold is AUTO.LOITER (main 4,
 sub 3).
+
+PX4 streams by profile, not by request: its onboard profile (the offboard port,
+UDP 14540) sends LOCAL_POSITION_NED at 30 Hz, ATTITUDE_QUATERNION and HIGHRES_IMU
+at 50, ODOMETRY at 30, VFR_HUD at 10... (``mavlink_main.cpp``), some 250 messages a
+second where the service reads a dozen. Those it never reads are stopped on its
+link (SET_MESSAGE_INTERVAL -1, which PX4 applies to the link it came on, so a
+ground station on another port keeps them): at 40x the mock's PX4 profile alone
+took the service's whole core to decode.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import ClassVar
 
 from pymavlink.dialects.v20 import common as mavlink
@@ -54,6 +63,21 @@ _AUTO_SUB = {
     9: "PRECLAND",
     10: "VTOL_TAKEOFF",
 }
+_UNREAD_STREAMS: Mapping[int, float] = {
+    msg_id: 0.0  # (a rate of 0 stops the stream)
+    for msg_id in (
+        mavlink.MAVLINK_MSG_ID_LOCAL_POSITION_NED,
+        mavlink.MAVLINK_MSG_ID_ODOMETRY,
+        mavlink.MAVLINK_MSG_ID_HIGHRES_IMU,
+        mavlink.MAVLINK_MSG_ID_ATTITUDE_QUATERNION,
+        mavlink.MAVLINK_MSG_ID_ALTITUDE,
+        mavlink.MAVLINK_MSG_ID_VFR_HUD,
+        mavlink.MAVLINK_MSG_ID_ATTITUDE_TARGET,
+        mavlink.MAVLINK_MSG_ID_POSITION_TARGET_LOCAL_NED,
+    )
+}
+"""High-rate streams of PX4's default profiles the service never reads."""
+
 _MODES: dict[str, tuple[int, int]] = {name: (main, 0) for main, name in _MAIN.items()}
 _MODES.update({f"AUTO.{name}": (4, sub) for sub, name in _AUTO_SUB.items()})
 
@@ -76,6 +100,10 @@ class PX4(Autopilot):
             )
         else:
             self.setup_steps = (SetupStep.SETPOINTS, SetupStep.MODE, SetupStep.ARM)
+
+    def stream_requests(self, rates: Mapping[int, float]) -> list[Message]:
+        """``rates``, and the profile's high-rate streams the service never reads stopped."""
+        return super().stream_requests({**_UNREAD_STREAMS, **rates})
 
     def mode_name(self, custom_mode: int) -> str:
         """``"OFFBOARD"``, ``"AUTO.LOITER"``... (``"MODE(main,sub)"`` if unknown)."""
