@@ -85,6 +85,8 @@ _TAKEN_CONFIRM_S = 3.0  # mission s a mode change must stand (no reboot) to be a
 _STALL_TICKS = 3  # a control tick this many periods late is a stall of the host
 _PLANNER_BEHIND = 1.5  # re-plans this many times rarer than planned: the planner is behind
 _SETPOINTS_LATE_S = 0.5  # mission s between setpoint rounds: half PX4's COM_OF_LOSS_T (1 s)
+_REAL_TIME_ABOVE = 1.5  # a speedup up to this is real time (no speedup to lower)
+_SETPOINTS_CLEAR_S = 60.0  # mission s of on-time rounds before late ones are news again
 _FINISH_WALL_S = 15.0  # wall s the end-of-mission commands are waited for at most
 _JOINABLE = frozenset({"pending", "protect"})
 """Phases a join starts from: a UAV without a slot, or one far off its slot (``_off_slot``)."""
@@ -299,7 +301,8 @@ class ConvoyService:
         self._stop_event: asyncio.Event | None = None
         self._stalled_s = 0.0  # mission s the control loop was held up (a loaded host)
         self._planner_behind = False
-        self._setpoints_late = False
+        self._setpoints_late_t: float | None = None  # last look that found rounds late
+        self._setpoints_late_warned = False
         self._fence_clear_until: dict[int, tuple[float, float]] = {}  # (from, to) mission s
         self.history = History(interval=history_interval)
         self.monitor = Monitor(config.sensor_radius_m, step=1.0 / control_rate_hz)
@@ -663,35 +666,48 @@ class ConvoyService:
             self._note(f"planner caught up: re-plans every {lag:.1f} mission s")
         self._planner_behind = behind
 
-    def _check_setpoints(self) -> None:
+    def _check_setpoints(self, t: float) -> None:
         """Say when setpoint rounds go out too far apart in mission time, and when they
-        are on time again.
+        have stayed on time a while again.
 
         On a host short of CPU for the speedup (a simulator at 40x on a slow machine,
         the mock in the service's own process) the event loop falls behind mission
         time, and each round it skips is a mission second and more without a setpoint:
         PX4 leaves OFFBOARD after ``COM_OF_LOSS_T`` (1 s by default), and coverage
         pays while the service takes it back. Said at half that, with the remedy,
-        before the autopilots' failsafes say it their way.
+        before the autopilots' failsafes say it their way: warned the first time, noted
+        (the report's events) each time it comes back after ``_SETPOINTS_CLEAR_S`` on time.
         """
         streamer = getattr(self, "streamer", None)
         if streamer is None:
             return
         gap = streamer.take_widest_gap()
-        late = gap > _SETPOINTS_LATE_S
         if gap == 0.0:  # no round since the last look (the mission clock stood)
             return
-        if late and not self._setpoints_late:
-            text = (
-                f"setpoints late: {gap:.2f} mission s between two rounds at "
-                f"{self.clock.rate:.3g}x (PX4 leaves OFFBOARD after 1 s without one); "
-                "the host is short of CPU at this speedup: lower it"
+        if gap > _SETPOINTS_LATE_S:
+            if self._setpoints_late_t is None:
+                rate = self.clock.rate
+                remedy = "at this speedup: lower it" if rate > _REAL_TIME_ABOVE else "(real time)"
+                text = (
+                    f"setpoints late: {gap:.2f} mission s between two rounds at {rate:.3g}x "
+                    "(PX4 leaves OFFBOARD after 1 s without one); "
+                    f"the host is short of CPU {remedy}"
+                )
+                if self._setpoints_late_warned:
+                    self._note(text)
+                else:
+                    log.warning("%s", text)
+                    self._note(text, logged=True)
+                    self._setpoints_late_warned = True
+            self._setpoints_late_t = t
+        elif (
+            self._setpoints_late_t is not None and t - self._setpoints_late_t >= _SETPOINTS_CLEAR_S
+        ):
+            self._note(
+                f"setpoints on time again: rounds at most {_SETPOINTS_LATE_S:g} mission s apart "
+                f"for {t - self._setpoints_late_t:.0f} s"
             )
-            log.warning("%s", text)
-            self._note(text, logged=True)
-        elif self._setpoints_late and not late:
-            self._note(f"setpoints on time again: rounds at most {gap:.2f} mission s apart")
-        self._setpoints_late = late
+            self._setpoints_late_t = None
 
     def _check_links(self, t: float) -> None:
         """Alarm on strangers at a UAV's link: a second peer refused, or frames that
@@ -974,7 +990,7 @@ class ConvoyService:
                 self._progress(t)
                 self._check_links(t)
                 self._check_planner()
-                self._check_setpoints()
+                self._check_setpoints(t)
             await self.clock.sleep_until(t + self._control_dt)
 
     async def _control_step(self, t: float) -> None:

@@ -65,7 +65,7 @@ def test_a_planner_falling_behind_is_said_once_and_its_catching_up_too(
     ]
 
 
-def test_setpoint_rounds_far_apart_are_said_once_with_the_remedy_and_their_end_too(
+def test_setpoint_rounds_far_apart_are_warned_once_with_the_remedy_and_noted_after(
     caplog: pytest.LogCaptureFixture,
 ) -> None:
     uavs = [{"connection": f"udpin:127.0.0.1:{14560 + i}", "sysid": i + 1} for i in range(2)]
@@ -77,16 +77,26 @@ def test_setpoint_rounds_far_apart_are_said_once_with_the_remedy_and_their_end_t
         }
     )
     service = ConvoyService(cfg, rate_hint=40.0)
-    service._check_setpoints()  # (not streaming yet: nothing to say)
-    gaps = iter([0.05, 1.2, 0.9, 0.0, 0.1, 0.05])
-    service.streamer = SimpleNamespace(take_widest_gap=lambda: next(gaps))  # type: ignore[assignment]
-    for _ in range(6):
-        service._check_setpoints()
+    service._check_setpoints(0.0)  # (not streaming yet: nothing to say)
+    # One look every 10 mission s: late, on time for 30 s, late, on time for 60 s, late.
+    gaps = [0.05, 1.2, 0.1, 0.1, 0.1, 0.9, 0.0, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.7, 0.1]
+    looks = iter(gaps)
+    service.streamer = SimpleNamespace(take_widest_gap=lambda: next(looks))  # type: ignore[assignment]
+    for k in range(len(gaps)):
+        service._check_setpoints(10.0 * k)
     warned = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
     assert len(warned) == 1
     assert warned[0].startswith("setpoints late: 1.20 mission s between two rounds at 40x")
     assert warned[0].endswith("the host is short of CPU at this speedup: lower it")
-    assert [e.split(" ", 1)[1].split(":")[0] for e in service.events[-2:]] == [
-        "setpoints late",
-        "setpoints on time again",
+    said = [e.split(" ", 1)[1] for e in service.events if "setpoints" in e]
+    assert [e.split(":")[0] for e in said] == [
+        "setpoints late",  # t=10
+        "setpoints on time again",  # t=110: 60 s after the last late look (t=50)
+        "setpoints late",  # t=130: news again, in the events only
     ]
+    assert said[1].endswith("for 60 s") and said[2].startswith("setpoints late: 0.70")
+    # In real time there is no speedup to lower.
+    real_time = ConvoyService(cfg, rate_hint=1.0)
+    real_time.streamer = SimpleNamespace(take_widest_gap=lambda: 0.8)  # type: ignore[assignment]
+    real_time._check_setpoints(0.0)
+    assert real_time.events[-1].endswith("the host is short of CPU (real time)")
