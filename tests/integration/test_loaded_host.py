@@ -12,10 +12,10 @@ against 53.10 %. (With the mock in the service's process a stall stops the autop
 too, and their catch-up is never reported: not what a loaded host does to real ones.)
 
 The speedup follows the host (``tests/hostspeed.py``): on one 1.6x slower, 40x beside
-the four burners flew 10-33 % in constant PX4 failsafes, the loop stalled past the
-10 mission s an instant waits for its fixes, and the monitor fell 5-7 points below the
-truth in 3 runs of 34. One deliberate freeze of the loop (0.8 mission s at 200 s) checks
-that the service says its setpoints were late, with the remedy.
+the four burners flew 10-33 % in constant PX4 failsafes, and the monitor claimed 5-7
+points less than the truth in 3 runs of 34 (never more). One deliberate freeze of the
+loop (0.8 mission s at 200 s) checks that the service says its setpoints were late,
+with the remedy.
 """
 
 from __future__ import annotations
