@@ -257,6 +257,45 @@ async def test_a_stall_shows_as_the_widest_gap_between_rounds_until_taken() -> N
     assert streamer.widest_gap_s == pytest.approx(stalled)
 
 
+async def test_a_fleet_heard_again_after_a_silence_is_no_late_round() -> None:
+    """A radio dropout: neither autopilot is heard for 16 mission s; the mission clock
+    runs on for its ``silence_cap`` (10 s), waits, and is taken anew (a step) from the
+    first one heard again. The rounds it could not time are not the host's lateness."""
+    vehicle = FakeVehicle(1)
+    clock = MissionClock(silence_cap=10.0)
+    speedup = 20.0
+    silent = {1: [math.inf, math.inf], 2: [math.inf, math.inf]}  # wall from, to
+    t0 = time.monotonic()
+
+    async def talk() -> None:
+        while True:
+            now = time.monotonic()
+            for sysid, (begin, end) in silent.items():
+                if not begin <= now < end:
+                    clock.observe(1000.0 * (5.0 + sysid + speedup * (now - t0)), sysid)
+            await asyncio.sleep(0.002)
+
+    task = asyncio.create_task(talk(), name="test.silent-autopilots")
+    try:
+        await clock.wait_synced()
+        await asyncio.sleep(0.3)
+        streamer = SetpointStreamer([vehicle], setpoint, clock, rate_hz=20.0)
+        async with streaming(streamer):
+            await asyncio.sleep(0.2)
+            begin = time.monotonic()
+            silent[1][:] = [begin, begin + 0.85]  # 17 mission s unheard (the reference)
+            silent[2][:] = [begin, begin + 0.8]  # 16: the other is heard first
+            await asyncio.sleep(1.2)
+    finally:
+        task.cancel()
+        with contextlib.suppress(asyncio.CancelledError):
+            await task
+    assert clock.resyncs == 1
+    times = [sp.t for _, sp in vehicle.sent]
+    assert max(b - a for a, b in itertools.pairwise(times)) > 4.0  # mission time stepped on
+    assert streamer.widest_gap_s < 0.5
+
+
 async def test_a_paused_simulator_steps_the_clock_and_streaming_goes_on() -> None:
     """The simulator stands still (its host stalled) while we keep running."""
     vehicle = FakeVehicle(1)
@@ -293,6 +332,7 @@ async def test_a_paused_simulator_steps_the_clock_and_streaming_goes_on() -> Non
         with contextlib.suppress(asyncio.CancelledError):
             await task
     assert clock.steps == 1
+    assert streamer.widest_gap_s < 0.5  # (the step back is no gap between rounds)
     walls = [w for w, _ in vehicle.sent]
     gaps = [b - a for a, b in itertools.pairwise(walls)]
     assert max(gaps) < 0.02  # 8 periods of wall at most: no pause in the stream
