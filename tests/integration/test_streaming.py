@@ -13,8 +13,8 @@ import contextlib
 import itertools
 import math
 import time
-from collections.abc import AsyncIterator
-from typing import TYPE_CHECKING
+from collections.abc import AsyncIterator, Coroutine
+from typing import TYPE_CHECKING, Any
 
 import pytest
 
@@ -60,6 +60,21 @@ async def autopilot_clock(speedup: float) -> AsyncIterator[MissionClock]:
         await clock.wait_synced()
         await asyncio.sleep(0.1)  # let the rate settle
         yield clock
+    finally:
+        task.cancel()
+        with contextlib.suppress(asyncio.CancelledError):
+            await task
+
+
+@contextlib.asynccontextmanager
+async def talking(clock: MissionClock, talk: Coroutine[Any, Any, None]) -> AsyncIterator[None]:
+    """An autopilot's ``talk`` feeding ``clock`` in the background; synced and its rate
+    settled on entry."""
+    task = asyncio.create_task(talk, name="test.autopilot")
+    try:
+        await clock.wait_synced()
+        await asyncio.sleep(0.3)
+        yield
     finally:
         task.cancel()
         with contextlib.suppress(asyncio.CancelledError):
@@ -275,10 +290,7 @@ async def test_a_fleet_heard_again_after_a_silence_is_no_late_round() -> None:
                     clock.observe(1000.0 * (5.0 + sysid + speedup * (now - t0)), sysid)
             await asyncio.sleep(0.002)
 
-    task = asyncio.create_task(talk(), name="test.silent-autopilots")
-    try:
-        await clock.wait_synced()
-        await asyncio.sleep(0.3)
+    async with talking(clock, talk()):
         streamer = SetpointStreamer([vehicle], setpoint, clock, rate_hz=20.0)
         async with streaming(streamer):
             await asyncio.sleep(0.2)
@@ -286,10 +298,6 @@ async def test_a_fleet_heard_again_after_a_silence_is_no_late_round() -> None:
             silent[1][:] = [begin, begin + 0.85]  # 17 mission s unheard (the reference)
             silent[2][:] = [begin, begin + 0.8]  # 16: the other is heard first
             await asyncio.sleep(1.2)
-    finally:
-        task.cancel()
-        with contextlib.suppress(asyncio.CancelledError):
-            await task
     assert clock.resyncs == 1
     times = [sp.t for _, sp in vehicle.sent]
     assert max(b - a for a, b in itertools.pairwise(times)) > 4.0  # mission time stepped on
@@ -317,20 +325,13 @@ async def test_a_paused_simulator_steps_the_clock_and_streaming_goes_on() -> Non
                 clock.observe(1000.0 * sim(), 1)
             await asyncio.sleep(0.002)
 
-    task = asyncio.create_task(talk(), name="test.paused-autopilot")
-    try:
-        await clock.wait_synced()
-        await asyncio.sleep(0.3)
+    async with talking(clock, talk()):
         streamer = SetpointStreamer([vehicle], setpoint, clock, rate_hz=20.0)
         async with streaming(streamer):
             await asyncio.sleep(0.2)
             paused[1] = time.monotonic() + 0.2  # 4 s of sim time never happen
             await asyncio.sleep(0.6)
             assert abs(clock.now() - sim()) < 0.2
-    finally:
-        task.cancel()
-        with contextlib.suppress(asyncio.CancelledError):
-            await task
     assert clock.steps == 1
     assert streamer.widest_gap_s < 0.5  # (the step back is no gap between rounds)
     walls = [w for w, _ in vehicle.sent]
