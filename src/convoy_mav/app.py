@@ -302,6 +302,8 @@ class ConvoyService:
         self._stalled_s = 0.0  # mission s the control loop was held up (a loaded host)
         self._planner_behind = False
         self._setpoints_late_t: float | None = None  # last look that found rounds late
+        self.streamer: SetpointStreamer | None = None  # (while the mission flies)
+        self._end_t: float | None = None  # mission time the flight ended
         self._setpoints_late_warned = False
         self._fence_clear_until: dict[int, tuple[float, float]] = {}  # (from, to) mission s
         self.history = History(interval=history_interval)
@@ -678,7 +680,7 @@ class ConvoyService:
         before the autopilots' failsafes say it their way: warned the first time, noted
         (the report's events) each time it comes back after ``_SETPOINTS_CLEAR_S`` on time.
         """
-        streamer = getattr(self, "streamer", None)
+        streamer = self.streamer
         if streamer is None:
             return
         gap = streamer.take_widest_gap()
@@ -1381,10 +1383,10 @@ class ConvoyService:
             self._on_progress(progress)
 
     def _report(self) -> ServiceReport:
-        end_t = getattr(self, "_end_t", self.clock.now())
+        end_t = self.clock.now() if self._end_t is None else self._end_t
         self.monitor.finish()
         est = self._last_est
-        streamer: SetpointStreamer | None = getattr(self, "streamer", None)
+        streamer = self.streamer
         return ServiceReport(
             config=self.config,
             snapshot=self.monitor.snapshot(end_t),
@@ -1458,7 +1460,7 @@ class ConvoyService:
         return out
 
     def _stream_health(self, sysid: int) -> dict[str, float | None]:
-        streamer = getattr(self, "streamer", None)
+        streamer = self.streamer
         stats = None if streamer is None else streamer.stats.get(sysid)
         if streamer is None or stats is None or stats.count < 2:
             return dict.fromkeys(("setpoint_rate_hz", "setpoint_gap_max_s", "setpoint_gap_p99_s"))

@@ -481,6 +481,7 @@ async def test_broker_killed_and_restarted_mid_mission(mqtt_broker: Broker) -> N
         )
         watched, t_watched = time.monotonic(), flight.now()
         # The service's send statistics start afresh too (the streamer re-creates them).
+        assert service.streamer is not None
         stats = service.streamer.stats
         stats.clear()
 
@@ -557,7 +558,7 @@ async def test_broker_killed_and_restarted_mid_mission(mqtt_broker: Broker) -> N
     assert outage_s > 10.0
     for sysid, count in sent_in_outage.items():
         assert count >= 0.5 * cfg.setpoint_rate_hz * outage_s, (sysid, count, outage_s)
-    assert service.streamer.errors == 0
+    assert service.streamer is not None and service.streamer.errors == 0
 
     # Coverage by the mock's ground truth over the protect phase, outage included.
     report = result.report.to_dict()
@@ -643,7 +644,8 @@ async def test_operator_pause_resume_and_alarm(mqtt_broker: Broker) -> None:
         def sends(uav: int) -> int:
             # (a UAV can be in OFFBOARD on its set-up's own stream before the
             # plan gives it a setpoint: no count yet)
-            stats = service.streamer.stats.get(uav)
+            streamer = service.streamer
+            stats = None if streamer is None else streamer.stats.get(uav)
             return 0 if stats is None else stats.count
 
         held = {s: sends(s) for s in live}
