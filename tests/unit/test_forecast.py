@@ -128,3 +128,43 @@ def test_a_watch_weighs_the_drive_off_course_at_its_weight() -> None:
     plain = Watch(_forecast(model, hedged=False), 40.0, 100.0)
     assert len(plain.times) == len(watch.times) // 2
     assert plain.seconds(plain.sees(Trajectory(0.0, (circle,)))) == KEEP_STEP * len(plain.times)
+
+
+def test_a_standing_convoy_s_pattern_is_laid_between_standing_and_driving_off() -> None:
+    model = _model(ROUTE, 200.0, 8.0)
+    model.observe(ConvoyEstimate(0.0, 280.0, 0.0, 0.0, 0.0))  # stopped, 320 m short of the corner
+    blend = Hedge(SHARP, 5.0, 1.5, 1.0, 0.5, drive_off_blend=0.5)
+    forecast = Forecast(PatternClock(0.0, 0.0, 0.0), model, 0.0, 120.0, 183.0, 18.0, hedge=blend)
+    assert forecast.other is not None
+    ox, oy = forecast.other
+    # The convoy as forecast stands; the pattern's centre is halfway to it driving off.
+    assert np.ptp(forecast.cy) == 0.0
+    assert np.allclose(forecast.py, 0.5 * (forecast.cy + oy))
+    assert np.allclose(forecast.px, 0.5 * (forecast.cx + ox))
+    # Every meeting is at the centre; one within ~30 s sees the convoy either way.
+    near = 0
+    for offset in np.linspace(0.0, 1.0, 6, endpoint=False):
+        pattern = forecast.pattern(float(offset))
+        for tm in forecast.meetings(float(offset), 3.0):
+            ux, uy = (float(a[0]) for a in pattern(np.array([tm])))
+            cx, cy = (float(a[0]) for a in forecast.centre(np.array([tm])))
+            assert np.hypot(ux - cx, uy - cy) < 1.0
+            if tm <= 28.0:
+                near += 1
+                k = round(tm / 0.5)
+                assert np.hypot(ux - forecast.cx[k], uy - forecast.cy[k]) <= 100.0
+                assert np.hypot(ux - ox[k], uy - oy[k]) <= 100.0
+    assert near >= 2
+    # Unblended (and the watch either way): the standing convoy.
+    plain = Forecast(PatternClock(0.0, 0.0, 0.0), model, 0.0, 120.0, 183.0, 18.0, hedge=HEDGE)
+    assert np.array_equal(plain.px, plain.cx) and np.array_equal(plain.py, plain.cy)
+    assert np.array_equal(Watch(forecast, 40.0, 100.0).cy, Watch(plain, 40.0, 100.0).cy)
+
+
+def test_a_driving_convoy_s_pattern_is_laid_round_it_as_forecast() -> None:
+    blend = Hedge(SHARP, 5.0, 1.5, 1.0, 0.5, drive_off_blend=0.5)
+    near = Forecast(
+        PatternClock(0.0, 0.0, 8.0), _model(ROUTE, 500.0, 8.0), 0.0, 120.0, 183.0, 18.0, hedge=blend
+    )
+    assert near.other is not None  # (it may stop short of the corner: not blended)
+    assert np.array_equal(near.px, near.cx) and np.array_equal(near.py, near.cy)

@@ -49,6 +49,11 @@ class RoadMotion:
     on_route: bool | None  # None: no route was given
 
 
+def _since(times: npt.NDArray[np.float64], est: ConvoyEstimate) -> FloatArray:
+    """Seconds from the estimate to each of ``times`` (none before it)."""
+    return np.maximum(times - est.t, 0.0)
+
+
 class ConvoyModel:
     """The convoy's predicted path from its estimates and, if known, its route.
 
@@ -141,7 +146,7 @@ class ConvoyModel:
         est = self._est
         if est is None:
             return np.zeros(len(times)), np.zeros(len(times))
-        dt = np.maximum(times - est.t, 0.0)
+        dt = _since(times, est)
         if self.route is None or self.left_route:
             return est.east + est.ve * dt, est.north + est.vn * dt
         x, y, _, _ = self.route.arrays(self._s + self._along * dt)
@@ -159,7 +164,7 @@ class ConvoyModel:
         route = self.route
         if est is None or route is None or self.left_route or self._along < _MOVING_MPS:
             return None
-        dt = np.maximum(times - est.t, 0.0)
+        dt = _since(times, est)
         s = self._s + self._along * dt
         ahead = np.arange(self._s, float(s[-1]) + short_m, _CORNER_STEP_M)
         _, _, _, k = route.arrays(ahead)
@@ -198,7 +203,7 @@ class ConvoyModel:
             return None
         if self._along >= below_mps:
             return None
-        dt = np.maximum(times - est.t, 0.0)
+        dt = _since(times, est)
         ramp = cruise / accel  # s to cruise
         gone = np.where(dt < ramp, 0.5 * accel * dt**2, 0.5 * cruise * ramp + cruise * (dt - ramp))
         x, y, _, _ = route.arrays(self._s + gone)

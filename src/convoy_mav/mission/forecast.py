@@ -14,7 +14,16 @@ Design rules:
   ``ConvoyModel.stopping_short``); standing, it may drive off along the
   route (``ConvoyModel.driving_off``). A path is worth the seconds it sees
   of the first, plus those of the other at the other's weight. The pattern
-  and the legs follow the first: a hedge in the choices, not in the plan.
+  and the legs follow the first: a hedge in the choices ...
+- ... and, for a standing convoy, in the plan too: the pattern is laid
+  round a point ``drive_off_blend`` of the way from the convoy standing to
+  it driving off now (``centre``). At the midpoint a meeting sees the convoy
+  either way while the two lie within 2r of each other: some 30 s of
+  meetings ahead at 8 m/s, more than a re-plan's interval. Laid round the
+  standing convoy alone, every meeting jumps forward when it pulls away, and
+  the legs planned for them are late together (urban grids with a route,
+  eleven seeds: 93.4 -> 94.3 % in simulation). Driving, the stop short of a
+  corner is not blended: it cost as much on the grids as it gained.
 - Pure: values in, arrays out.
 """
 
@@ -50,7 +59,9 @@ class Hedge:
         drive_off_below_mps: Slower than this along the route, the convoy may drive off
             (0: never) ...
         drive_off_accel: ... at this acceleration, m/s^2, up to its last driving speed;
-        drive_off_weight: ... a second of it is worth this many of the forecast's.
+        drive_off_weight: ... a second of it is worth this many of the forecast's;
+        drive_off_blend: ... the pattern is laid this fraction of the way from the
+            convoy standing to it driving off (0: round the standing convoy).
     """
 
     corner_curvature: float
@@ -58,10 +69,15 @@ class Hedge:
     drive_off_below_mps: float
     drive_off_accel: float
     drive_off_weight: float
+    drive_off_blend: float = 0.0
 
 
 class Forecast:
-    """The pattern's clock and the convoy's path over a horizon, on a grid (interpolated)."""
+    """The pattern's clock and the convoy's path over a horizon, on a grid (interpolated).
+
+    ``cx``, ``cy``: the convoy as forecast; ``px``, ``py``: the centre the pattern
+    is laid round (the same unless a standing convoy's drive-off is blended in).
+    """
 
     def __init__(
         self,
@@ -80,10 +96,11 @@ class Forecast:
         # The other course a Watch weighs paths on, and what a second of it is worth.
         self.other: tuple[FloatArray, FloatArray] | None = None
         self.other_weight = 1.0
+        self.px, self.py = self.cx, self.cy
         if hedge is not None:
             self._hedge(model, hedge)
-        vx = np.gradient(self.cx, FORECAST_STEP)
-        vy = np.gradient(self.cy, FORECAST_STEP)
+        vx = np.gradient(self.px, FORECAST_STEP)
+        vy = np.gradient(self.py, FORECAST_STEP)
         phase, course, beta = clock.forecast(self.t.tolist(), vx.tolist(), vy.tolist(), radius, V)
         self.phase = np.array(phase)
         self.course = np.unwrap(np.array(course))
@@ -95,6 +112,9 @@ class Forecast:
             off = model.driving_off(self.t, hedge.drive_off_below_mps, hedge.drive_off_accel)
             if off is not None:
                 self.other, self.other_weight = off, hedge.drive_off_weight
+                f = hedge.drive_off_blend
+                self.px = (1.0 - f) * self.cx + f * off[0]
+                self.py = (1.0 - f) * self.cy + f * off[1]
                 return
         if hedge.corner_curvature > 0.0:
             self.other = model.stopping_short(self.t, hedge.corner_curvature, hedge.corner_short_m)
@@ -104,7 +124,7 @@ class Forecast:
 
         def where(times: FloatArray) -> tuple[FloatArray, FloatArray]:
             t = self.t
-            cx, cy = self.convoy(times)
+            cx, cy = self.centre(times)
             ph = np.interp(times, t, self.phase) + offset
             co = np.interp(times, t, self.course)
             be = np.interp(times, t, self.beta)
@@ -114,9 +134,10 @@ class Forecast:
 
         return where
 
-    def convoy(self, times: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """Where the convoy is forecast at given times (vectorised, a ``Where``)."""
-        return np.interp(times, self.t, self.cx), np.interp(times, self.t, self.cy)
+    def centre(self, times: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Where the pattern is laid round at given times (vectorised, a ``Where``): the
+        convoy as forecast, or a standing one's blend with its driving off."""
+        return np.interp(times, self.t, self.px), np.interp(times, self.t, self.py)
 
     def meetings(self, offset: float, after: float) -> list[float]:
         """Times after ``after`` at which ``phase + offset`` crosses a whole number."""

@@ -28,7 +28,10 @@ Design rules:
   weighed against the convoy stopped short of the next sharp corner too (a
   junction it may stand at), and, while it stands, against it driving off
   along the route (``Hedge``, ``Watch``): the route says where the road
-  turns, not when the convoy stops or goes.
+  turns, not when the convoy stops or goes. While it stands, the pattern
+  (and a fill's leg to the convoy) is laid round the midpoint of it standing
+  and it driving off (``Forecast.centre``), so the next meetings see it
+  either way.
 - A joining UAV takes a free slot and flies legs from where it is; it is
   ``protect`` from its first meeting on time, within r of the pattern on its
   way there on average (its sensor disk over its slot's). Half of r held a
@@ -127,7 +130,9 @@ class RoadSettings:
         drive_off_below_mps: With a route, a convoy slower than this along it is also
             weighed driving off along it (0: never) ...
         drive_off_accel: ... at this acceleration, m/s^2, up to its last driving speed;
-        drive_off_weight: ... a second of it worth this many of the forecast's (0: never).
+        drive_off_weight: ... a second of it worth this many of the forecast's (0: never);
+        drive_off_blend: ... and the pattern laid this fraction of the way from it
+            standing to it driving off (``Forecast.centre``; 0: round it standing).
     """
 
     speed_band: tuple[float, float] = (0.85, 1.15)
@@ -149,6 +154,19 @@ class RoadSettings:
     drive_off_below_mps: float = 1.5
     drive_off_accel: float = 1.0
     drive_off_weight: float = 0.5
+    drive_off_blend: float = 0.5
+
+    @property
+    def hedge(self) -> Hedge:
+        """The other course a re-plan's choices are weighed on, with a route."""
+        return Hedge(
+            self.corner_curvature,
+            self.corner_short_m,
+            self.drive_off_below_mps,
+            self.drive_off_accel,
+            self.drive_off_weight,
+            self.drive_off_blend,
+        )
 
 
 @dataclass(frozen=True, slots=True)
@@ -186,6 +204,7 @@ class RoadMission(Roster):
         super().__init__(uav_ids)
         self.request = request
         self.settings = settings or RoadSettings()
+        self._hedge = self.settings.hedge
         self.model = ConvoyModel(route)
         self._down = down
         self._slots: dict[int, int] = {}  # uav -> slot index in 0..N-1
@@ -510,14 +529,6 @@ class RoadMission(Roster):
         """The forecast from ``t``; ``hedged``: with the other course the route leaves open
         too, for a ``Watch`` (``Hedge``)."""
         assert self._clock is not None
-        s = self.settings
-        hedge = Hedge(
-            s.corner_curvature,
-            s.corner_short_m,
-            s.drive_off_below_mps,
-            s.drive_off_accel,
-            s.drive_off_weight,
-        )
         return Forecast(
             self._clock,
             self.model,
@@ -525,7 +536,7 @@ class RoadMission(Roster):
             horizon,
             self.pattern_radius,
             self.request.uav_speed,
-            hedge=hedge if hedged else None,
+            hedge=self._hedge if hedged else None,
         )
 
     def _limits(self) -> LegLimits:
@@ -716,16 +727,17 @@ class RoadMission(Roster):
         others: npt.NDArray[np.bool_],
         limits: LegLimits,
     ) -> list[Leg]:
-        """The first legs a fill may take: to the forecast convoy (met on time, before
-        the last hole, and seeing more of it than the ``mine_alone`` seconds ``mine``
-        sees that no other UAV does), and the detour that sees the holes longest."""
+        """The first legs a fill may take: to the forecast convoy (the pattern's centre;
+        met on time, before the last hole, and seeing more of it than the
+        ``mine_alone`` seconds ``mine`` sees that no other UAV does), and the detour
+        that sees the holes longest."""
         settings = self.settings
         reach = 2.0 * watch.r / self.request.uav_speed
         starts: list[Leg] = []
         to_convoy = plan_leg(
             pose,
             t,
-            forecast.convoy,
+            forecast.centre,
             t + settings.min_lead_s,
             replace(limits, late_max_s=max(last_hole + reach - t - settings.min_lead_s, 0.0)),
             heading_weight=settings.join_heading_weight,
