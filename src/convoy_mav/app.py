@@ -977,12 +977,12 @@ class ConvoyService:
         await self.clock.wait_synced()
         t = self.clock.now()
         next_progress = next_publish = t
-        last = t
+        last, breaks = t, self.clock.breaks
         while True:
             t = self.clock.now()
-            if t - last > _STALL_TICKS * self._control_dt:  # the loop was held up
-                self._stalled_s += t - last - self._control_dt
-            last = t
+            if t - last > _STALL_TICKS * self._control_dt and self.clock.breaks == breaks:
+                self._stalled_s += t - last - self._control_dt  # the loop was held up
+            last, breaks = t, self.clock.breaks
             await self._control_step(t)
             if t >= next_publish:
                 next_publish = t + self._publish_every

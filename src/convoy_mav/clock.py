@@ -46,6 +46,12 @@ Design rules:
       guess (a mission's end, a command's time-out) would be off by the whole
       silence once the clocks are heard again. So a paused fleet costs a step back
       of at most ``silence_cap``, and a radio dropout a step forward.
+      That step forward is no lateness of the service's, and is counted in
+      ``silences`` when the service's loop saw the clock stand (it asked for
+      ``now()`` within ``_SILENCE_SEEN`` wall seconds before the fleet was heard
+      again). A loop held up by its host asks nothing meanwhile and then reads
+      the packets that queued as if the fleet had just spoken: that is not
+      counted, and the mission time it lost shows as the service's own.
     * The autopilot's clock may *step*: a simulator that cannot keep up pauses
       (PX4 lockstep SITL, ``sitl_mock`` slipping its clock when its host stalls),
       and then runs on from where it was. Late packets look the same one at a
@@ -117,6 +123,9 @@ _GUESS_SLEEP_CHUNK = 0.01
 _AHEAD_SLACK_S = 2.0
 """Mission s a stamp may run ahead of its clock's bound (``time_boot_ms`` rounding, resets)."""
 _AHEAD_SLACK_WALL = 0.5
+# Wall s: the fleet heard again this soon after the loop saw the clock stand was silent
+# (a loop that asks every _MAX_SLEEP_CHUNK saw it; a stalled one did not ask).
+_SILENCE_SEEN = 1.0
 """Wall s of arrival jitter, times the rate, a stamp may run ahead (late packet, prompt one)."""
 
 
@@ -198,6 +207,9 @@ class MissionClock:
         steps: Steps of the reference's clock followed (a simulator pausing),
             resyncs after a fleet-wide silence included.
         resyncs: Times mission time was taken anew after every vehicle was silent.
+        silences: Times the fleet was heard again after ``now()`` had stood at
+            ``silence_cap`` (mission time then runs on from the line, a step
+            forward that ``steps`` does not count), resyncs included.
         rejected: Stamps rejected for running ahead of their clock, all vehicles.
         jumps: Vehicle clocks re-anchored after a confirmed jump ahead.
     """
@@ -239,11 +251,13 @@ class MissionClock:
         self._heard_wall = -math.inf  # wall time any vehicle was last heard
         self._resync_due = False  # every vehicle was silent: the next one heard resyncs
         self._silence_wall = -math.inf  # when that silence began
+        self._stood_wall = -math.inf  # wall time ``now()`` last found the clock standing
         self._synced = asyncio.Event()
         self.reboots = 0
         self.handovers = 0
         self.steps = 0
         self.resyncs = 0
+        self.silences = 0
         self.rejected = 0
         self.jumps = 0
 
@@ -270,13 +284,23 @@ class MissionClock:
         self._refit()
         return self._rate_trusted
 
+    @property
+    def breaks(self) -> int:
+        """Steps followed and silences heard out so far: mission time that passed across
+        one of them, between two readings, is no lateness of the service's."""
+        return self.steps + self.silences
+
     def now(self) -> float:
         """Mission seconds now (0.0 before any vehicle was heard)."""
         if self._ref is None:
             return 0.0
         self._refit()
-        t = self._m_a + self._rate * (min(self._wall(), self._heard_wall) - self._w_a)
-        t += min(self._rate * max(self._wall() - self._heard_wall, 0.0), self._silence_cap)
+        wall = self._wall()
+        t = self._m_a + self._rate * (min(wall, self._heard_wall) - self._w_a)
+        silent = self._rate * max(wall - self._heard_wall, 0.0)
+        if silent >= self._silence_cap:
+            self._stood_wall = wall
+        t += min(silent, self._silence_cap)
         if t < self._last_now:
             return self._last_now
         self._last_now = t
@@ -321,6 +345,8 @@ class MissionClock:
         if self._rate * (wall - self._heard_wall) > self._handover_after and self._ref is not None:
             self._resync_due = True
             self._silence_wall = self._heard_wall
+        if self._stood_wall > self._heard_wall and wall - self._stood_wall <= _SILENCE_SEEN:
+            self.silences += 1  # (the loop saw the clock stand: the fleet was silent)
         self._heard_wall = wall
         rebooted = Observed.ACCEPTED
         if track is None:

@@ -227,7 +227,7 @@ class SetpointStreamer:
         self.errors = 0
         self.widest_gap_s = 0.0
         self._recent_gap_s = 0.0  # widest since ``take_widest_gap``
-        self._last_round: tuple[float, int] | None = None  # (mission t, clock steps then)
+        self._last_round: tuple[float, int] | None = None  # (mission t, clock breaks then)
         self.stats: dict[int, SendStats] = {}
 
     async def run(self) -> None:
@@ -254,15 +254,15 @@ class SetpointStreamer:
                 self.missed += late
                 k += late
             self.ticks += 1
-            self._gap_to(clock.now(), clock.steps)
+            self._gap_to(clock.now(), clock.breaks)
             k = await self._round(k) + 1
 
-    def _gap_to(self, t: float, steps: int) -> None:
+    def _gap_to(self, t: float, breaks: int) -> None:
         """Count the gap from the last round to one at mission time ``t``, unless the
-        mission clock stepped between them (``steps``: a simulator that paused, a fleet
-        heard again after a silence), which is no lateness of ours."""
-        last, self._last_round = self._last_round, (t, steps)
-        if last is not None and last[1] == steps and t > last[0]:
+        mission clock stepped or stood between them (``MissionClock.breaks``: a simulator
+        that paused, a fleet heard again after a silence), which is no lateness of ours."""
+        last, self._last_round = self._last_round, (t, breaks)
+        if last is not None and last[1] == breaks and t > last[0]:
             gap = t - last[0]
             self.widest_gap_s = max(self.widest_gap_s, gap)
             self._recent_gap_s = max(self._recent_gap_s, gap)

@@ -272,10 +272,13 @@ async def test_a_stall_shows_as_the_widest_gap_between_rounds_until_taken() -> N
     assert streamer.widest_gap_s == pytest.approx(stalled)
 
 
-async def test_a_fleet_heard_again_after_a_silence_is_no_late_round() -> None:
-    """A radio dropout: neither autopilot is heard for 16 mission s; the mission clock
-    runs on for its ``silence_cap`` (10 s), waits, and is taken anew (a step) from the
-    first one heard again. The rounds it could not time are not the host's lateness."""
+@pytest.mark.parametrize("first", [2, 1])
+async def test_a_fleet_heard_again_after_a_silence_is_no_late_round(first: int) -> None:
+    """A radio dropout: neither autopilot is heard for 16-17 mission s; the mission clock
+    runs on for its ``silence_cap`` (10 s) and waits. Heard again, it is taken anew (a
+    step) from the other autopilot, or runs on from its line with the one it timed
+    (1, no step: a silence, since the loop watched it stand). The rounds it could not
+    time are not the host's lateness."""
     vehicle = FakeVehicle(1)
     clock = MissionClock(silence_cap=10.0)
     speedup = 20.0
@@ -295,10 +298,12 @@ async def test_a_fleet_heard_again_after_a_silence_is_no_late_round() -> None:
         async with streaming(streamer):
             await asyncio.sleep(0.2)
             begin = time.monotonic()
-            silent[1][:] = [begin, begin + 0.85]  # 17 mission s unheard (the reference)
-            silent[2][:] = [begin, begin + 0.8]  # 16: the other is heard first
+            last = 3 - first
+            silent[first][:] = [begin, begin + 0.8]  # 16 mission s unheard: heard first
+            silent[last][:] = [begin, begin + 0.85]  # 17
             await asyncio.sleep(1.2)
-    assert clock.resyncs == 1
+    assert clock.resyncs == (first != 1)  # (1 is the reference)
+    assert clock.silences == 1
     times = [sp.t for _, sp in vehicle.sent]
     assert max(b - a for a, b in itertools.pairwise(times)) > 4.0  # mission time stepped on
     assert streamer.widest_gap_s < 0.5

@@ -417,6 +417,34 @@ def test_mission_time_waits_out_a_silence_past_its_cap() -> None:
     assert clock.now() == pytest.approx(aps[1].mission(), abs=0.2)
 
 
+@pytest.mark.parametrize("watched", [True, False])
+def test_a_silence_is_told_from_a_stalled_loop_by_whether_the_loop_saw_the_clock_stand(
+    watched: bool,
+) -> None:
+    """A radio dropout of 30 mission s, the reference heard first again: mission time,
+    held at the cap, runs on from the line (no step). With the loop asking for the time
+    meanwhile it saw the clock stand: a silence. A loop held up as long asked nothing,
+    and then read what queued as if the fleet had just spoken: no silence, its own
+    lateness."""
+    wall = FakeWall()
+    clock = MissionClock(wall, rate_hint=20.0, silence_cap=10.0)
+    aps = {i: Autopilot(wall, 20.0, boot_offset=10.0 * i) for i in (1, 2)}
+    feed(clock, wall, aps, 2.0)
+    for _ in range(6):  # 1.5 wall s = 30 mission s, asked every quarter second or not
+        wall.value += 0.25
+        if watched:
+            clock.now()
+    feed(clock, wall, {1: aps[1]}, 0.1)
+    feed(clock, wall, aps, 0.5)
+    assert clock.now() == pytest.approx(aps[1].mission(), abs=0.2)
+    assert (clock.silences, clock.steps, clock.resyncs) == (int(watched), 0, 0)
+    # The next short pause (under the cap) is no silence either way.
+    wall.value += 0.2
+    clock.now()
+    feed(clock, wall, aps, 0.5)
+    assert clock.silences == int(watched)
+
+
 @pytest.mark.parametrize("speedup", [1.0, 40.0])
 @pytest.mark.parametrize("sysid", [1, 2])  # the reference, and another vehicle
 def test_a_stamp_far_ahead_is_rejected_and_moves_nothing(speedup: float, sysid: int) -> None:
