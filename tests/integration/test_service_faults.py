@@ -105,6 +105,57 @@ async def test_a_fleet_wide_pause_is_followed_and_everyone_rejoins(
     assert after.fraction >= 0.99
 
 
+async def test_a_radio_dropout_is_no_stall_of_the_service() -> None:
+    """The ground radio drops every link for 30 mission s while the simulation runs on,
+    then the reference autopilot is heard first: mission time, held at the clock's
+    ``silence_cap``, runs on from its line (no step). The 20 s it moves on at once were
+    the radio's, not a stall of the service's loop (which watched the clock stand
+    meanwhile): counted as a silence, neither in ``host_stalled_s`` (20.1 s before)
+    nor as a late setpoint round."""
+    scenario = SCENARIOS["stationary"]
+    marks: dict[str, float] = {}
+    errors: list[float] = []
+
+    async def script(fleet: MockFleet, service: ConvoyService) -> None:
+        await _protecting(fleet, service)
+        clock = service.clock
+        reference = clock.reference
+        assert reference is not None
+        links = [fleet.link(e.sysid) for e in fleet.endpoints]
+        streamer = service.streamer
+        assert streamer is not None
+        # (the service takes the recent widest gap itself: the run's widest is ours)
+        stalled, widest = service._stalled_s, streamer.widest_gap_s
+        for link in links:
+            link.muted = True
+        marks["muted"] = fleet.now
+        await fleet.wait_until(fleet.now + 30.0)
+        fleet.link(reference).muted = False
+        await asyncio.sleep(0.1)
+        for link in links:
+            link.muted = False
+        marks["unmuted"] = fleet.now
+        await fleet.wait_until(fleet.now + 5.0)
+        marks["stalled"] = service._stalled_s - stalled
+        marks["widest_before"], marks["widest"] = widest, streamer.widest_gap_s
+        while fleet.now < DURATION - 10.0:
+            await asyncio.sleep(0.02)
+            errors.append(clock.now() - fleet.clock.now())
+
+    result = await run_demo(scenario, duration=DURATION, speedup=SPEEDUP, during=script)
+    assert "unmuted" in marks, "the dropout never ended"
+    # (a host this slow may hold the loop up for a second or two of its own meanwhile)
+    assert marks["stalled"] < 5.0 and marks["widest"] <= max(marks["widest_before"], 5.0), marks
+    settled = sorted(abs(e) for e in errors[10:])
+    assert settled and settled[len(settled) // 2] < 0.2  # mission time on the autopilots'
+    report = result.report.to_dict()
+    assert any("every UAV silent at once" in e for e in report["events"])
+    print(
+        f"\nradio dropout of {marks['unmuted'] - marks['muted']:.0f} mission s: stall counted "
+        f"{marks['stalled']:.2f} s, widest round gap {marks['widest']:.2f} s"
+    )
+
+
 async def test_a_killed_and_restarted_uav_rejoins_and_the_rest_rephase_back() -> None:
     scenario = SCENARIOS["stationary"]
     marks: dict[str, float] = {}
