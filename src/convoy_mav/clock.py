@@ -123,10 +123,10 @@ _GUESS_SLEEP_CHUNK = 0.01
 _AHEAD_SLACK_S = 2.0
 """Mission s a stamp may run ahead of its clock's bound (``time_boot_ms`` rounding, resets)."""
 _AHEAD_SLACK_WALL = 0.5
-# Wall s: the fleet heard again this soon after the loop saw the clock stand was silent
-# (a loop that asks every _MAX_SLEEP_CHUNK saw it; a stalled one did not ask).
-_SILENCE_SEEN = 1.0
 """Wall s of arrival jitter, times the rate, a stamp may run ahead (late packet, prompt one)."""
+_SILENCE_SEEN = 1.0
+"""Wall s: the fleet heard again this soon after the loop saw the clock stand was silent
+(a loop that asks every ``_MAX_SLEEP_CHUNK`` saw it; a stalled one did not ask)."""
 
 
 class Observed(IntEnum):
