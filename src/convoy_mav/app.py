@@ -975,14 +975,14 @@ class ConvoyService:
 
     async def _control(self) -> None:
         await self.clock.wait_synced()
-        t = self.clock.now()
-        next_progress = next_publish = t
-        last, breaks = t, self.clock.breaks
+        last = self.clock.reading()
+        next_progress = next_publish = last.t
         while True:
-            t = self.clock.now()
-            if t - last > _STALL_TICKS * self._control_dt and self.clock.breaks == breaks:
-                self._stalled_s += t - last - self._control_dt  # the loop was held up
-            last, breaks = t, self.clock.breaks
+            now = self.clock.reading()
+            t, held = now.t, now.since(last)
+            if held > _STALL_TICKS * self._control_dt:
+                self._stalled_s += held - self._control_dt  # the loop was held up
+            last = now
             await self._control_step(t)
             if t >= next_publish:
                 next_publish = t + self._publish_every

@@ -87,7 +87,7 @@ from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 from enum import IntEnum
 
-__all__ = ["MissionClock", "Observed"]
+__all__ = ["MissionClock", "Observed", "Reading"]
 
 _REBOOT_JUMP = 1.0
 """s: a ``time_boot_ms`` this much behind the last one is a reboot, not reordering."""
@@ -135,6 +135,22 @@ class Observed(IntEnum):
     ACCEPTED = 0
     REBOOTED = 1  # confirmed a reboot: the vehicle's clock restarted
     REJECTED = 2  # ahead of anything its clock can have run: drop the frame
+
+
+@dataclass(frozen=True, slots=True)
+class Reading:
+    """Mission time read off the clock, with its ``breaks`` count then."""
+
+    t: float
+    breaks: int
+
+    def since(self, before: Reading | None) -> float:
+        """Mission seconds from ``before`` to this reading that were the reader's own:
+        none across a break (a step followed, a silence heard out: the clock moved,
+        not the reader), nor with no reading before."""
+        if before is None or before.breaks != self.breaks:
+            return 0.0
+        return max(self.t - before.t, 0.0)
 
 
 @dataclass(frozen=True, slots=True)
@@ -289,6 +305,11 @@ class MissionClock:
         """Steps followed and silences heard out so far: mission time that passed across
         one of them, between two readings, is no lateness of the service's."""
         return self.steps + self.silences
+
+    def reading(self) -> Reading:
+        """Mission time now, with the breaks so far (``Reading.since``)."""
+        t = self.now()
+        return Reading(t, self.breaks)
 
     def now(self) -> float:
         """Mission seconds now (0.0 before any vehicle was heard)."""

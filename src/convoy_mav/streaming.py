@@ -46,7 +46,7 @@ from array import array
 from collections.abc import Callable, Iterable
 from typing import Protocol
 
-from convoy_mav.clock import MissionClock
+from convoy_mav.clock import MissionClock, Reading
 from convoy_mav.types import Setpoint, VehicleStatus
 
 __all__ = [
@@ -227,7 +227,7 @@ class SetpointStreamer:
         self.errors = 0
         self.widest_gap_s = 0.0
         self._recent_gap_s = 0.0  # widest since ``take_widest_gap``
-        self._last_round: tuple[float, int] | None = None  # (mission t, clock breaks then)
+        self._last_round: Reading | None = None
         self.stats: dict[int, SendStats] = {}
 
     async def run(self) -> None:
@@ -254,16 +254,16 @@ class SetpointStreamer:
                 self.missed += late
                 k += late
             self.ticks += 1
-            self._gap_to(clock.now(), clock.breaks)
+            self._gap_to(clock.reading())
             k = await self._round(k) + 1
 
-    def _gap_to(self, t: float, breaks: int) -> None:
-        """Count the gap from the last round to one at mission time ``t``, unless the
-        mission clock stepped or stood between them (``MissionClock.breaks``: a simulator
-        that paused, a fleet heard again after a silence), which is no lateness of ours."""
-        last, self._last_round = self._last_round, (t, breaks)
-        if last is not None and last[1] == breaks and t > last[0]:
-            gap = t - last[0]
+    def _gap_to(self, now: Reading) -> None:
+        """Count the gap from the last round to one ``now``, unless the mission clock
+        stepped or stood between them (``Reading.since``: a simulator that paused, a
+        fleet heard again after a silence), which is no lateness of ours."""
+        gap = now.since(self._last_round)
+        self._last_round = now
+        if gap > 0.0:
             self.widest_gap_s = max(self.widest_gap_s, gap)
             self._recent_gap_s = max(self._recent_gap_s, gap)
 

@@ -55,25 +55,20 @@ async def autopilot_clock(speedup: float) -> AsyncIterator[MissionClock]:
             clock.observe(1000.0 * (5.0 + speedup * (time.monotonic() - t0)), 1)
             await asyncio.sleep(0.002)
 
-    task = asyncio.create_task(talk(), name="test.autopilot-clock")
-    try:
-        await clock.wait_synced()
-        await asyncio.sleep(0.1)  # let the rate settle
+    async with talking(clock, talk(), settle=0.1):
         yield clock
-    finally:
-        task.cancel()
-        with contextlib.suppress(asyncio.CancelledError):
-            await task
 
 
 @contextlib.asynccontextmanager
-async def talking(clock: MissionClock, talk: Coroutine[Any, Any, None]) -> AsyncIterator[None]:
+async def talking(
+    clock: MissionClock, talk: Coroutine[Any, Any, None], *, settle: float = 0.3
+) -> AsyncIterator[None]:
     """An autopilot's ``talk`` feeding ``clock`` in the background; synced and its rate
-    settled on entry."""
+    settled (``settle`` wall s) on entry."""
     task = asyncio.create_task(talk, name="test.autopilot")
     try:
         await clock.wait_synced()
-        await asyncio.sleep(0.3)
+        await asyncio.sleep(settle)
         yield
     finally:
         task.cancel()

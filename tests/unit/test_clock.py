@@ -8,7 +8,7 @@ from collections.abc import Mapping
 
 import pytest
 
-from convoy_mav.clock import MissionClock, Observed
+from convoy_mav.clock import MissionClock, Observed, Reading
 
 
 class FakeWall:
@@ -430,6 +430,7 @@ def test_a_silence_is_told_from_a_stalled_loop_by_whether_the_loop_saw_the_clock
     clock = MissionClock(wall, rate_hint=20.0, silence_cap=10.0)
     aps = {i: Autopilot(wall, 20.0, boot_offset=10.0 * i) for i in (1, 2)}
     feed(clock, wall, aps, 2.0)
+    before = clock.reading()
     for _ in range(6):  # 1.5 wall s = 30 mission s, asked every quarter second or not
         wall.value += 0.25
         if watched:
@@ -438,6 +439,11 @@ def test_a_silence_is_told_from_a_stalled_loop_by_whether_the_loop_saw_the_clock
     feed(clock, wall, aps, 0.5)
     assert clock.now() == pytest.approx(aps[1].mission(), abs=0.2)
     assert (clock.silences, clock.steps, clock.resyncs) == (int(watched), 0, 0)
+    # The reader's own time across it: none when the clock stood, all of it when the
+    # reader was what stood.
+    after = clock.reading()
+    assert after.t - before.t > 30.0
+    assert after.since(before) == (0.0 if watched else pytest.approx(after.t - before.t))
     # The next short pause (under the cap) is no silence either way.
     wall.value += 0.2
     clock.now()
@@ -493,3 +499,13 @@ def test_a_clock_that_really_jumped_ahead_is_reanchored_without_a_jump() -> None
     feed(clock, wall, aps, 1.0)
     assert clock.now() == pytest.approx(before + 11.0, abs=0.2)
     assert clock.to_mission(aps[2].boot_ms(), 2) == pytest.approx(clock.now(), abs=0.2)
+
+
+def test_a_reading_counts_time_since_another_only_on_one_unbroken_line() -> None:
+    """``Reading.since``: mission time between two readings is the reader's own only
+    when no step or silence came between them; none before a first reading, and a
+    clock read back (``now()`` re-anchored) is no negative lateness."""
+    assert Reading(12.0, 3).since(Reading(10.0, 3)) == 2.0
+    assert Reading(12.0, 4).since(Reading(10.0, 3)) == 0.0
+    assert Reading(12.0, 3).since(None) == 0.0
+    assert Reading(9.0, 3).since(Reading(10.0, 3)) == 0.0
