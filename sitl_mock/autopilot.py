@@ -36,6 +36,7 @@ from typing import Any, Literal
 from pymavlink.dialects.v20 import common as mavlink
 
 from convoy_mav.geo import GeoPoint, LocalFrame
+from sitl_mock.clock import Speedup
 from sitl_mock.flight import FlightController, Outcome
 from sitl_mock.ground import Route
 from sitl_mock.kinematics import Aircraft, AircraftState, AirframeParams
@@ -176,6 +177,8 @@ class SimVehicle:
         spec: What the vehicle is.
         world: The mock's world frame (all physics is in its NED).
         now: Sim time of boot.
+        speedup: The clock ``SIM_SPEEDUP`` reads and sets (the mock's, shared by its
+            vehicles); None: it reads 1 and cannot be set.
 
     Attributes:
         spec: As given.
@@ -189,8 +192,11 @@ class SimVehicle:
         last_error: The exception of the last failing handler, for debugging.
     """
 
-    def __init__(self, spec: VehicleSpec, world: LocalFrame, now: float) -> None:
+    def __init__(
+        self, spec: VehicleSpec, world: LocalFrame, now: float, speedup: Speedup | None = None
+    ) -> None:
         self.spec = spec
+        self._speedup = speedup
         self.sysid = spec.sysid
         self.compid = spec.compid
         self.world = world
@@ -535,6 +541,7 @@ class SimVehicle:
             Knob.RTL_ALT: fl.rtl_alt,
             Knob.WARMUP: self._warmup,
             Knob.SYSID: float(self.sysid),
+            Knob.SPEEDUP: 1.0 if self._speedup is None else self._speedup.speedup,
         }
         return values[knob]
 
@@ -569,6 +576,10 @@ class SimVehicle:
             fl.rtl_alt = value
         elif knob is Knob.WARMUP:
             self._warmup = value
+        elif knob is Knob.SPEEDUP:
+            if self._speedup is None:
+                raise ValueError("no simulator clock to set the speedup of")
+            self._speedup.set_speedup(value)
 
     # ------------------------------------------------------------------ commands
     def _on_command_long(self, msg: Message, now: float) -> list[Message]:

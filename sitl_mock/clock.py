@@ -5,6 +5,9 @@ can fly minutes of mission in seconds while every vehicle still sees one
 consistent timeline. The wall clock is injected (``time_source``): tests pass a
 hand-cranked :class:`ManualTime` and never sleep.
 
+The speedup can be set anew while it runs (``set_speedup``, the ``SIM_SPEEDUP``
+parameter): sim time goes on from where it is, at the new rate.
+
 When the physics cannot keep up (too many vehicles for one core at a high
 speedup) the server *slips* the clock instead of spiralling: sim time is
 shifted back to where the physics actually is, and the achieved real-time
@@ -16,11 +19,25 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
+from typing import Protocol
 
-__all__ = ["ManualTime", "SimClock", "TimeSource"]
+__all__ = ["ManualTime", "SimClock", "Speedup", "TimeSource"]
 
 TimeSource = Callable[[], float]
 """A monotonic clock in wall seconds (``time.monotonic`` by default)."""
+
+
+class Speedup(Protocol):
+    """What a vehicle's ``SIM_SPEEDUP`` parameter reads and sets: its mock's clock."""
+
+    @property
+    def speedup(self) -> float:
+        """Sim seconds per wall second."""
+        ...
+
+    def set_speedup(self, speedup: float) -> None:
+        """Run at ``speedup`` from now on (ValueError if not finite and > 0)."""
+        ...
 
 
 class ManualTime:
@@ -54,6 +71,7 @@ class SimClock:
         self._source = time_source
         self._wall_start = time_source()
         self._slipped = 0.0
+        self._rebased = 0.0  # sim s that keep sim time continuous across speedup changes
         self.slips = 0
 
     @property
@@ -72,7 +90,18 @@ class SimClock:
 
     def now(self) -> float:
         """Current sim time in seconds."""
-        return self._speedup * self.wall_elapsed() - self._slipped
+        return self._speedup * self.wall_elapsed() + self._rebased - self._slipped
+
+    def set_speedup(self, speedup: float) -> None:
+        """Run at ``speedup`` from now on; sim time goes on from where it is.
+
+        Raises:
+            ValueError: ``speedup`` is not finite and > 0.
+        """
+        if not (math.isfinite(speedup) and speedup > 0.0):
+            raise ValueError(f"speedup must be finite and > 0, got {speedup!r}")
+        self._rebased += (self._speedup - speedup) * self.wall_elapsed()
+        self._speedup = speedup
 
     def wall_until(self, t_sim: float) -> float:
         """Wall seconds until sim time reaches ``t_sim`` (<= 0 if already past)."""

@@ -36,6 +36,7 @@ class Knob(StrEnum):
     TAKEOFF_ALT = "takeoff_alt"  # m above home: default takeoff / climb-out height
     RTL_ALT = "rtl_alt"  # m above home: return altitude
     WARMUP = "warmup"  # s: sensor warm-up after boot (applies at the next boot)
+    SPEEDUP = "speedup"  # sim s per wall s: the whole mock's clock (ArduPilot SITL's too)
     SYSID = "sysid"  # read-only: the MAVLink system id
 
 

@@ -360,6 +360,7 @@ def _common_params(personality: Personality) -> tuple[ParamDef, ...]:
     return (
         ParamDef("SIM_TURN_RAD", Knob.TURN_RADIUS, minimum=1.0),
         ParamDef("SIM_WARMUP_S", Knob.WARMUP),
+        ParamDef("SIM_SPEEDUP", Knob.SPEEDUP, minimum=0.01),  # (ArduPilot SITL's name)
         ParamDef(sysid, Knob.SYSID, read_only=True),
     )
 

@@ -383,7 +383,7 @@ class MockFleet:
         self.world = LocalFrame(config.origin)
         self.faults = FaultInjector(config.faults, rng or random.Random(config.faults.seed))
         self.dt = 1.0 / config.physics_rate
-        self.max_lag = min(0.5, max(0.25, 0.01 * self.clock.speedup))
+        self.max_lag = _max_lag(self.clock.speedup)
         self.history: TruthRecorder | None = None
         self._sinks: list[TruthSink] = []
         if record_truth:
@@ -399,7 +399,7 @@ class MockFleet:
         self._last_lag_warning = -math.inf
         self._frozen = False  # pause(): no physics, nothing sent, sim time stopped
         for spec in config.vehicles:
-            self._links[spec.sysid] = VehicleLink(self, SimVehicle(spec, self.world, 0.0))
+            self._links[spec.sysid] = VehicleLink(self, SimVehicle(spec, self.world, 0.0, self))
         self._endpoints = tuple(
             _endpoint(s, (config.host, config.port_of(s.sysid))) for s in config.vehicles
         )
@@ -410,6 +410,22 @@ class MockFleet:
     def now(self) -> float:
         """Sim time the physics has reached (s); what the vehicles report."""
         return self._k * self.dt
+
+    @property
+    def speedup(self) -> float:
+        """Sim seconds per wall second asked for (``SIM_SPEEDUP``; slips aside)."""
+        return self.clock.speedup
+
+    def set_speedup(self, speedup: float) -> None:
+        """Run every vehicle at ``speedup`` from now on (any vehicle's ``SIM_SPEEDUP``, as
+        a simulator's speed is set in flight); sim time goes on from where it is.
+
+        Raises:
+            ValueError: ``speedup`` is not finite and > 0.
+        """
+        self.clock.set_speedup(speedup)
+        self.max_lag = _max_lag(speedup)
+        log.info("speedup set to %g", speedup)
 
     @property
     def endpoints(self) -> tuple[Endpoint, ...]:
@@ -657,6 +673,11 @@ class MockFleet:
 
 
 _TRAFFIC = {"datagrams_in", "datagrams_out", "messages_in", "messages_out"}
+
+
+def _max_lag(speedup: float) -> float:
+    """Sim s the physics may fall behind its clock before the clock slips."""
+    return min(0.5, max(0.25, 0.01 * speedup))
 
 
 def _endpoint(spec: VehicleSpec, sockname: tuple[str, int]) -> Endpoint:

@@ -15,6 +15,7 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from convoy_mav.geo import GeoPoint, LocalFrame
 from sitl_mock.autopilot import Personality, SimVehicle, TruthRow, VehicleSpec
+from sitl_mock.clock import Speedup
 from sitl_mock.kinematics import AirframeParams
 
 WORLD = LocalFrame(GeoPoint(47.397742, 8.545594, 488.0))
@@ -32,6 +33,7 @@ def make_vehicle(
     sysid: int = 1,
     home_ned: tuple[float, float, float] = (0.0, 0.0, 0.0),
     warmup_s: float = 3.0,
+    speedup: Speedup | None = None,
     **kw: Any,
 ) -> SimVehicle:
     physics = {k: kw.pop(k) for k in list(kw) if k in AirframeParams.__dataclass_fields__}
@@ -44,7 +46,7 @@ def make_vehicle(
         warmup_s=warmup_s,
         **kw,
     )
-    return SimVehicle(spec, WORLD, 0.0)
+    return SimVehicle(spec, WORLD, 0.0, speedup)
 
 
 class Gcs:

@@ -87,6 +87,9 @@ _PLANNER_BEHIND = 1.5  # re-plans this many times rarer than planned: the planne
 _SETPOINTS_LATE_S = 0.5  # mission s between setpoint rounds: half PX4's COM_OF_LOSS_T (1 s)
 _REAL_TIME_ABOVE = 1.5  # a speedup up to this is real time (no speedup to lower)
 _SETPOINTS_CLEAR_S = 60.0  # mission s of on-time rounds before late ones are news again
+_SLOW_LOOK_S = 30.0  # mission s the host is judged over before (and after) a speedup change
+_SLOW_STALLED = 0.1  # ... a loop held up this fraction of them is behind the simulator
+_SLOW_TAKEN = 1.25  # a speedup still above the one asked times this was not taken
 _FINISH_WALL_S = 15.0  # wall s the end-of-mission commands are waited for at most
 _JOINABLE = frozenset({"pending", "protect"})
 """Phases a join starts from: a UAV without a slot, or one far off its slot (``_off_slot``)."""
@@ -150,6 +153,7 @@ class ServiceReport:
     tlog: str | None = None
     safety: dict[str, Any] = field(default_factory=dict)
     refused: str | None = None
+    clock: dict[str, float] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         """The report JSON (keys documented in the README)."""
@@ -182,6 +186,8 @@ class ServiceReport:
             "refused": self.refused,
             # Fence clamps per UAV, separation conflicts (see the README's Safety section).
             "safety": self.safety,
+            # How mission time ran: the autopilots' speedup, their clocks' steps and the like.
+            "mission_clock": self.clock,
             "vehicles": [
                 {
                     "sysid": uav.sysid,
@@ -305,6 +311,11 @@ class ConvoyService:
         self.streamer: SetpointStreamer | None = None  # (while the mission flies)
         self._end_t: float | None = None  # mission time the flight ended
         self._setpoints_late_warned = False
+        # Slowing the simulator (``_check_speedup``): the look begun (mission t, stalled s
+        # then), the speedup asked for, and whether the simulator took no SIM_SPEEDUP.
+        self._slow_look: tuple[float, float] | None = None
+        self._speedup_asked: float | None = None
+        self._speedup_refused = False
         self._fence_clear_until: dict[int, tuple[float, float]] = {}  # (from, to) mission s
         self.history = History(interval=history_interval)
         self.monitor = Monitor(config.sensor_radius_m, step=1.0 / control_rate_hz)
@@ -711,6 +722,51 @@ class ConvoyService:
             )
             self._setpoints_late_t = None
 
+    def _check_speedup(self, t: float) -> None:
+        """Halve a simulator's speedup (``SIM_SPEEDUP`` to every UAV) when the host has
+        fallen behind it, down to ``sim_speedup_floor`` (unset: never).
+
+        A host short of CPU for the speedup flies worse plans, not just later ones:
+        re-plans come rarer, setpoint rounds late, PX4 leaves OFFBOARD (the turning
+        demo at 40x on a slow 2-core host: 63-91 % covered, against 98.6 % at 20x and
+        99.3 % at 10x). Behind is the planner behind, or the control loop held up
+        ``_SLOW_STALLED`` of the last ``_SLOW_LOOK_S`` mission s or more; a change is
+        judged after as long again. A simulator that keeps its speed (PX4 SITL, whose
+        speed is an environment variable) is told about once, and left alone.
+        """
+        floor = self.config.sim_speedup_floor
+        if floor is None or self._speedup_refused:
+            return
+        look = self._slow_look
+        if look is None or t - look[0] < _SLOW_LOOK_S:
+            if look is None:
+                self._slow_look = (t, self._stalled_s)
+            return
+        self._slow_look = (t, self._stalled_s)
+        rate = self.clock.rate
+        asked = self._speedup_asked
+        if asked is not None and rate > _SLOW_TAKEN * asked:
+            self._speedup_refused = True
+            self._note(
+                f"the simulator kept {rate:.3g}x, not the {asked:.3g}x asked: it takes no "
+                "SIM_SPEEDUP; lower its speedup yourself"
+            )
+            return
+        stalled = (self._stalled_s - look[1]) / (t - look[0])
+        if not (self._planner_behind or stalled >= _SLOW_STALLED):
+            return
+        target = max(floor, rate / 2.0)
+        if target * _SLOW_TAKEN > rate:
+            return  # (at the floor)
+        asked_any = [v.request_param("SIM_SPEEDUP", target) for v in self.vehicles.values()]
+        if not any(asked_any):
+            return
+        self._speedup_asked = target
+        why = "the planner behind" if self._planner_behind else f"loop held up {stalled:.0%}"
+        text = f"simulator slowed from {rate:.3g}x to {target:.3g}x: the host fell behind ({why})"
+        log.warning("%s", text)
+        self._note(text, logged=True)
+
     def _check_links(self, t: float) -> None:
         """Alarm on strangers at a UAV's link: a second peer refused, or frames that
         claim another vehicle's system id (a GCS's own heartbeats are only counted)."""
@@ -993,6 +1049,7 @@ class ConvoyService:
                 self._check_links(t)
                 self._check_planner()
                 self._check_setpoints(t)
+                self._check_speedup(t)
             await self.clock.sleep_until(t + self._control_dt)
 
     async def _control_step(self, t: float) -> None:
@@ -1413,6 +1470,7 @@ class ConvoyService:
             },
             tlog=self._tlog_path,
             refused=self.refused,
+            clock=self._clock_report(),
             safety={
                 "fence": self.fence is not None,
                 "fence_clamps": dict(sorted(self._fence_clamps.items())),
@@ -1430,6 +1488,18 @@ class ConvoyService:
                 else round(streamer.widest_gap_s, 3),
             },
         )
+
+    def _clock_report(self) -> dict[str, float]:
+        c = self.clock
+        return {
+            "speedup": round(c.rate, 2),
+            "steps": c.steps,
+            "rate_changes": c.rate_changes,
+            "silences": c.silences,
+            "resyncs": c.resyncs,
+            "handovers": c.handovers,
+            "reboots": c.reboots,
+        }
 
     def set_route(self, points: Sequence[tuple[float, float]]) -> None:
         """A new route for the convoy, (lat, lon) in order (MQTT ``convoy/route``).

@@ -190,7 +190,11 @@ def _add_mock_flight_options(
         "mock's aircraft are built to match (its [[uav]] and [convoy] are not used)",
     )  # fmt: skip
     parser.add_argument("--speedup", type=float, default=40.0, metavar="X",
-                        help="sim seconds per wall second (default 40)")  # fmt: skip
+                        help="sim seconds per wall second to start at (default 40); "
+                        "halved while the host falls behind it, down to "
+                        f"{DEMO_SPEEDUP_FLOOR:g}")  # fmt: skip
+    parser.add_argument("--fixed-speedup", action="store_true",
+                        help="keep --speedup however far behind the host falls")  # fmt: skip
     parser.add_argument(
         "--uavs", type=int, metavar="N",
         help=f"aircraft, 1..{MAX_MOCK_UAVS} (default: the paper's minimum)",
@@ -512,6 +516,7 @@ async def _cmd_run(args: argparse.Namespace) -> int:
 
 
 MAX_SPEEDUP = 1000.0
+DEMO_SPEEDUP_FLOOR = 5.0  # demo, replay: the speedup is not halved below this
 """Fastest the mock runs: past it a step of its kinematics is longer than a setpoint period."""
 MAX_DURATION_S = 7 * 86_400.0
 """Longest flight a command takes: a week of mission time."""
@@ -630,6 +635,7 @@ async def _fly_mock(args: argparse.Namespace, scenario: Scenario, duration: floa
         route_known=getattr(args, "route_known", False),
         signing_key_file=args.signing_key_file,
         mock_process=True,
+        speedup_floor=None if args.fixed_speedup else DEMO_SPEEDUP_FLOOR,
     )
     report = result.to_dict()
     _summary(report)

@@ -61,6 +61,18 @@ Design rules:
       ``_step_threshold`` in the same direction and agree with each other (a
       congested queue makes delays that vary). The line is then rebuilt from
       those packets at the last measured rate, and ``steps`` counts it.
+    * The autopilot's clock may change its *rate*: a simulator's speedup set
+      anew in flight (ArduPilot SITL's ``SIM_SPEEDUP``, ``sitl_mock``'s too).
+      The sliding fit alone takes its whole window to turn (8 wall s, mission
+      time up to 28 s ahead when 40x became 20x: the new packets are its
+      outliers). So a run of the reference's packets off the line one way,
+      whose residuals do not agree (not a step) but lie on a line of their own
+      in wall time, spread over ``_RATE_SPAN`` wall s and turning the rate by
+      ``_RATE_CHANGE`` of itself or more, is a rate change: the line is rebuilt
+      from those packets at their own slope, ``steps`` counts it (mission time
+      moves back or on by what ran off meanwhile: a few seconds at 40x) and
+      ``rate_changes`` too. A queue filling or draining is as steady for a
+      moment only; it has to hold that long to be taken for one.
     * One vehicle's clock never moves mission time by more than a bounded step.
       Once the rate is measured, a ``time_boot_ms`` further ahead of that
       vehicle's last one than its clock can have run (twice the rate over the
@@ -112,6 +124,12 @@ _STEP_CONFIRM = 8
 """Consecutive packets of the reference off the line that confirm a clock step."""
 _STEP_SPAN = 0.02
 """Wall s those packets must spread over: a backlog read in one go is not a step."""
+_RATE_SPAN = 0.25
+"""Wall s a run off the line must spread over to be taken for a change of rate."""
+_RATE_CHANGE = 0.1
+"""Smallest change of rate, as a fraction of it, taken at once (the fit follows less)."""
+_RUN_KEPT = 256
+"""Packets off the line kept (the newest): a long run is judged on its recent part."""
 _STEP_FLOOR = 0.1
 """Mission s: the smallest step followed (the threshold grows with the rate)."""
 _STEP_WALL = 0.01
@@ -228,6 +246,8 @@ class MissionClock:
             forward that ``steps`` does not count), resyncs included.
         rejected: Stamps rejected for running ahead of their clock, all vehicles.
         jumps: Vehicle clocks re-anchored after a confirmed jump ahead.
+        rate_changes: Changes of the reference clock's rate taken at once (a
+            simulator's speedup set anew), each also a step.
     """
 
     def __init__(
@@ -276,6 +296,7 @@ class MissionClock:
         self.silences = 0
         self.rejected = 0
         self.jumps = 0
+        self.rate_changes = 0
 
     # ------------------------------------------------------------------ queries
     @property
@@ -488,11 +509,15 @@ class MissionClock:
         if run and (residual > 0) != (run[-1][2] > 0):
             run.clear()  # off the other way: a new run starts here
         run.append((wall, unwrapped, residual))
+        if len(run) > _RUN_KEPT:
+            del run[0]
         if len(run) < _STEP_CONFIRM or wall - run[0][0] < _STEP_SPAN:
             return False
         residuals = [r for _, _, r in run[-_STEP_CONFIRM:]]
         if max(residuals) - min(residuals) > 0.5 * threshold:
-            return False  # a queue filling or draining (congestion), not a clock that moved
+            if not self._rate_changed(run, threshold):
+                return False  # a queue filling or draining (congestion), not a clock that moved
+            self.rate_changes += 1
         # Rebuild from the packets on the new timeline; the other vehicles' samples
         # straddle the step too (a simulator pauses them all), so they restart.
         track.walls = deque(w for w, _, _ in run)
@@ -507,6 +532,25 @@ class MissionClock:
         self._last_now = -math.inf
         self._refit(force=True)
         return True
+
+    def _rate_changed(self, run: list[tuple[float, float, float]], threshold: float) -> bool:
+        """Whether a run of packets off the line, in the same direction, whose residuals
+        do not agree, is the clock running at a new rate: spread over ``_RATE_SPAN``
+        wall s, on a line of their own (within half the step threshold) whose slope
+        turns the rate by ``_RATE_CHANGE`` of itself or more, to a rate above zero."""
+        walls = [w for w, _, _ in run]
+        if walls[-1] - walls[0] < _RATE_SPAN:
+            return False
+        residuals = [r for _, _, r in run]
+        a, slope = _fit([w - walls[-1] for w in walls], residuals)
+        if not (math.isfinite(slope) and abs(slope) >= _RATE_CHANGE * self._rate):
+            return False
+        if self._rate + slope <= 0.0:
+            return False
+        worst = max(
+            abs(r - a - slope * (w - walls[-1])) for w, r in zip(walls, residuals, strict=True)
+        )
+        return worst <= 0.5 * threshold
 
     def _resync(self, sysid: int, track: _Track, wall: float, unwrapped: float) -> None:
         """Take mission time anew from ``sysid`` after a fleet-wide silence (see the

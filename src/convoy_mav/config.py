@@ -25,6 +25,10 @@ times <= a day)::
                                   #   legs; "paper": the paper's plans, re-planned on changes;
                                   #   "auto": road when the fleet has the road's count
                                   #   (the stationary minimum + 1), else paper
+    sim_speedup_floor = 5.0       # optional, simulators only: when the host falls behind
+                                  #   the speedup (setpoint rounds late, planner behind),
+                                  #   halve it by SIM_SPEEDUP (ArduPilot SITL, sitl_mock)
+                                  #   down to this; absent: never touch it
 
     [aircraft]                    # defaults for every [[uav]]
     airspeed_mps = 18.0
@@ -236,6 +240,7 @@ class MissionConfig:
     mqtt: MqttConfig | None = None
     tlog: str | None = None
     safety: SafetyConfig = SafetyConfig()
+    sim_speedup_floor: float | None = None
 
     @property
     def planned_uavs(self) -> int | None:
@@ -670,6 +675,7 @@ def parse_config(data: Mapping[str, Any]) -> MissionConfig:
         {
             "sensor_radius_m", "uavs", "origin", "setpoint_rate_hz", "altitude_step_m",
             "setup_timeout_s", "lost_after_s", "altitude_band_m", "end", "planner",
+            "sim_speedup_floor",
         },
     )  # fmt: skip
     aircraft = _aircraft(
@@ -713,6 +719,9 @@ def parse_config(data: Mapping[str, Any]) -> MissionConfig:
         mqtt=_mqtt(data),
         tlog=tlog,
         safety=_safety(data),
+        sim_speedup_floor=None
+        if "sim_speedup_floor" not in mission
+        else _number(mission, "mission", "sim_speedup_floor", None, at_least=0.01, at_most=1000.0),
     )
     speed = cfg.plan_aircraft.airspeed_mps
     if cfg.convoy.speed_mps >= speed:

@@ -314,6 +314,7 @@ async def run_demo(
     signing_key_file: str | None = None,
     faults: dict[str, Any] | None = None,
     mock_process: bool = False,
+    speedup_floor: float | None = None,
 ) -> DemoResult:
     """Start the mock, fly ``duration`` mission seconds, score from ground truth.
 
@@ -340,6 +341,8 @@ async def run_demo(
         mock_process: Run the mock in a process of its own (``MockProcess``): the
             service then has the interpreter to itself, as beside a real
             autopilot. ``during`` needs the mock in-process.
+        speedup_floor: The service halves the mock's speedup (``SIM_SPEEDUP``) when the
+            host falls behind it, down to this (``sim_speedup_floor``); None: never.
     """
     if mock_process and during is not None:
         raise ValueError("a fault script (during) needs the mock in-process")
@@ -371,6 +374,8 @@ async def run_demo(
             cfg = replace(cfg, uav_count=uavs)
         if configure is not None:
             cfg = configure(cfg)
+        if speedup_floor is not None:
+            cfg = replace(cfg, sim_speedup_floor=min(speedup_floor, speedup))
         route = scenario.route() if route_known else None
         service = ConvoyService(cfg, rate_hint=speedup, on_progress=on_progress, route=route)
         if history is not None:

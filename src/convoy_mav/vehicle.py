@@ -611,6 +611,20 @@ class Vehicle:
         elif kind == _M.MAVLINK_MSG_ID_COMMAND_INT and msg.command == _M.MAV_CMD_DO_REPOSITION:
             self.control.sent(self.clock.now(), msg.x, msg.y)
 
+    def request_param(self, name: str, value: float) -> bool:
+        """Send one PARAM_SET of ``name`` (its PARAM_VALUE lands in ``params``); False if
+        the autopilot is not recognised yet."""
+        ap = self.firmware
+        if ap is None:
+            return False
+        self._send(
+            _M.MAVLink_param_set_message(
+                self.sysid, ap.compid, name.encode(), value, _M.MAV_PARAM_TYPE_REAL32
+            )
+        )
+        self.counters["param_set"] += 1
+        return True
+
     def send_setpoint(self, sp: Setpoint) -> None:
         """Fly ``sp`` now (FLYING; also SETTING_UP for autopilots needing a stream).
 

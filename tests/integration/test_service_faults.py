@@ -12,11 +12,14 @@ from __future__ import annotations
 
 import asyncio
 import math
+import time
+from typing import Any
 
 import pytest
 
 from convoy_mav.app import ConvoyService
 from convoy_mav.demo import SCENARIOS, run_demo, score_fleet
+from convoy_mav.mission.road import RoadMission
 from convoy_mav.planning import make_plan
 from sitl_mock import MockFleet
 from tests.hostspeed import host_speedup
@@ -153,6 +156,54 @@ async def test_a_radio_dropout_is_no_stall_of_the_service() -> None:
     print(
         f"\nradio dropout of {marks['unmuted'] - marks['muted']:.0f} mission s: stall counted "
         f"{marks['stalled']:.2f} s, widest round gap {marks['widest']:.2f} s"
+    )
+
+
+async def test_a_planner_behind_the_simulator_slows_it_by_sim_speedup() -> None:
+    """A host short of CPU for the speedup: every re-plan takes 0.25 wall s more (the
+    planner's thread sleeps; the loop and the mock run on). Once each UAV is re-planned
+    less than every 6 mission s instead of 4, the service asks the mock for half the
+    speedup by ``SIM_SPEEDUP`` over MAVLink; the mock's clock takes it and mission time
+    follows at once (a change of rate), not after the fit's whole window."""
+    scenario = SCENARIOS["turning"]
+    marks: dict[str, float] = {}
+    errors: list[float] = []
+
+    async def script(fleet: MockFleet, service: ConvoyService) -> None:
+        await _protecting(fleet, service)
+        mission = service.mission
+        assert isinstance(mission, RoadMission)
+        plan_paths = mission._plan_paths
+
+        def slow(*args: Any, **kwargs: Any) -> None:
+            time.sleep(0.25)
+            plan_paths(*args, **kwargs)
+
+        mission._plan_paths = slow  # type: ignore[method-assign]
+        marks["slowed_planner"] = fleet.now
+        while fleet.speedup == SPEEDUP and fleet.now < DURATION - 60.0:
+            await asyncio.sleep(0.05)
+        marks["asked"] = fleet.now
+        mission._plan_paths = plan_paths  # type: ignore[method-assign]
+        await fleet.wait_until(fleet.now + 20.0)
+        while fleet.now < DURATION - 5.0:
+            await asyncio.sleep(0.02)
+            errors.append(service.clock.now() - fleet.clock.now())
+
+    result = await run_demo(
+        scenario, duration=DURATION, speedup=SPEEDUP, during=script, speedup_floor=SPEEDUP / 2
+    )
+    assert "asked" in marks and marks["asked"] < DURATION - 60.0, marks
+    report = result.report.to_dict()
+    clock = report["mission_clock"]
+    assert clock["speedup"] == pytest.approx(SPEEDUP / 2, rel=0.05)
+    assert clock["rate_changes"] == 1, clock
+    assert any("simulator slowed" in e and "planner behind" in e for e in report["events"])
+    settled = sorted(abs(e) for e in errors)
+    assert settled and settled[len(settled) // 2] < 0.2  # mission time on the mock's
+    print(
+        f"\nplanner slowed at {marks['slowed_planner']:.0f} s, speedup halved at "
+        f"{marks['asked']:.0f} s: {clock}"
     )
 
 

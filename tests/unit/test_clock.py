@@ -273,6 +273,60 @@ def test_a_vehicle_read_late_for_a_while_keeps_its_offset() -> None:
     assert worst < 0.01  # (ms rounding of both stamps)
 
 
+def set_speedup(ap: Autopilot, speedup: float) -> None:
+    """The simulator's speedup set anew now: its clock runs on from where it is."""
+    ap.offset, ap.w0, ap.speedup = ap.mission(), ap.wall.value, speedup
+
+
+@pytest.mark.parametrize(
+    ("before", "after"), [(40.0, 20.0), (40.0, 10.0), (10.0, 40.0), (1.0, 0.5)]
+)
+def test_a_new_speedup_is_followed_within_a_quarter_wall_second(
+    before: float, after: float
+) -> None:
+    """A simulator's speedup set anew in flight (``SIM_SPEEDUP``): mission time is off
+    by what runs off in the ``_RATE_SPAN`` (plus the step threshold's own wait), then
+    on the new line, at the new rate. The fit alone turned in its whole window: 28
+    mission s ahead for 8 wall s when 40x became 20x."""
+    wall = FakeWall()
+    clock = MissionClock(wall)
+    aps = {1: Autopilot(wall, before, boot_offset=5.0), 2: Autopilot(wall, before)}
+    feed(clock, wall, aps, 5.0, jitter=0.002)
+    for ap in aps.values():  # (one simulator clock)
+        set_speedup(ap, after)
+    threshold = max(0.1, 0.01 * before)
+    worst = 0.0
+    for _ in range(20):
+        feed(clock, wall, aps, 0.05, jitter=0.002)
+        worst = max(worst, abs(clock.now() - aps[1].mission()))
+    assert worst < abs(after - before) * 0.3 + threshold + after * 0.1
+    assert (clock.rate_changes, clock.steps) == (1, 1)
+    assert clock.rate == pytest.approx(after, rel=0.01)
+    feed(clock, wall, aps, 2.0, jitter=0.002)
+    assert clock.now() == pytest.approx(aps[1].mission(), abs=max(0.003 * after, 0.002))
+    assert clock.to_mission(aps[2].boot_ms(), 2) == pytest.approx(aps[1].mission(), abs=0.1)
+    assert (clock.rate_changes, clock.steps) == (1, 1)
+
+
+def test_a_queue_filling_for_a_moment_is_no_change_of_rate() -> None:
+    """A loaded host reads the reference later and later, 0.1 wall s behind at worst
+    (4 mission s at 40x), then catches up: its packets drift off the line as steadily
+    as a half-rate clock's would for 0.2 wall s of arrivals, but not for long enough
+    to be taken for one."""
+    wall = FakeWall()
+    clock = MissionClock(wall)
+    ap = Autopilot(wall, 40.0)
+    feed(clock, wall, {1: ap}, 5.0)
+    for i in range(20):  # 0.2 wall s sent at 100 Hz: delays grow 0..0.1 s, then drain
+        sent = wall.value + 0.01
+        wall.value = sent + 0.01 * min(i, 20 - i)
+        clock.observe(ap.boot_ms(sent), 1)
+        wall.value = sent
+    feed(clock, wall, {1: ap}, 1.0)
+    assert (clock.rate_changes, clock.steps) == (0, 0)
+    assert clock.rate == pytest.approx(40.0, rel=1e-3)
+
+
 def test_small_steps_and_jitter_are_not_steps() -> None:
     wall = FakeWall()
     clock = MissionClock(wall)

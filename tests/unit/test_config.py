@@ -104,6 +104,8 @@ def test_service_sections() -> None:
     assert cfg.convoy.vehicles[0].sysid == 10
     assert cfg.mqtt is not None and cfg.mqtt.prefix == "fleet/convoy" and cfg.mqtt.port == 1883
     assert cfg.tlog == "out.tlog"
+    assert cfg.sim_speedup_floor is None  # (a simulator's speedup is left alone)
+    assert parse_config(_with("mission.sim_speedup_floor", 5)).sim_speedup_floor == 5.0
 
 
 def _with(path: str, value: Any) -> dict[str, Any]:
@@ -134,6 +136,8 @@ def _with(path: str, value: Any) -> dict[str, Any]:
         (_with("convoy.source", "radar"), "convoy.source", "must be"),
         (_with("convoy.vehicle.0.sysid", 1), "uav[0].sysid", "convoy vehicle"),
         (_with("uav", {"sysid": 1}), "uav", "array of tables"),
+        (_with("mission.sim_speedup_floor", 0.0), "mission.sim_speedup_floor", ">= 0.01"),
+        (_with("mission.sim_speedup_floor", "fast"), "mission.sim_speedup_floor", "a number"),
     ],
 )
 def test_service_errors_name_the_key(doc: dict[str, Any], key: str, needle: str) -> None:

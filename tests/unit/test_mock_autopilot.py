@@ -352,6 +352,37 @@ def test_param_read_and_set_round_trip_and_apply_to_the_vehicle() -> None:
     assert vehicle.counters["param_unknown"] == 1
 
 
+class FakeSpeedup:
+    """The mock's clock as a vehicle's ``SIM_SPEEDUP`` sees it."""
+
+    def __init__(self) -> None:
+        self.speedup = 40.0
+
+    def set_speedup(self, speedup: float) -> None:
+        if not speedup > 0.0:
+            raise ValueError("speedup must be > 0")
+        self.speedup = speedup
+
+
+@pytest.mark.parametrize("personality", [PX4, AP])
+def test_sim_speedup_reads_and_sets_the_mocks_clock(personality: Personality) -> None:
+    """ArduPilot SITL's ``SIM_SPEEDUP``, on either personality: the whole mock's clock
+    (its vehicles share it); a vehicle with none reads 1 and refuses a new one."""
+    clock = FakeSpeedup()
+    gcs = Gcs(make_vehicle(personality, "plane", speedup=clock))
+    setp = mavlink.MAVLink_param_set_message
+    assert _params(gcs.send(mavlink.MAVLink_param_request_list_message(1, 1)))[
+        "SIM_SPEEDUP"
+    ].param_value == pytest.approx(40.0)
+    (reply,) = gcs.send(setp(1, 1, b"SIM_SPEEDUP", 10.0, mavlink.MAV_PARAM_TYPE_REAL32))
+    assert (reply.param_id, reply.param_value, clock.speedup) == ("SIM_SPEEDUP", 10.0, 10.0)
+    bad = gcs.send(setp(1, 1, b"SIM_SPEEDUP", 0.0, mavlink.MAV_PARAM_TYPE_REAL32))
+    assert _params(bad)["SIM_SPEEDUP"].param_value == 10.0 and texts(bad)
+    alone = Gcs(make_vehicle(personality, "plane"))
+    refused = alone.send(setp(1, 1, b"SIM_SPEEDUP", 10.0, mavlink.MAV_PARAM_TYPE_REAL32))
+    assert _params(refused)["SIM_SPEEDUP"].param_value == 1.0 and texts(refused)
+
+
 # ================================================================ timesync/ping
 def test_timesync_answers_requests_with_time_since_boot() -> None:
     gcs = Gcs(make_vehicle(PX4, "copter"))
