@@ -89,6 +89,7 @@ _REAL_TIME_ABOVE = 1.5  # a speedup up to this is real time (no speedup to lower
 _SETPOINTS_CLEAR_S = 60.0  # mission s of on-time rounds before late ones are news again
 _SLOW_LOOK_S = 30.0  # mission s the host is judged over before (and after) a speedup change
 _SLOW_STALLED = 0.2  # ... a loop held up this fraction of them is behind the simulator
+_SLOW_GAP_S = 1.0  # ... or two setpoint rounds this far apart (PX4's COM_OF_LOSS_T)
 _SLOW_TAKEN = 1.25  # a speedup still above the one asked times this was not taken
 _FINISH_WALL_S = 15.0  # wall s the end-of-mission commands are waited for at most
 _JOINABLE = frozenset({"pending", "protect"})
@@ -316,6 +317,7 @@ class ConvoyService:
         self._slow_look: tuple[float, float] | None = None
         self._speedup_asked: float | None = None
         self._speedup_refused = False
+        self._slow_gap = 0.0  # the widest gap between setpoint rounds since the last look
         self._fence_clear_until: dict[int, tuple[float, float]] = {}  # (from, to) mission s
         self.history = History(interval=history_interval)
         self.monitor = Monitor(config.sensor_radius_m, step=1.0 / control_rate_hz)
@@ -697,6 +699,7 @@ class ConvoyService:
         gap = streamer.take_widest_gap()
         if gap == 0.0:  # no round since the last look (the mission clock stood)
             return
+        self._slow_gap = max(self._slow_gap, gap)
         if gap > _SETPOINTS_LATE_S:
             if self._setpoints_late_t is None:
                 rate = self.clock.rate
@@ -729,10 +732,12 @@ class ConvoyService:
         A host short of CPU for the speedup flies worse plans, not just later ones:
         re-plans come rarer, setpoint rounds late, PX4 leaves OFFBOARD (the turning
         demo at 40x on a slow 2-core host: 63-91 % covered, against 98.6 % at 20x and
-        99.3 % at 10x). Behind is the planner behind, or the control loop held up
-        ``_SLOW_STALLED`` of the last ``_SLOW_LOOK_S`` mission s or more; a change is
-        judged after as long again. A simulator that keeps its speed (PX4 SITL, whose
-        speed is an environment variable) is told about once, and left alone.
+        99.3 % at 10x). Behind is the planner behind, the control loop held up
+        ``_SLOW_STALLED`` of the last ``_SLOW_LOOK_S`` mission s or more, or two setpoint
+        rounds ``_SLOW_GAP_S`` apart in them (PX4's ``COM_OF_LOSS_T``: every UAV left
+        OFFBOARD at once); a change is judged after as long again. A simulator that
+        keeps its speed (PX4 SITL, whose speed is an environment variable) is told
+        about once, and left alone.
         """
         floor = self.config.sim_speedup_floor
         if floor is None or self._speedup_refused:
@@ -753,7 +758,8 @@ class ConvoyService:
             )
             return
         stalled = (self._stalled_s - look[1]) / (t - look[0])
-        if not (self._planner_behind or stalled >= _SLOW_STALLED):
+        gap, self._slow_gap = self._slow_gap, 0.0
+        if not (self._planner_behind or stalled >= _SLOW_STALLED or gap >= _SLOW_GAP_S):
             return
         target = max(floor, rate / 2.0)
         if target * _SLOW_TAKEN > rate:
@@ -762,7 +768,13 @@ class ConvoyService:
         if not any(asked_any):
             return
         self._speedup_asked = target
-        why = "the planner behind" if self._planner_behind else f"loop held up {stalled:.0%}"
+        why = (
+            "the planner behind"
+            if self._planner_behind
+            else f"loop held up {stalled:.0%}"
+            if stalled >= _SLOW_STALLED
+            else f"setpoint rounds {gap:.1f} s apart"
+        )
         text = f"simulator slowed from {rate:.3g}x to {target:.3g}x: the host fell behind ({why})"
         log.warning("%s", text)
         self._note(text, logged=True)

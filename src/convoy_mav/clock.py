@@ -72,7 +72,11 @@ Design rules:
       from those packets at their own slope, ``steps`` counts it (mission time
       moves back or on by what ran off meanwhile: a few seconds at 40x) and
       ``rate_changes`` too. A queue filling or draining is as steady for a
-      moment only; it has to hold that long to be taken for one.
+      moment only; it has to hold that long to be taken for one. On a loaded
+      host the packets' delays scatter more than that line allows, so the
+      simulator's own word is taken first: its PARAM_VALUE of ``SIM_SPEEDUP``,
+      sent when it sets it (``rate_set``), restarts the line at the new rate from
+      the reference's newest packet, at once.
     * One vehicle's clock never moves mission time by more than a bounded step.
       Once the rate is measured, a ``time_boot_ms`` further ahead of that
       vehicle's last one than its clock can have run (twice the rate over the
@@ -551,6 +555,39 @@ class MissionClock:
             abs(r - a - slope * (w - walls[-1])) for w, r in zip(walls, residuals, strict=True)
         )
         return worst <= 0.5 * threshold
+
+    def rate_set(self, rate: float, sysid: int) -> bool:
+        """Vehicle ``sysid`` says its clock runs at ``rate`` from now on (a simulator's
+        PARAM_VALUE of ``SIM_SPEEDUP``): if it is the reference and the rate is new
+        (by ``_RATE_CHANGE``), the line restarts at ``rate`` from its newest packet,
+        as a step (``rate_changes``). True if it did.
+
+        The fit alone would take its window to turn, and the change-of-rate test
+        (``_rate_changed``) waits for a run of packets on a clean line, which a host
+        loaded enough to need a slower simulator does not give: mission time ran on
+        at the old rate for a while (setpoints ahead, the convoy's fixes stale).
+        """
+        track = self._tracks.get(sysid)
+        if (
+            sysid != self._ref
+            or track is None
+            or not (math.isfinite(rate) and rate > 0.0)
+            or abs(rate - self._rate) < _RATE_CHANGE * self._rate
+        ):
+            return False
+        for other in self._tracks.values():
+            other.walls.clear()
+            other.times.clear()
+        track.walls.append(track.last_wall)
+        track.times.append(track.last_unwrapped)
+        track.last_stored = track.last_wall
+        self._step_run.clear()
+        self._measured = rate  # (the fallback until the new packets span the window's minimum)
+        self.rate_changes += 1
+        self.steps += 1
+        self._last_now = -math.inf
+        self._refit(force=True)
+        return True
 
     def _resync(self, sysid: int, track: _Track, wall: float, unwrapped: float) -> None:
         """Take mission time anew from ``sysid`` after a fleet-wide silence (see the

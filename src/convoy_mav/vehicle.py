@@ -538,7 +538,10 @@ class Vehicle:
     def handle_PARAM_VALUE(self, msg: Message, now: float) -> None:
         """Keep every parameter value the autopilot reports (confirms a PARAM_SET)."""
         name = msg.param_id if isinstance(msg.param_id, str) else bytes(msg.param_id).decode()
-        self.params[name.rstrip("\x00")] = float(msg.param_value)
+        name = name.rstrip("\x00")
+        self.params[name] = float(msg.param_value)
+        if name == "SIM_SPEEDUP":  # a simulator says at what rate its clock runs now
+            self.clock.rate_set(float(msg.param_value), self.uid)
 
     def handle_POSITION_TARGET_GLOBAL_INT(self, msg: Message, now: float) -> None:
         """Where the autopilot is going: ours, or another controller's (``contest``)."""

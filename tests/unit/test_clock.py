@@ -308,6 +308,30 @@ def test_a_new_speedup_is_followed_within_a_quarter_wall_second(
     assert (clock.rate_changes, clock.steps) == (1, 1)
 
 
+def test_the_simulators_word_on_its_new_speedup_is_taken_at_once() -> None:
+    """Packets that scatter too much for the change-of-rate test (a loaded host: up to
+    30 ms late, 1.2 mission s at 40x): the reference's PARAM_VALUE of ``SIM_SPEEDUP``
+    restarts the line at the rate it says, and mission time stays on the simulator's
+    within the scatter (without it: 26 s ahead, the rate still 39 after 2 wall s).
+    Another vehicle's word, or the rate in force, changes nothing."""
+    wall = FakeWall()
+    clock = MissionClock(wall)
+    aps = {1: Autopilot(wall, 40.0, boot_offset=5.0), 2: Autopilot(wall, 40.0)}
+    rng = random.Random(3)
+    feed(clock, wall, aps, 5.0, jitter=0.03, rng=rng)
+    assert not clock.rate_set(40.0, 1) and not clock.rate_set(20.0, 2)
+    for ap in aps.values():
+        set_speedup(ap, 20.0)
+    assert clock.rate_set(20.0, 1)
+    worst = 0.0
+    for _ in range(40):
+        feed(clock, wall, aps, 0.05, jitter=0.03, rng=rng)
+        worst = max(worst, abs(clock.now() - aps[1].mission()))
+    assert worst < 1.0
+    assert clock.rate == pytest.approx(20.0, rel=0.02)
+    assert (clock.rate_changes, clock.steps) == (1, 1)
+
+
 def test_a_queue_filling_for_a_moment_is_no_change_of_rate() -> None:
     """A loaded host reads the reference later and later, 0.1 wall s behind at worst
     (4 mission s at 40x), then catches up: its packets drift off the line as steadily
