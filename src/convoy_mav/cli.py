@@ -516,8 +516,9 @@ async def _cmd_run(args: argparse.Namespace) -> int:
 
 
 MAX_SPEEDUP = 1000.0
-DEMO_SPEEDUP_FLOOR = 5.0  # demo, replay: the speedup is not halved below this
 """Fastest the mock runs: past it a step of its kinematics is longer than a setpoint period."""
+DEMO_SPEEDUP_FLOOR = 5.0
+"""demo, replay: the mock's speedup is not halved below this (``sim_speedup_floor``)."""
 MAX_DURATION_S = 7 * 86_400.0
 """Longest flight a command takes: a week of mission time."""
 
