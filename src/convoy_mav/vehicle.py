@@ -986,24 +986,19 @@ class Vehicle:
         Raises:
             _SetupFailed: ``deadline`` passed without a confirmation.
         """
-        ap = self.firmware
-        assert ap is not None
+        assert self.firmware is not None
 
         def confirmed() -> bool:
             held = self.params.get(name)
             return held is not None and abs(held - value) <= _PARAM_TOL
 
-        msg = _M.MAVLink_param_set_message(
-            self.sysid, ap.compid, name.encode(), value, _M.MAV_PARAM_TYPE_REAL32
-        )
         self.params.pop(name, None)
         attempts = 0
         while not confirmed():
             if self.clock.now() >= deadline:
                 raise _SetupFailed(self._gave_up(f"set {name} = {value:g}", attempts, None))
-            self._send(msg)
+            self.request_param(name, value)
             attempts += 1
-            self.counters["param_set"] += 1
             await self._wait_until(lambda: name in self.params, self.command_retry)
             if name in self.params and not confirmed():
                 self._emit(
