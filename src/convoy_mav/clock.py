@@ -524,18 +524,25 @@ class MissionClock:
             self.rate_changes += 1
         # Rebuild from the packets on the new timeline; the other vehicles' samples
         # straddle the step too (a simulator pauses them all), so they restart.
-        track.walls = deque(w for w, _, _ in run)
-        track.times = deque(u for _, u, _ in run)
-        track.last_stored = wall
+        self._restart_line(track, [w for w, _, _ in run], [u for _, u, _ in run], wall)
+        return True
+
+    def _restart_line(
+        self, track: _Track, walls: list[float], times: list[float], wall: float
+    ) -> None:
+        """A step: the line starts anew from these observations of ``track`` (the
+        reference's), at ``wall``; every other stored sample straddles what moved the
+        clock, and is dropped."""
         for other in self._tracks.values():
-            if other is not track:
-                other.walls.clear()
-                other.times.clear()
-        run.clear()
+            other.walls.clear()
+            other.times.clear()
+        track.walls.extend(walls)
+        track.times.extend(times)
+        track.last_stored = wall
+        self._step_run.clear()
         self.steps += 1
         self._last_now = -math.inf
         self._refit(force=True)
-        return True
 
     def _rate_changed(self, run: list[tuple[float, float, float]], threshold: float) -> bool:
         """Whether a run of packets off the line, in the same direction, whose residuals
@@ -575,18 +582,9 @@ class MissionClock:
             or abs(rate - self._rate) < _RATE_CHANGE * self._rate
         ):
             return False
-        for other in self._tracks.values():
-            other.walls.clear()
-            other.times.clear()
-        track.walls.append(track.last_wall)
-        track.times.append(track.last_unwrapped)
-        track.last_stored = track.last_wall
-        self._step_run.clear()
         self._measured = rate  # (the fallback until the new packets span the window's minimum)
         self.rate_changes += 1
-        self.steps += 1
-        self._last_now = -math.inf
-        self._refit(force=True)
+        self._restart_line(track, [track.last_wall], [track.last_unwrapped], track.last_wall)
         return True
 
     def _resync(self, sysid: int, track: _Track, wall: float, unwrapped: float) -> None:
@@ -598,17 +596,9 @@ class MissionClock:
         self._ref = sysid  # (track.offset is the one measured before the silence)
         self.handovers += 1
         for other in self._tracks.values():
-            other.walls.clear()
-            other.times.clear()
             other.offset_wall = -math.inf
-        track.walls.append(wall)
-        track.times.append(unwrapped)
-        track.last_stored = wall
-        self._step_run.clear()
         self.resyncs += 1
-        self.steps += 1
-        self._last_now = -math.inf
-        self._refit(force=True)
+        self._restart_line(track, [wall], [unwrapped], wall)
 
     def _handover(self, sysid: int, track: _Track) -> None:
         assert self._ref is not None
