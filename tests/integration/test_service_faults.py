@@ -198,10 +198,17 @@ async def test_a_planner_behind_the_simulator_slows_it_by_sim_speedup() -> None:
         marks["asked"] = fleet.now
         mission._plan_paths = plan_paths  # type: ignore[method-assign]
         await fleet.wait_until(fleet.now + 20.0)
-        await _clock_errors(fleet, service, DURATION - 5.0, errors)
+        await _clock_errors(fleet, service, fleet.now + 60.0, errors)
+        stop.set()  # (the rest would fly at half speed)
 
+    stop = asyncio.Event()
     result = await run_demo(
-        scenario, duration=DURATION, speedup=SPEEDUP, during=script, speedup_floor=SPEEDUP / 2
+        scenario,
+        duration=DURATION,
+        speedup=SPEEDUP,
+        during=script,
+        speedup_floor=SPEEDUP / 2,
+        stop=stop,
     )
     assert "asked" in marks and marks["asked"] < DURATION - 60.0, marks
     report = result.report.to_dict()
@@ -214,6 +221,51 @@ async def test_a_planner_behind_the_simulator_slows_it_by_sim_speedup() -> None:
         f"\nplanner slowed at {marks['slowed_planner']:.0f} s, speedup halved at "
         f"{marks['asked']:.0f} s: {clock}"
     )
+
+
+async def test_setpoint_rounds_a_second_apart_slow_the_simulator_before_the_look_ends() -> None:
+    """The stream held up for 1.5 mission s (PX4 leaves OFFBOARD after 1 s without a
+    setpoint: every UAV at once) just after a look at the host began: the service
+    halves the speedup ten mission s into that look, not at its end 30 s in."""
+    scenario = SCENARIOS["moving"]
+    marks: dict[str, float] = {}
+
+    async def script(fleet: MockFleet, service: ConvoyService) -> None:
+        await _protecting(fleet, service)
+        look = service._slow_look
+        while service._slow_look == look:  # a fresh look begins
+            await asyncio.sleep(0.01)
+        streamer = service.streamer
+        assert streamer is not None and service._slow_look is not None
+        marks["look"] = service._slow_look[0]
+        send_round = streamer._round
+
+        async def held(k: int) -> int:
+            streamer._round = send_round  # type: ignore[method-assign]
+            await service.clock.sleep_until(service.clock.now() + 1.5)
+            return await send_round(k)
+
+        await service.clock.sleep_until(marks["look"] + 1.0)
+        streamer._round = held  # type: ignore[method-assign]
+        while fleet.speedup == SPEEDUP and fleet.now < DURATION - 30.0:
+            await asyncio.sleep(0.05)
+        marks["asked"] = fleet.now
+        await fleet.wait_until(fleet.now + 5.0)
+        stop.set()  # (the rest would fly at half speed)
+
+    stop = asyncio.Event()
+    result = await run_demo(
+        scenario,
+        duration=DURATION,
+        speedup=SPEEDUP,
+        during=script,
+        speedup_floor=SPEEDUP / 2,
+        stop=stop,
+    )
+    assert "asked" in marks and marks["asked"] - marks["look"] < 25.0, marks
+    report = result.report.to_dict()
+    assert report["mission_clock"]["speedup"] == pytest.approx(SPEEDUP / 2, rel=0.05)
+    assert any("simulator slowed" in e and "setpoint rounds" in e for e in report["events"])
 
 
 async def test_a_killed_and_restarted_uav_rejoins_and_the_rest_rephase_back() -> None:
