@@ -101,10 +101,8 @@ class Forecast:
             self._hedge(model, hedge)
         vx = np.gradient(self.px, FORECAST_STEP)
         vy = np.gradient(self.py, FORECAST_STEP)
-        phase, course, beta = clock.forecast(self.t.tolist(), vx.tolist(), vy.tolist(), radius, V)
-        self.phase = np.array(phase)
-        self.course = np.unwrap(np.array(course))
-        self.beta = np.array(beta)
+        self.phase, course, self.beta = clock.forecast(self.t, vx, vy, radius, V)
+        self.course = np.unwrap(course)
         self.radius = radius
 
     def _hedge(self, model: ConvoyModel, hedge: Hedge) -> None:

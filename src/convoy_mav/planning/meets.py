@@ -49,6 +49,7 @@ Where = Callable[["FloatArray"], tuple["FloatArray", "FloatArray"]]
 
 _TRACK_SAMPLES = 24  # points per candidate at which its distance to the pattern is taken
 _RETARGETS = 3  # past the scan: times a late leg is planned again for where it arrives
+_LATE_CHUNK = 8  # late times the scan for a late leg's meeting tries first (then 16, 32...)
 _HEADING_DT = 0.5  # s: the pattern's heading at a meeting, from its positions this far apart
 
 
@@ -184,18 +185,22 @@ def _earliest_late_leg(
     lo, hi = limits.speeds
     step = limits.late_step_s
     taus = t_meet + np.arange(step, limits.late_max_s + 0.5 * step, step)
-    if len(taus) == 0:
-        return None
-    tx, ty = pattern(taus)
-    _, _, k2, _, total = _candidates(pose, (tx, ty), limits)
-    left = (taus - t)[:, None]
-    fits = _flyable(k2, limits) & (total >= lo * left) & (total <= hi * left)
-    first = np.nonzero(fits.any(axis=1))[0]
-    if len(first) == 0:
-        return None
-    tau = float(taus[first[0]])
-    leg = _leg_to(pose, t, tau, pattern, limits, heading_weight, on_time_only=True)
-    return replace(leg, late_s=tau - t_meet)
+    # In growing chunks, soonest first: most late legs are found a few steps in.
+    begin, size = 0, _LATE_CHUNK
+    while begin < len(taus):
+        chunk = taus[begin : begin + size]
+        tx, ty = pattern(chunk)
+        _, _, k2, _, total = _candidates(pose, (tx, ty), limits)
+        left = (chunk - t)[:, None]
+        fits = _flyable(k2, limits) & (total >= lo * left) & (total <= hi * left)
+        first = np.nonzero(fits.any(axis=1))[0]
+        if len(first):
+            tau = float(chunk[first[0]])
+            leg = _leg_to(pose, t, tau, pattern, limits, heading_weight, on_time_only=True)
+            return replace(leg, late_s=tau - t_meet)
+        begin += size
+        size *= 2
+    return None
 
 
 def _leg_to(
@@ -213,19 +218,32 @@ def _leg_to(
     tx, ty = pattern(np.array([t_meet, t_meet + _HEADING_DT]))
     target = (float(tx[0]), float(ty[0]))
     k1, l1, k2, arc, total = _candidates(pose, target, limits)
-    ok = _flyable(k2, limits)
     speed = np.clip(total / left, lo, hi)
     late = np.abs(total / speed - left)  # seconds early or late
-    taus = np.linspace(0.0, left, _TRACK_SAMPLES)
-    px, py = _positions(pose, k1, l1, k2, speed, taus)
-    rx, ry = pattern(t + taus)
-    offset = np.mean(np.hypot(px - rx[None, :], py - ry[None, :]), axis=1)
-    cost = late * limits.cruise + offset
+    on_time = late < 0.05
+    # cost = lateness + heading (the bound, cheap) + mean offset (the dear part)
+    bound = np.where(_flyable(k2, limits) & (on_time | (not on_time_only)), late, np.inf)
+    bound *= limits.cruise
     if heading_weight > 0.0:
         want = math.atan2(float(ty[1] - ty[0]), float(tx[1] - tx[0]))
         h_end = pose.heading + k1 * l1 + np.where(np.isfinite(k2), k2, 0.0) * arc
-        cost = cost + heading_weight * np.abs(np.mod(h_end - want + math.pi, 2 * math.pi) - math.pi)
-    cost = np.where(ok & ((late < 0.05) | (not on_time_only)), cost, np.inf)
+        bound += heading_weight * np.abs(np.mod(h_end - want + math.pi, 2 * math.pi) - math.pi)
+    taus = np.linspace(0.0, left, _TRACK_SAMPLES)
+    rx, ry = pattern(t + taus)
+    cost = np.full(len(bound), np.inf)
+    offset = np.zeros(len(bound))
+
+    def score(rows: npt.NDArray[np.intp]) -> None:
+        px, py = _positions(pose, k1[rows], l1[rows], k2[rows], speed[rows], taus)
+        offset[rows] = np.mean(np.hypot(px - rx[None, :], py - ry[None, :]), axis=1)
+        cost[rows] = bound[rows] + offset[rows]
+
+    # The on-time candidates first; a late one whose bound alone is above the best of
+    # them cannot win (the same leg as scoring all, for half the work at a corner).
+    finite = np.isfinite(bound)
+    score(np.nonzero(finite & on_time)[0])
+    best = float(np.min(cost))
+    score(np.nonzero(finite & ~on_time & (bound < best))[0])
     i = int(np.argmin(cost))
     if not math.isfinite(float(cost[i])):  # pragma: no cover - a long enough turn always fits
         raise PlanningError("no flyable leg reaches the pattern")

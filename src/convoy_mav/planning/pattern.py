@@ -95,6 +95,13 @@ def _beta_steps() -> tuple[list[float], list[float]]:
     return betas, slopes
 
 
+@cache
+def _beta_arrays() -> tuple[FloatArray, FloatArray]:
+    """``_beta_steps`` as arrays."""
+    table, slopes = _beta_steps()
+    return np.array(table), np.array(slopes)
+
+
 def half_cycle_rate(beta: float, turn_radius: float, uav_speed: float) -> float:
     """Half-cycles per second: one arc of ``2 beta`` at ``V / R`` takes ``2 R beta / V``."""
     return uav_speed / (2.0 * turn_radius * beta)
@@ -217,8 +224,30 @@ class PatternClock:
         return min(math.hypot(self.fx, self.fy), self.fs)
 
     def advance(self, t: float, vx: float, vy: float, radius: float, uav_speed: float) -> None:
-        """Integrate to time ``t`` with the convoy moving at (vx, vy) meanwhile."""
-        self.forecast([t], [vx], [vy], radius, uav_speed, keep=True)
+        """Integrate to time ``t`` with the convoy moving at (vx, vy) meanwhile.
+
+        The clock's definition, a ``_CLOCK_STEP`` at a time (``forecast`` is the
+        same over many times, vectorised): each step's phase advances at the rate
+        of the beta it began with, then the velocity and speed are low-passed and
+        the course and beta follow (the course held while too slow to have one).
+        """
+        table, slopes = _beta_steps()
+        per_step = 1.0 / (uav_speed * _BETA_STEP)
+        rate = uav_speed / (2.0 * radius)
+        v = math.hypot(vx, vy)
+        beta = _beta_at(self.speed * per_step, table, slopes)
+        while self.t < t - 1e-9:
+            dt = min(_CLOCK_STEP, t - self.t)
+            self.phase += rate / beta * dt
+            a = -math.expm1(-dt / self.tau)
+            self.fx += (vx - self.fx) * a
+            self.fy += (vy - self.fy) * a
+            self.fs += (v - self.fs) * -math.expm1(-dt / self.speed_tau)
+            speed = self.speed
+            if speed > _COURSE_MIN_SPEED:
+                self.course = math.atan2(self.fy, self.fx)
+            beta = _beta_at(speed * per_step, table, slopes)
+            self.t += dt
 
     def state(self, uav_speed: float) -> tuple[float, float, float]:
         """(phase, course, beta) now."""
@@ -226,66 +255,82 @@ class PatternClock:
 
     def forecast(
         self,
-        times: Sequence[float],
-        vx: Sequence[float],
-        vy: Sequence[float],
+        times: Sequence[float] | FloatArray,
+        vx: Sequence[float] | FloatArray,
+        vy: Sequence[float] | FloatArray,
         radius: float,
         uav_speed: float,
-        *,
-        keep: bool = False,
-    ) -> tuple[list[float], list[float], list[float]]:
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
         """(phase, course, beta) at each of ``times`` (ascending, none before ``t``), the
-        convoy moving at ``(vx[k], vy[k])`` until ``times[k]``; the clock is left as is
-        unless ``keep`` (then it is at the last time: ``advance``).
+        convoy moving at ``(vx[k], vy[k])`` until ``times[k]``; the clock is left as is.
 
-        What ``advance`` then ``state`` give at each time, in one pass: a
-        re-plan forecasts some 500 steps, in the mission worker beside the
-        setpoint stream.
+        What ``advance`` then ``state`` give at each time, in one vectorised pass
+        over the integration steps (``_CLOCK_STEP`` each, the last of a time's
+        span shorter): a re-plan forecasts some 500 of them, in the mission worker
+        beside the setpoint stream, and a loop over them was half a re-plan's cost.
         """
-        t, fx, fy, fs, phase, course = self.t, self.fx, self.fy, self.fs, self.phase, self.course
-        tau, speed_tau = self.tau, self.speed_tau
-        a_step = 1.0 - math.exp(-_CLOCK_STEP / tau)
-        s_step = 1.0 - math.exp(-_CLOCK_STEP / speed_tau)
-        hypot = math.hypot
-        # beta_for_speed, its table fetched once (some 400 steps a forecast).
-        table, slopes = _beta_steps()
-        per_step = 1.0 / (uav_speed * _BETA_STEP)
-        rate = uav_speed / (2.0 * radius)
-        speed = min(hypot(fx, fy), fs)
-        beta = _beta_at(speed * per_step, table, slopes)
-        phases: list[float] = []
-        courses: list[float] = []
-        betas: list[float] = []
-        for tk, vxk, vyk in zip(times, vx, vy, strict=True):
-            vk = hypot(vxk, vyk)
-            while t < tk - 1e-9:
-                dt = min(_CLOCK_STEP, tk - t)
-                if dt == _CLOCK_STEP:
-                    a, b = a_step, s_step
-                else:
-                    a, b = 1.0 - math.exp(-dt / tau), 1.0 - math.exp(-dt / speed_tau)
-                phase += rate / beta * dt
-                fx += (vxk - fx) * a
-                fy += (vyk - fy) * a
-                fs += (vk - fs) * b
-                speed = min(hypot(fx, fy), fs)
-                if speed > _COURSE_MIN_SPEED:
-                    course = math.atan2(fy, fx)
-                beta = _beta_at(speed * per_step, table, slopes)
-                t += dt
-            phases.append(phase)
-            courses.append(course)
-            betas.append(beta)
-        if keep:
-            self.t, self.fx, self.fy, self.fs, self.phase, self.course = (
-                t,
-                fx,
-                fy,
-                fs,
-                phase,
-                course,
+        times = np.asarray(times, dtype=np.float64)
+        # Each time's span from the one before, cut into integration steps.
+        ends = np.maximum.accumulate(np.concatenate(([self.t], times)))
+        spans = np.diff(ends)
+        counts = np.where(spans > 1e-9, np.ceil((spans - 1e-9) / _CLOCK_STEP), 0.0).astype(int)
+        last = np.cumsum(counts) - 1  # each time's last step (-1: none yet)
+        dt = np.full(int(counts.sum()), _CLOCK_STEP)
+        ran = counts > 0
+        dt[last[ran]] = spans[ran] - (counts[ran] - 1) * _CLOCK_STEP
+        ux = np.repeat(np.asarray(vx, dtype=np.float64), counts)
+        uy = np.repeat(np.asarray(vy, dtype=np.float64), counts)
+        fx = _low_pass(self.fx, ux, dt / self.tau)
+        fy = _low_pass(self.fy, uy, dt / self.tau)
+        fs = _low_pass(self.fs, np.hypot(ux, uy), dt / self.speed_tau)
+        speed = np.minimum(np.hypot(fx, fy), fs)
+        moving = speed > _COURSE_MIN_SPEED
+        # (the course is held while the convoy is too slow to have one)
+        heading = np.where(moving, np.arctan2(fy, fx), self.course)
+        held = np.maximum.accumulate(np.where(moving, np.arange(len(speed)), -1))
+        course = np.concatenate(([self.course], np.where(held >= 0, heading[held], self.course)))
+        beta = np.concatenate(
+            (
+                [beta_for_speed(self.speed, uav_speed)],
+                _betas_at(speed * (1.0 / (uav_speed * _BETA_STEP))),
             )
-        return phases, courses, betas
+        )
+        # Each step's phase advances at the rate of the beta the step began with.
+        rate = uav_speed / (2.0 * radius)
+        phase = self.phase + np.concatenate(([0.0], np.cumsum(rate / beta[:-1] * dt)))
+        at = last + 1
+        return phase[at], course[at], beta[at]
+
+
+def _low_pass(start: float, inputs: FloatArray, decay: FloatArray) -> FloatArray:
+    """``f += (u - f) (1 - exp(-decay))`` over the steps, from ``start``: each value.
+
+    In closed form, ``f_k = P_k (start + sum_j (1 - e^-d_j) u_j / P_j)`` with ``P``
+    the running product of ``e^-d``, over runs short enough in decay (``_RUN_DECAY``)
+    that ``1 / P`` keeps its precision.
+    """
+    out = np.empty_like(inputs)
+    total = np.cumsum(decay)
+    i, f = 0, start
+    while i < len(inputs):
+        base = total[i - 1] if i else 0.0
+        j = max(int(np.searchsorted(total, base + _RUN_DECAY, side="right")), i + 1)
+        d = decay[i:j]
+        product = np.exp(-np.cumsum(d))
+        out[i:j] = product * (f + np.cumsum(-np.expm1(-d) * inputs[i:j] / product))
+        f, i = float(out[j - 1]), j
+    return out
+
+
+def _betas_at(steps: FloatArray) -> FloatArray:
+    """``_beta_at`` over an array of speed ratios in grid steps."""
+    table, slopes = _beta_arrays()
+    index = np.floor(np.clip(steps, 0.0, len(table) - 1)).astype(int)
+    beta = table[index] + (np.minimum(steps, _MAX_STEPS) - index) * slopes[index]
+    return np.where((steps > _STOPPED_STEPS) & (steps < math.inf), beta, math.pi)
+
+
+_RUN_DECAY = 30.0  # e-folds of a low-pass run solved at once (1 / P below e^30)
 
 
 _CLOCK_STEP = 0.5  # s: integration step of the pattern clock
