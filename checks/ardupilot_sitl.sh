@@ -5,11 +5,17 @@
 #   SITL_DIR=/path/to/ardupilot checks/ardupilot_sitl.sh plane [DURATION_S] [SPEEDUP]
 #   SITL_DIR=/path/to/ardupilot checks/ardupilot_sitl.sh copter
 #   SECOND_AFTER=60 SITL_DIR=... checks/ardupilot_sitl.sh plane 600 5
+#   SET_SPEEDUP=60:2 SITL_DIR=... checks/ardupilot_sitl.sh copter 600 5
 #
 # With SECOND_AFTER (wall s), a second `convoy-mav run` is started then on the same
 # aircraft through another of their MAVLink ports (serial1, TCP 5762+10K): it must
 # refuse them (exit 2, "driven by another ground station"), and the first service
 # warn of it (uav_contested); its output is in out/sitl-FRAME/second.log.
+#
+# With SET_SPEEDUP=AFTER_S:VALUE, every instance's SIM_SPEEDUP is set to VALUE AFTER_S wall
+# s in, by PARAM_SET from another MAVLink client (serial2, TCP 5763+10K), as a user would
+# from MAVProxy: the service's mission clock must follow the new rate at once (the
+# report's mission_clock: rate_changes, speedup) and the flight go on covered.
 #
 # SITL_DIR is an ArduPilot tree with build/sitl/bin/arducopter and arduplane built
 # (see the project's notes on building SITL; it is not part of `make test`).
@@ -60,9 +66,40 @@ if [ -n "${SECOND_AFTER:-}" ]; then
    echo "second service exit status $?" >>"$out/second.log") &
   pids+=($!)
 fi
+if [ -n "${SET_SPEEDUP:-}" ]; then
+  (sleep "${SET_SPEEDUP%%:*}"
+   "$py" - "${SET_SPEEDUP#*:}" <<'PY' >"$out/set_speedup.log" 2>&1
+import sys, time
+from pymavlink import mavutil
+value = float(sys.argv[1])
+for k in range(3):
+    link = mavutil.mavlink_connection(f"tcp:127.0.0.1:{5763 + 10 * k}", source_system=250)
+    beat = link.wait_heartbeat(timeout=10)
+    if beat is None:
+        print(f"instance {k}: no heartbeat on serial2"); continue
+    link.mav.param_set_send(
+        link.target_system, link.target_component, b"SIM_SPEEDUP", value,
+        mavutil.mavlink.MAV_PARAM_TYPE_REAL32,
+    )
+    answer = link.recv_match(type="PARAM_VALUE", condition="PARAM_VALUE.param_id=='SIM_SPEEDUP'",
+                             blocking=True, timeout=5)
+    print(f"{time.strftime('%H:%M:%S')} instance {k} (sysid {link.target_system}): SIM_SPEEDUP ->",
+          None if answer is None else answer.param_value)
+    link.close()
+PY
+  ) &
+  pids+=($!)
+fi
 .venv/bin/convoy-mav run --config "checks/sitl_$frame.toml" --duration "$duration" \
   --report "$out/report.json" --tlog "$out/mission.tlog" --plot "$out/mission.png"
 "$py" checks/sitl_report.py "checks/sitl_$frame.toml" "$out/report.json" "$out/mission.tlog"
+if [ -n "${SET_SPEEDUP:-}" ]; then
+  cat "$out/set_speedup.log"
+  "$py" -c "
+import json, sys
+print('mission clock:', json.load(open(sys.argv[1]))['mission_clock'])
+" "$out/report.json"
+fi
 if [ -n "${SECOND_AFTER:-}" ]; then
   wait "${pids[-1]}" 2>/dev/null || true
   echo "second service:"; grep -E "error|refused|exit status" "$out/second.log" | tail -5

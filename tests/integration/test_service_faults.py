@@ -13,6 +13,7 @@ from __future__ import annotations
 import asyncio
 import math
 import time
+from collections.abc import Awaitable, Callable
 from typing import Any
 
 import pytest
@@ -171,39 +172,29 @@ async def test_a_radio_dropout_is_no_stall_of_the_service() -> None:
     )
 
 
-async def test_a_planner_behind_the_simulator_slows_it_by_sim_speedup() -> None:
-    """A host short of CPU for the speedup: every re-plan takes 0.25 wall s more (the
-    planner's thread sleeps; the loop and the mock run on). Once each UAV is re-planned
-    less than every 6 mission s instead of 4, the service asks the mock for half the
-    speedup by ``SIM_SPEEDUP`` over MAVLink; the mock's clock takes it and mission time
-    follows at once (a change of rate), not after the fit's whole window."""
-    scenario = SCENARIOS["turning"]
-    marks: dict[str, float] = {}
-    errors: list[float] = []
+Script = Callable[[MockFleet, ConvoyService], Awaitable[None]]
+
+
+async def _until_slowed(
+    scenario: str, fault: Script, marks: dict[str, float], then: Script | None = None
+) -> dict[str, Any]:
+    """Fly ``scenario`` with the mock's speedup allowed down to half: once protecting,
+    ``fault`` makes the host fall behind; the run stops once the service has halved the
+    speedup (``marks["asked"]``, sim time) and ``then`` (or 5 mission s) has run: the
+    rest would fly at half speed. Returns the report."""
+    stop = asyncio.Event()
 
     async def script(fleet: MockFleet, service: ConvoyService) -> None:
         await _protecting(fleet, service)
-        mission = service.mission
-        assert isinstance(mission, RoadMission)
-        plan_paths = mission._plan_paths
-
-        def slow(*args: Any, **kwargs: Any) -> None:
-            time.sleep(0.25)
-            plan_paths(*args, **kwargs)
-
-        mission._plan_paths = slow  # type: ignore[method-assign]
-        marks["slowed_planner"] = fleet.now
+        await fault(fleet, service)
         while fleet.speedup == SPEEDUP and fleet.now < DURATION - 60.0:
             await asyncio.sleep(0.05)
         marks["asked"] = fleet.now
-        mission._plan_paths = plan_paths  # type: ignore[method-assign]
-        await fleet.wait_until(fleet.now + 20.0)
-        await _clock_errors(fleet, service, fleet.now + 60.0, errors)
-        stop.set()  # (the rest would fly at half speed)
+        await (fleet.wait_until(fleet.now + 5.0) if then is None else then(fleet, service))
+        stop.set()
 
-    stop = asyncio.Event()
     result = await run_demo(
-        scenario,
+        SCENARIOS[scenario],
         duration=DURATION,
         speedup=SPEEDUP,
         during=script,
@@ -212,8 +203,40 @@ async def test_a_planner_behind_the_simulator_slows_it_by_sim_speedup() -> None:
     )
     assert "asked" in marks and marks["asked"] < DURATION - 60.0, marks
     report = result.report.to_dict()
+    assert report["mission_clock"]["speedup"] == pytest.approx(SPEEDUP / 2, rel=0.05)
+    return report
+
+
+async def test_a_planner_behind_the_simulator_slows_it_by_sim_speedup() -> None:
+    """A host short of CPU for the speedup: every re-plan takes 0.25 wall s more (the
+    planner's thread sleeps; the loop and the mock run on). Once each UAV is re-planned
+    less than every 6 mission s instead of 4, the service asks the mock for half the
+    speedup by ``SIM_SPEEDUP`` over MAVLink; the mock's clock takes it and mission time
+    follows at once (a change of rate), not after the fit's whole window."""
+    marks: dict[str, float] = {}
+    errors: list[float] = []
+    undo: list[Callable[[], None]] = []
+
+    async def slow_planner(fleet: MockFleet, service: ConvoyService) -> None:
+        mission = service.mission
+        assert isinstance(mission, RoadMission)
+        plan_paths = mission._plan_paths
+        undo.append(lambda: setattr(mission, "_plan_paths", plan_paths))
+
+        def slow(*args: Any, **kwargs: Any) -> None:
+            time.sleep(0.25)
+            plan_paths(*args, **kwargs)
+
+        mission._plan_paths = slow  # type: ignore[method-assign]
+        marks["slowed_planner"] = fleet.now
+
+    async def clock_after(fleet: MockFleet, service: ConvoyService) -> None:
+        undo[0]()  # (the host has room again)
+        await fleet.wait_until(fleet.now + 20.0)
+        await _clock_errors(fleet, service, fleet.now + 60.0, errors)
+
+    report = await _until_slowed("turning", slow_planner, marks, then=clock_after)
     clock = report["mission_clock"]
-    assert clock["speedup"] == pytest.approx(SPEEDUP / 2, rel=0.05)
     assert clock["rate_changes"] == 1, clock
     assert any("simulator slowed" in e and "planner behind" in e for e in report["events"])
     assert _median_abs(errors) < 0.2  # mission time on the mock's
@@ -227,11 +250,9 @@ async def test_setpoint_rounds_a_second_apart_slow_the_simulator_before_the_look
     """The stream held up for 1.5 mission s (PX4 leaves OFFBOARD after 1 s without a
     setpoint: every UAV at once) just after a look at the host began: the service
     halves the speedup ten mission s into that look, not at its end 30 s in."""
-    scenario = SCENARIOS["moving"]
     marks: dict[str, float] = {}
 
-    async def script(fleet: MockFleet, service: ConvoyService) -> None:
-        await _protecting(fleet, service)
+    async def hold_the_stream(fleet: MockFleet, service: ConvoyService) -> None:
         look = service._slow_look
         while service._slow_look == look:  # a fresh look begins
             await asyncio.sleep(0.01)
@@ -247,24 +268,9 @@ async def test_setpoint_rounds_a_second_apart_slow_the_simulator_before_the_look
 
         await service.clock.sleep_until(marks["look"] + 1.0)
         streamer._round = held  # type: ignore[method-assign]
-        while fleet.speedup == SPEEDUP and fleet.now < DURATION - 30.0:
-            await asyncio.sleep(0.05)
-        marks["asked"] = fleet.now
-        await fleet.wait_until(fleet.now + 5.0)
-        stop.set()  # (the rest would fly at half speed)
 
-    stop = asyncio.Event()
-    result = await run_demo(
-        scenario,
-        duration=DURATION,
-        speedup=SPEEDUP,
-        during=script,
-        speedup_floor=SPEEDUP / 2,
-        stop=stop,
-    )
-    assert "asked" in marks and marks["asked"] - marks["look"] < 25.0, marks
-    report = result.report.to_dict()
-    assert report["mission_clock"]["speedup"] == pytest.approx(SPEEDUP / 2, rel=0.05)
+    report = await _until_slowed("moving", hold_the_stream, marks)
+    assert marks["asked"] - marks["look"] < 25.0, marks
     assert any("simulator slowed" in e and "setpoint rounds" in e for e in report["events"])
 
 
