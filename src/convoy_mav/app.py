@@ -353,7 +353,13 @@ class ConvoyService:
         if self.planner == "road":
             if route is None and config.convoy.route_file is not None:
                 route = self._load_route(config)
-            self.mission = RoadMission(request, uav_ids, down=self._down, route=route)
+            self.mission = RoadMission(
+                request,
+                uav_ids,
+                down=self._down,
+                route=route,
+                record=config.mission_recording is not None,
+            )
         else:
             self.mission = Mission(request, uav_ids, down=self._down, thresholds=thresholds)
         self._planner_why = why
@@ -941,7 +947,25 @@ class ConvoyService:
                     tg.create_task(self._supervise(stop, duration), name="convoy.supervise")
             except* _Stop:
                 pass
+        self._save_recording()
         return self._report()
+
+    def _save_recording(self) -> None:
+        """Write the road planner's inputs where the config asks (``[record] mission``)."""
+        path = self.config.mission_recording
+        recording = getattr(self.mission, "recording", None)
+        if path is None:
+            return
+        if recording is None:
+            self._note(f"no mission inputs recorded to {path}: only the road planner records")
+            return
+        try:
+            recording.save(path)
+        except OSError as e:
+            log.error("mission inputs not recorded to %s: %s", path, e)
+            self._note(f"mission inputs not recorded to {path}: {e}", logged=True)
+            return
+        self._note(f"mission inputs recorded to {path} ({len(recording.calls)} inputs)")
 
     async def _upload_fences(self) -> None:
         """Give every autopilot the fence too, once we take it (it enforces it itself)."""
@@ -1216,7 +1240,7 @@ class ConvoyService:
         events: list[Any] = []
         road, self._new_route = self._new_route, None
         if road is not None and isinstance(mission, RoadMission):
-            mission.model.set_route(road)
+            mission.set_route(road)
         if est is not None:
             events += mission.on_convoy(est)
         for sysid in lost:

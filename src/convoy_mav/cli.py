@@ -113,6 +113,9 @@ def _build_parser() -> argparse.ArgumentParser:
     run.add_argument("--report", metavar="FILE.json", help="write the mission report here")
     run.add_argument("--plot", metavar="FILE.png", help="draw tracks and coverage here")
     run.add_argument("--tlog", metavar="FILE.tlog", help="record every MAVLink message")
+    run.add_argument(
+        "--record-mission", metavar="FILE", help="record the road planner's inputs, to replay"
+    )
     _add_verbosity(run)
 
     setup = sub.add_parser(
@@ -215,6 +218,9 @@ def _add_mock_flight_options(
     parser.add_argument("--report", metavar="FILE.json", help="write the mission report here")
     parser.add_argument("--plot", metavar="FILE.png", help="draw tracks and coverage here")
     parser.add_argument("--tlog", metavar="FILE.tlog", help="record every MAVLink message")
+    parser.add_argument(
+        "--record-mission", metavar="FILE", help="record the road planner's inputs, to replay"
+    )
     _add_verbosity(parser)
 
 
@@ -501,6 +507,8 @@ async def _cmd_run(args: argparse.Namespace) -> int:
     cfg = load_config(args.config)
     if args.tlog:
         cfg = replace(cfg, tlog=args.tlog)
+    if args.record_mission:
+        cfg = replace(cfg, mission_recording=args.record_mission)
     if not cfg.uav_list:
         raise ConfigError("uav", [], "the config names no [[uav]] to fly")
     stop = asyncio.Event()
@@ -621,6 +629,12 @@ async def _fly_mock(args: argparse.Namespace, scenario: Scenario, duration: floa
     _stop_on_signals(stop)
     services: list[ConvoyService] = []
     mission = None if args.config is None else load_config(args.config)
+
+    def configure(cfg: MissionConfig) -> MissionConfig:
+        if mission is not None:
+            cfg = rehearsed_config(cfg, mission)
+        return replace(cfg, mission_recording=args.record_mission)
+
     result = await run_demo(
         scenario,
         duration=duration,
@@ -632,7 +646,7 @@ async def _fly_mock(args: argparse.Namespace, scenario: Scenario, duration: floa
         on_progress=None if args.quiet else _print_progress,
         stop=stop,
         history=services,
-        configure=None if mission is None else lambda cfg: rehearsed_config(cfg, mission),
+        configure=configure,
         route_known=getattr(args, "route_known", False),
         signing_key_file=args.signing_key_file,
         mock_process=True,

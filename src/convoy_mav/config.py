@@ -73,6 +73,8 @@ times <= a day)::
 
     [record]
     tlog = "mission.tlog"         # optional MAVLink recording (an existing file is kept)
+    mission = "mission.inputs"    # optional: the road planner's inputs, to replay offline
+                                  #   (convoy_mav.mission.recording)
 
     [safety]                      # optional
     fence = [[47.40, 8.54], [47.40, 8.56], [47.39, 8.56], [47.39, 8.54]]  # inclusion
@@ -239,6 +241,7 @@ class MissionConfig:
     planner: Planner = "auto"
     mqtt: MqttConfig | None = None
     tlog: str | None = None
+    mission_recording: str | None = None
     safety: SafetyConfig = SafetyConfig()
     sim_speedup_floor: float | None = None
 
@@ -686,10 +689,13 @@ def parse_config(data: Mapping[str, Any]) -> MissionConfig:
     uav_count = mission.get("uavs")
     if uav_count is not None:
         uav_count = _integer(mission, "mission", "uavs", 1, 1000)
-    record = _table(data, "record", {"tlog"})
+    record = _table(data, "record", {"tlog", "mission"})
     tlog = record.get("tlog")
     if tlog is not None and (not isinstance(tlog, str) or not tlog):
         raise ConfigError("record.tlog", tlog, "must be a file path")
+    inputs = record.get("mission")
+    if inputs is not None and (not isinstance(inputs, str) or not inputs):
+        raise ConfigError("record.mission", inputs, "must be a file path")
     cfg = MissionConfig(
         sensor_radius_m=_number(
             mission, "mission", "sensor_radius_m", None, positive=True, at_most=MAX_DISTANCE_M
@@ -718,6 +724,7 @@ def parse_config(data: Mapping[str, Any]) -> MissionConfig:
         planner=_planner(mission),
         mqtt=_mqtt(data),
         tlog=tlog,
+        mission_recording=inputs,
         safety=_safety(data),
         sim_speedup_floor=None
         if "sim_speedup_floor" not in mission

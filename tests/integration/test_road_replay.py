@@ -17,6 +17,8 @@ from convoy_mav.app import ConvoyService
 from convoy_mav.cli import main
 from convoy_mav.config import DEFAULT_ORIGIN
 from convoy_mav.demo import replay_scenario, run_demo, score_fleet
+from convoy_mav.mission.recording import load_recording
+from convoy_mav.mission.road import RoadMission
 from convoy_mav.tracks.roads import road_kind
 from sitl_mock import MockFleet
 from tests.hostspeed import host_speedup
@@ -35,6 +37,7 @@ def test_a_road_is_protected_as_predicted(
     report_path = tmp_path / "r.json"
     argv = ["replay", "--road", road, "--duration", "500", "--speedup", str(SPEEDUP)]
     argv += ["--personality", personality, "--report", str(report_path), "--quiet"]
+    argv += ["--record-mission", str(tmp_path / "mission.inputs")]
     assert main(argv + (["--route-known"] if known else [])) == 0
     out = capsys.readouterr().out
     assert "ground truth" in out
@@ -56,6 +59,12 @@ def test_a_road_is_protected_as_predicted(
     assert truth >= 0.90
     assert report["predicted_coverage"] == pytest.approx(truth, abs=0.015)
     assert report["coverage_fraction"] == pytest.approx(truth, abs=0.015)
+    # The flight's planning, replayed offline from its recorded inputs, is the flight's
+    # (the last mission step, still running when the flight ended, is in the recording
+    # but not in the report: a fraction of a second of prediction).
+    replay = RoadMission.replayed(load_recording(tmp_path / "mission.inputs"))
+    assert replay.predicted_coverage == pytest.approx(report["predicted_coverage"], abs=2e-3)
+    assert replay.protect_start == pytest.approx(start, abs=1e-6)
 
 
 async def test_a_convoy_whose_feed_falls_silent_while_parked_is_held_in_sight() -> None:

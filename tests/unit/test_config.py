@@ -88,7 +88,7 @@ SERVICE_DOC: dict[str, Any] = {
         "vehicle": [{"connection": "udpout:127.0.0.1:14550", "sysid": 10}],
     },
     "mqtt": {"host": "localhost", "prefix": "fleet/convoy/"},
-    "record": {"tlog": "out.tlog"},
+    "record": {"tlog": "out.tlog", "mission": "out.inputs"},
 }
 
 
@@ -103,7 +103,7 @@ def test_service_sections() -> None:
     assert cfg.plan_aircraft.airspeed_mps == 16.0
     assert cfg.convoy.vehicles[0].sysid == 10
     assert cfg.mqtt is not None and cfg.mqtt.prefix == "fleet/convoy" and cfg.mqtt.port == 1883
-    assert cfg.tlog == "out.tlog"
+    assert cfg.tlog == "out.tlog" and cfg.mission_recording == "out.inputs"
     assert cfg.sim_speedup_floor is None  # (a simulator's speedup is left alone)
     assert parse_config(_with("mission.sim_speedup_floor", 5)).sim_speedup_floor == 5.0
 
@@ -138,6 +138,7 @@ def _with(path: str, value: Any) -> dict[str, Any]:
         (_with("uav", {"sysid": 1}), "uav", "array of tables"),
         (_with("mission.sim_speedup_floor", 0.0), "mission.sim_speedup_floor", ">= 0.01"),
         (_with("mission.sim_speedup_floor", "fast"), "mission.sim_speedup_floor", "a number"),
+        (_with("record.mission", ""), "record.mission", "a file path"),
     ],
 )
 def test_service_errors_name_the_key(doc: dict[str, Any], key: str, needle: str) -> None:

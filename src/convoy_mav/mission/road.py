@@ -70,6 +70,7 @@ from convoy_mav.mission.assign import Roster, best_assignment
 from convoy_mav.mission.convoy_model import ConvoyModel, RoadMotion
 from convoy_mav.mission.events import MissionEvent, Phase, PhaseChanged, Replanned, phase_at
 from convoy_mav.mission.forecast import FORECAST_STEP, Forecast, Hedge, Watch
+from convoy_mav.mission.recording import MissionRecording
 from convoy_mav.planning.detours import best_detour
 from convoy_mav.planning.dubins import Pose, Segment, Turn
 from convoy_mav.planning.meets import Leg, LegLimits, Where, plan_leg
@@ -187,6 +188,7 @@ class RoadMission(Roster):
         down: Altitude setpoint (metres down) of each UAV, by id.
         route: The route the convoy will drive, if known (planner frame).
         settings: Planning settings.
+        record: Keep every input in ``recording`` (a ``MissionRecording``), to replay.
 
     Raises:
         ValueError: If ``uav_ids`` is empty or has duplicates.
@@ -200,10 +202,19 @@ class RoadMission(Roster):
         down: Callable[[int], float],
         route: Road | None = None,
         settings: RoadSettings | None = None,
+        record: bool = False,
     ) -> None:
         super().__init__(uav_ids)
         self.request = request
         self.settings = settings or RoadSettings()
+        # Every input taken, to replay offline (``recording``), when asked for.
+        self.recording = (
+            MissionRecording(
+                request, sorted(uav_ids), {u: down(u) for u in uav_ids}, route, self.settings
+            )
+            if record
+            else None
+        )
         self._hedge = self.settings.hedge
         self.model = ConvoyModel(route)
         self._down = down
@@ -238,6 +249,22 @@ class RoadMission(Roster):
         self._fresh_t: float | None = None
         self._holding = False
         self.holds = 0
+
+    @classmethod
+    def replayed(cls, recording: MissionRecording, until: float | None = None) -> RoadMission:
+        """A new mission fed every input of ``recording`` (those stamped after ``until``,
+        if given, left out): the recorded mission as it was then, plan for plan."""
+        downs = dict(recording.downs)
+        mission = cls(
+            recording.request,
+            recording.uav_ids,
+            down=lambda u: downs.get(u, 0.0),
+            route=recording.route,
+            settings=recording.settings,
+        )
+        for method, args in recording.inputs(until):
+            getattr(mission, method)(*args)
+        return mission
 
     # ------------------------------------------------------------------ state
 
@@ -336,6 +363,8 @@ class RoadMission(Roster):
         1400 s of its 4900, flown on its raw fixes: 90.1 -> 96.6 % with the route
         known, 85.9 -> 91.4 % without).
         """
+        if self.recording is not None:
+            self.recording.add("tick", (t,))
         events = self._announce(t)
         fresh = self._fresh_t
         if (
@@ -370,6 +399,8 @@ class RoadMission(Roster):
 
     def on_convoy(self, est: ConvoyEstimate) -> list[MissionEvent]:
         """Fold in a convoy estimate; re-plan every UAV's legs when due."""
+        if self.recording is not None:
+            self.recording.add("on_convoy", (est,))
         events = self._announce(est.t)
         if est.stale or not all(map(math.isfinite, (est.t, est.north, est.east, est.vn, est.ve))):
             return events
@@ -414,6 +445,12 @@ class RoadMission(Roster):
             self._plan_paths(est.t, [u for _, u in due[:batch]])
         return events + self._announce(est.t)
 
+    def set_route(self, route: Road) -> None:
+        """The route the convoy will drive from now on (a new one over MQTT)."""
+        if self.recording is not None:
+            self.recording.add("set_route", (route,))
+        self.model.set_route(route)
+
     def join(self, uav: int, north: float, east: float, yaw: float, t: float) -> list[MissionEvent]:
         """``join_many`` for one UAV."""
         return self.join_many({uav: (north, east, yaw)}, t)
@@ -434,6 +471,8 @@ class RoadMission(Roster):
                 raise ValueError(f"UAV {uav}: join pose must be 3 finite numbers, got {pose}")
         if self._clock is None:
             raise PlanningError("no plan yet: the convoy has not been located")
+        if self.recording is not None:  # (a refused join changed nothing: not taken)
+            self.recording.add("join_many", (dict(poses), t))
         self._advance_clock(t)
         for uav in poses:
             self._slots.pop(uav, None)
@@ -461,6 +500,8 @@ class RoadMission(Roster):
 
     def on_lost(self, uav: int, t: float) -> list[MissionEvent]:
         """Take ``uav`` out; the others re-spread over the slots left and re-plan."""
+        if self.recording is not None:
+            self.recording.add("on_lost", (uav, t))
         if not self._take_out(uav):
             return []
         for table in (self._slots, self._trajectories, self._arrival, self._starts):
@@ -476,6 +517,8 @@ class RoadMission(Roster):
 
     def on_returned(self, uav: int, t: float) -> list[MissionEvent]:
         """Take a lost ``uav`` back as pending (join it from its pose)."""
+        if self.recording is not None:
+            self.recording.add("on_returned", (uav, t))
         if not self._take_back(uav):
             return []
         if self._clock is None:

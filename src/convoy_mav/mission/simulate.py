@@ -22,6 +22,7 @@ import numpy as np
 import numpy.typing as npt
 
 from convoy_mav.convoy import ConvoyTracker
+from convoy_mav.mission.recording import MissionRecording
 from convoy_mav.mission.road import RoadMission, RoadSettings
 from convoy_mav.planning.plan import PlanRequest
 from convoy_mav.planning.road import Road
@@ -44,6 +45,7 @@ class RoadRun:
     speed_range: tuple[float, float]
     uav_replans: int
     legs_late: int
+    recording: MissionRecording | None = None  # the mission's inputs, when asked for
 
 
 def fly_road(
@@ -58,6 +60,7 @@ def fly_road(
     route_known: bool = False,
     settings: RoadSettings | None = None,
     dt: float = 0.5,
+    record: bool = False,
 ) -> RoadRun:
     """Fly ``uavs`` UAVs over a convoy whose fixes are (t, north, east).
 
@@ -70,6 +73,7 @@ def fly_road(
         route_known: Give the mission the track's path (not its timing) as its route.
         settings: Road mission settings.
         dt: Scoring step, seconds.
+        record: Keep the mission's inputs (``RoadRun.recording``), to replay.
     """
     ts = np.asarray(t, dtype=np.float64)
     fn, fe = np.asarray(north, dtype=np.float64), np.asarray(east, dtype=np.float64)
@@ -77,7 +81,9 @@ def fly_road(
     te = fe if true_east is None else np.asarray(true_east, dtype=np.float64)
     route = Road.from_points(te, tn) if route_known else None
     ids = list(range(1, uavs + 1))
-    mission = RoadMission(request, ids, down=lambda _u: -100.0, route=route, settings=settings)
+    mission = RoadMission(
+        request, ids, down=lambda _u: -100.0, route=route, settings=settings, record=record
+    )
     tracker = ConvoyTracker(window=4.0)
     # The UAVs start circling near the convoy's first fix, spread around it.
     R = request.turn_radius
@@ -132,4 +138,5 @@ def fly_road(
         mission.speed_range,
         mission.uav_replans,
         mission.legs_late,
+        mission.recording,
     )

@@ -1,0 +1,74 @@
+"""A road mission's inputs recorded and replayed: the same plans, to the last bit."""
+
+from __future__ import annotations
+
+import pickle
+from pathlib import Path
+
+import pytest
+
+from convoy_mav.mission.recording import MissionRecording, load_recording
+from convoy_mav.mission.road import RoadMission
+from convoy_mav.mission.simulate import fly_road
+from convoy_mav.planning import PlanRequest
+from convoy_mav.tracks.roads import corner
+
+REQUEST = PlanRequest(150.0, 100.0, 18.0)
+
+
+@pytest.fixture(scope="module")
+def recorded(tmp_path_factory: pytest.TempPathFactory) -> tuple[float, MissionRecording]:
+    """A 60-degree corner nobody foresaw, flown with the mission's inputs recorded,
+    saved and read back."""
+    t, north, east = corner(-60.0, 300.0, then_s=120.0)
+    run = fly_road(t, north, east, REQUEST, 6, record=True)
+    assert run.recording is not None and run.predicted_coverage is not None
+    path = tmp_path_factory.mktemp("recording") / "mission.inputs"
+    run.recording.save(path)
+    return run.predicted_coverage, load_recording(path)
+
+
+def test_a_replay_makes_the_plans_the_flight_made(
+    recorded: tuple[float, MissionRecording],
+) -> None:
+    predicted, recording = recorded
+    methods = {method for method, _ in recording.calls}
+    assert methods == {"on_convoy", "join_many", "tick"}
+    assert len(recording.calls) > 1000
+    replay = RoadMission.replayed(recording)
+    # Predicted coverage integrates every UAV's planned path over the whole flight:
+    # equal to the last bit only if every re-plan was.
+    assert replay.predicted_coverage == predicted
+    again = RoadMission.replayed(recording)
+    assert again.uav_replans == replay.uav_replans > 0
+    for u in recording.uav_ids:
+        for t in (250.0, 305.0, 380.0):
+            assert again.setpoint(u, t) == replay.setpoint(u, t)
+
+
+def test_a_replay_until_a_time_is_the_mission_as_it_was_then(
+    recorded: tuple[float, MissionRecording],
+) -> None:
+    _, recording = recorded
+    before = RoadMission.replayed(recording, until=290.0)
+    assert before.protect_start is not None and before.protect_start < 290.0
+    rest = recording.calls[len(recording.inputs(until=290.0)) :]
+    assert rest and all(method != "set_route" for method, _ in rest)
+    for method, args in rest:
+        getattr(before, method)(*args)
+    assert before.predicted_coverage == RoadMission.replayed(recording).predicted_coverage
+
+
+def test_a_refused_join_is_not_recorded_and_other_files_are_no_recording(
+    tmp_path: Path,
+) -> None:
+    mission = RoadMission(REQUEST, [1, 2], down=lambda _u: -100.0, record=True)
+    assert mission.recording is not None
+    with pytest.raises(ValueError, match="not live"):
+        mission.join_many({3: (0.0, 0.0, 0.0)}, 0.0)
+    assert mission.recording.calls == []
+    other = tmp_path / "other.pkl"
+    other.write_bytes(pickle.dumps({"format": 99}))
+    with pytest.raises(ValueError, match="not a convoy-mav mission recording"):
+        load_recording(other)
+    assert RoadMission(REQUEST, [1], down=lambda _u: -100.0).recording is None
