@@ -6,6 +6,7 @@
 #   SITL_DIR=/path/to/ardupilot checks/ardupilot_sitl.sh copter
 #   SECOND_AFTER=60 SITL_DIR=... checks/ardupilot_sitl.sh plane 600 5
 #   SET_SPEEDUP=60:2 SITL_DIR=... checks/ardupilot_sitl.sh copter 600 5
+#   ROAD=bends SITL_DIR=... checks/ardupilot_sitl.sh plane 700 5
 #
 # With SECOND_AFTER (wall s), a second `convoy-mav run` is started then on the same
 # aircraft through another of their MAVLink ports (serial1, TCP 5762+10K): it must
@@ -16,6 +17,12 @@
 # s in, by PARAM_SET from another MAVLink client (serial2, TCP 5763+10K), as a user would
 # from MAVProxy: the service's mission clock must follow the new rate at once (the
 # report's mission_clock: rate_changes, speedup) and the flight go on covered.
+#
+# With ROAD=KIND (a generated road of src/convoy_mav/tracks/roads.py: bends, hairpins,
+# urban...), the convoy is two sitl-mock rovers driving that road (300 m north of home,
+# setting off 30 sim s in) at the same speedup, and the service sees only their
+# telemetry (no route), with the road's count of aircraft: four (the stationary
+# minimum + 1). The score is the rovers' own positions in the tlog.
 #
 # SITL_DIR is an ArduPilot tree with build/sitl/bin/arducopter and arduplane built
 # (see the project's notes on building SITL; it is not part of `make test`).
@@ -44,7 +51,40 @@ cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done; wait 
 trap cleanup EXIT INT TERM
 # Homes 40 m apart along a line east of the mission origin (CMAC, ArduPilot's default).
 lat=-35.363262 lon=149.165237 alt=584
-for k in 0 1 2; do
+config=checks/sitl_$frame.toml
+uavs=3
+if [ -n "${ROAD:-}" ]; then
+  uavs=4
+  config=$out/road.toml
+  # The road as the mock's CSV track, and the config: a fourth aircraft, the rovers'
+  # links. The mock's own aircraft (five, idle) keep the rovers' ids at 6 and 7.
+  "$py" - "$ROAD" "$out" "checks/sitl_$frame.toml" $lat $lon $alt <<'PY'
+import sys
+from convoy_mav.geo import GeoPoint, LocalFrame
+from convoy_mav.tracks.roads import road_kind
+kind, out, base, lat, lon, alt = sys.argv[1:4] + [float(x) for x in sys.argv[4:]]
+road, frame = road_kind(kind), LocalFrame(GeoPoint(lat, lon, alt))
+with open(f"{out}/road.csv", "w") as fh:
+    fh.write("time,lat,lon\n")
+    for t, n, e in zip(road.t, road.true_north, road.true_east, strict=True):
+        g = frame.to_geo(float(n) + 300.0, float(e))
+        fh.write(f"{float(t) + 30.0:.2f},{g.lat:.8f},{g.lon:.8f}\n")
+text = open(base).read()
+head = text[: text.index("[convoy]")]
+links = "".join(
+    f'[[convoy.vehicle]]\nconnection = "udpout:127.0.0.1:{14640 + s - 1}"\nsysid = {s}\n\n'
+    for s in (6, 7)
+)
+with open(f"{out}/road.toml", "w") as fh:
+    fh.write(head + '[[uav]]\nconnection = "udpin:127.0.0.1:14563"\nsysid = 4\n\n')
+    fh.write('[convoy]\nsource = "mavlink"\n\n' + links)
+PY
+  .venv/bin/sitl-mock --aircraft 5 --ground 2 --personality ardupilot --frame "$frame" \
+    --speedup "$speedup" --base-port 14640 --origin="$lat,$lon,$alt" \
+    --ground-route csv --ground-csv "$out/road.csv" >"$out/mock.log" 2>&1 &
+  pids+=($!)
+fi
+for k in $(seq 0 $((uavs - 1))); do
   mkdir -p "$out/$k"
   home=$("$py" -c "
 from convoy_mav.geo import GeoPoint, LocalFrame
@@ -55,7 +95,7 @@ print(f'{g.lat:.7f},{g.lon:.7f},$alt,90')")
       --serial0 "udpclient:127.0.0.1:$((14560 + k))" >sitl.log 2>&1) &
   pids+=($!)
 done
-echo "SITL: 3 x $bin (speedup $speedup), logs in $out/K/sitl.log"
+echo "SITL: $uavs x $bin (speedup $speedup), logs in $out/K/sitl.log${ROAD:+; road $ROAD by sitl-mock}"
 if [ -n "${SECOND_AFTER:-}" ]; then
   sed -e 's/udpin:127.0.0.1:14560/tcp:127.0.0.1:5762/' \
     -e 's/udpin:127.0.0.1:14561/tcp:127.0.0.1:5772/' \
@@ -90,9 +130,9 @@ PY
   ) &
   pids+=($!)
 fi
-.venv/bin/convoy-mav run --config "checks/sitl_$frame.toml" --duration "$duration" \
+.venv/bin/convoy-mav run --config "$config" --duration "$duration" \
   --report "$out/report.json" --tlog "$out/mission.tlog" --plot "$out/mission.png"
-"$py" checks/sitl_report.py "checks/sitl_$frame.toml" "$out/report.json" "$out/mission.tlog"
+"$py" checks/sitl_report.py "$config" "$out/report.json" "$out/mission.tlog"
 if [ -n "${SET_SPEEDUP:-}" ]; then
   cat "$out/set_speedup.log"
   "$py" -c "

@@ -4,9 +4,11 @@
 
 The autopilots' own GLOBAL_POSITION_INT are the aircraft's truth (SITL's estimate is
 its simulated state within centimetres), airborne above 3 m over home; the convoy is
-the config's scripted route, set off at the report's ``route_start_s``. Times are
-mission time, rebuilt from ``time_boot_ms`` the way the service does
-(``MissionClock`` fed with the tlog's arrival stamps).
+the config's scripted route, set off at the report's ``route_start_s``, or (``[convoy]
+source = "mavlink"``: ``sitl-mock`` rovers driving a road) the centroid of its vehicles'
+own GLOBAL_POSITION_INT, which the mock reports without noise. Times are mission time,
+rebuilt from ``time_boot_ms`` the way the service does (``MissionClock`` fed with the
+tlog's arrival stamps, the rovers' clocks mapped onto the aircraft's).
 """
 
 from __future__ import annotations
@@ -33,13 +35,14 @@ def main(config_path: str, report_path: str, tlog_path: str) -> int:
     with open(report_path) as fh:
         report = json.load(fh)
     uavs = {u.sysid for u in cfg.uav_list}
+    rovers = {g.sysid for g in cfg.convoy.vehicles} if cfg.convoy.source == "mavlink" else set()
     wall = [0.0]
     clock = MissionClock(lambda: wall[0])
     fixes: dict[int, list[tuple[float, float, float, float]]] = defaultdict(list)
     log = mavutil.mavlink_connection(tlog_path)
     while (msg := log.recv_match(type="GLOBAL_POSITION_INT")) is not None:
         sysid = msg.get_srcSystem()
-        if sysid not in uavs:
+        if sysid not in uavs | rovers:
             continue
         wall[0] = msg._timestamp
         clock.observe(msg.time_boot_ms, sysid)
@@ -65,21 +68,29 @@ def main(config_path: str, report_path: str, tlog_path: str) -> int:
             f"{100 * v.get('time_in_circle_fraction', 0.0):>8.1f}% "
             f"{v.get('messages_per_s') or 0:>7.1f}"
         )
-    if start is None or route_t0 is None:
+    if start is None or (route_t0 is None and not rovers):
         print("no protect phase: nothing to score")
         return 1
     frame = LocalFrame(cfg.origin)
     c = cfg.convoy
     heading = compass_to_planner(c.heading_deg)
     truth: list[TruthFix] = []
-    cursor = dict.fromkeys(uavs, 0)
+    cursor = dict.fromkeys(uavs | rovers, 0)
     t = start
     while t <= end:
-        run = c.speed_mps * (t - route_t0)
-        g = frame.to_geo(
-            c.start_north_m + run * math.sin(heading), c.start_east_m + run * math.cos(heading)
-        )
-        truth.append(TruthFix(t, 0, "ground", g.lat, g.lon))
+        if not rovers:
+            run = c.speed_mps * (t - route_t0)
+            g = frame.to_geo(
+                c.start_north_m + run * math.sin(heading), c.start_east_m + run * math.cos(heading)
+            )
+            truth.append(TruthFix(t, 0, "ground", g.lat, g.lon))
+        for sysid in rovers:  # the latest fix at t (held at most a second)
+            rows, i = fixes.get(sysid, []), cursor[sysid]
+            while i + 1 < len(rows) and rows[i + 1][0] <= t:
+                i += 1
+            cursor[sysid] = i
+            if rows and rows[i][0] <= t and t - rows[i][0] <= 1.0:
+                truth.append(TruthFix(t, sysid, "ground", rows[i][1], rows[i][2]))
         for sysid in uavs:  # the latest fix at t (held at most a second)
             rows, i = fixes.get(sysid, []), cursor[sysid]
             while i + 1 < len(rows) and rows[i + 1][0] <= t:
