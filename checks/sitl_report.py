@@ -84,20 +84,17 @@ def main(config_path: str, report_path: str, tlog_path: str) -> int:
                 c.start_north_m + run * math.sin(heading), c.start_east_m + run * math.cos(heading)
             )
             truth.append(TruthFix(t, 0, "ground", g.lat, g.lon))
-        for sysid in rovers:  # the latest fix at t (held at most a second)
+        for sysid in sorted(rovers | uavs):  # the latest fix at t (held at most a second)
             rows, i = fixes.get(sysid, []), cursor[sysid]
             while i + 1 < len(rows) and rows[i + 1][0] <= t:
                 i += 1
             cursor[sysid] = i
-            if rows and rows[i][0] <= t and t - rows[i][0] <= 1.0:
-                truth.append(TruthFix(t, sysid, "ground", rows[i][1], rows[i][2]))
-        for sysid in uavs:  # the latest fix at t (held at most a second)
-            rows, i = fixes.get(sysid, []), cursor[sysid]
-            while i + 1 < len(rows) and rows[i + 1][0] <= t:
-                i += 1
-            cursor[sysid] = i
-            if rows and rows[i][0] <= t and t - rows[i][0] <= 1.0:
-                _, lat, lon, alt = rows[i]
+            if not (rows and rows[i][0] <= t and t - rows[i][0] <= 1.0):
+                continue
+            _, lat, lon, alt = rows[i]
+            if sysid in rovers:
+                truth.append(TruthFix(t, sysid, "ground", lat, lon))
+            else:
                 truth.append(TruthFix(t, sysid, "aircraft", lat, lon, True, alt > _AIRBORNE_M))
         t += _TICK
     stats = score_truth(truth, cfg.origin, cfg.sensor_radius_m, start=start, end=end)
