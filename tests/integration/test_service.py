@@ -44,7 +44,12 @@ async def test_stationary_convoy_minimum_uavs(personality: str, tmp_path: Path) 
     assert result.truth.fraction >= 0.995
     _check_agreement(result)
     assert all(v["status"] != "failed" for v in report["vehicles"])
-    assert all(v["mean_tracking_error_m"] < 15.0 for v in report["vehicles"])
+    # Tracking: the median is the aircraft on their paths (3-8 m here); the mean adds
+    # the transients, which a loaded host's stalls stretch (ArduPlane's means were
+    # 4-13 m on a quiet host, and one passed 15 m in a CI run with the mock slipping).
+    errors = {v["sysid"]: v["median_tracking_error_m"] for v in report["vehicles"]}
+    assert all(e < 10.0 for e in errors.values()), errors
+    assert all(v["mean_tracking_error_m"] < 20.0 for v in report["vehicles"])
     # The tlog holds our traffic and the ground vehicles' positions under their own ids.
     from pymavlink import mavutil
 
