@@ -25,6 +25,7 @@ from convoy_mav.streaming import MAX_WALL_HZ, MIN_RATE_HZ, IntervalStats, Setpoi
 from convoy_mav.types import Setpoint, VehicleStatus
 from convoy_mav.vehicle import EventKind, Vehicle, VehicleEvent
 from sitl_mock.config import MockConfig
+from tests.hostspeed import host_speedup
 
 if TYPE_CHECKING:
     from tests.conftest import StartMock
@@ -387,7 +388,7 @@ def test_interval_stats() -> None:
 
 async def test_three_px4_planes_get_every_setpoint(start_mock: StartMock) -> None:
     """Over UDP: the mock's counters agree with the streamer, at the rate asked."""
-    n, speedup, rate = 3, 20.0, 20.0
+    n, speedup, rate = 3, host_speedup(20.0), 20.0
     config = MockConfig.simple(n, speedup=speedup, base_port=0, warmup=1.0, home_spacing=200.0)
     fleet = await start_mock(config, record_truth=True)
     clock = MissionClock(rate_hint=speedup)

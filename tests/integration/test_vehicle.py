@@ -31,13 +31,14 @@ from convoy_mav.types import Setpoint, Telemetry, VehicleStatus
 from convoy_mav.vehicle import EventKind, Vehicle, VehicleEvent
 from sitl_mock.config import MockConfig
 from sitl_mock.server import MockFleet
+from tests.hostspeed import host_speedup
 
 if TYPE_CHECKING:
     from tests.conftest import StartMock
 
 pytestmark = [pytest.mark.integration, pytest.mark.timeout(60)]
 
-SPEEDUP = 40.0
+SPEEDUP = host_speedup(40.0)  # (a fixed 40x failed on this 2-core host in a slow hour)
 WARMUP = 6.0
 ALTITUDE = 40.0
 LOST_AFTER = 3.0
@@ -182,9 +183,10 @@ async def test_set_up_fly_a_circle_hold_and_lose(
         statuses = [e.message.split(": ")[-1] for e in events if e.kind is EventKind.STATUS]
         assert statuses[-3:] == ["waiting_fix", "setting_up", "flying"]
         assert WARMUP <= t_flying < WARMUP + 25.0  # every aircraft takes off first
-        # -- the mission clock follows the autopilot's
-        assert clock.rate == pytest.approx(SPEEDUP, rel=0.03)
+        # -- the mission clock follows the autopilot's (its rate too, once a slip of the
+        # mock's has been followed: the line restarts from the packets after it)
         await clock_agrees(clock, fleet, within=0.25)
+        await until(lambda: abs(clock.rate / SPEEDUP - 1.0) < 0.03, timeout=1.0)
 
         # -- flying: position as before, the set-up-only streams slowed to a watch
         await sim_sleep(fleet, 1.0)
