@@ -418,34 +418,6 @@ def test_arduplane_straight_is_a_moving_carrot() -> None:
     assert len(ap.setpoint_messages(far, 2.0, None)) == 1
 
 
-@pytest.mark.parametrize("clockwise", [True, False])
-def test_arduplane_wide_arc_is_a_carrot_on_the_arc(clockwise: bool) -> None:
-    """A near-straight leg (an arc of km) is flown as a straight is, towards a point on
-    the arc ahead, near enough that the chord cuts at most ``sagitta`` inside it."""
-    ap = plane()
-    rho = 3000.0
-    side = 1.0 if clockwise else -1.0  # due east: a right turn's centre is to the south
-    sp = Setpoint(
-        0.0, 0.0, 0.0, -40.0, 0.0, 18.0, 0.0, math.pi / 2, 0.0,
-        center=(-side * rho, 0.0), radius=rho, clockwise=clockwise,
-    )  # fmt: skip
-    (msg,) = ap.setpoint_messages(sp, 0.0, None)
-    assert msg.command == M.MAV_CMD_DO_REPOSITION and msg.param3 == 0.0
-    assert ap.loiter is not None
-    north, east = ap.loiter[:2]
-    assert math.hypot(north + side * rho, east) == pytest.approx(rho)  # on the arc
-    assert side * north < 0.0 and east > 0.0  # ahead, turned the arc's way
-    chord = math.hypot(north, east)
-    assert chord * chord / (8.0 * rho) <= ap.sagitta + 1e-6
-    ahead = min(ap.carrot, math.sqrt(8.0 * rho * ap.sagitta))  # along the arc
-    assert chord == pytest.approx(2.0 * rho * math.sin(ahead / (2.0 * rho)))
-    assert ap.arc is None  # (not a loiter whose width is learnt)
-    # an arc of a few hundred metres is still a loiter round its centre
-    tight = replace(sp, center=(-side * 300.0, 0.0), radius=300.0)
-    (msg,) = ap.setpoint_messages(tight, 1.0, None)
-    assert ap.loiter is not None and ap.loiter[3] > 0.0
-
-
 def test_arduplane_loiter_is_flown_by_the_mock() -> None:
     """Our DO_REPOSITION, through bytes, makes the mock's ArduPlane loiter as meant."""
     gcs = warm_gcs(make_vehicle(AP, "plane"))

@@ -212,9 +212,6 @@ class ArduPlane(ArduPilot):
         speed_interval: Least mission seconds between two DO_CHANGE_SPEED.
         speed_step: Least change (m/s) worth a DO_CHANGE_SPEED.
         carrot: Look-ahead (m) of the loiter point that flies a straight segment.
-        wide_arc: Radius (m) above which an arc is flown as a straight is, towards a
-            point on the arc ahead (``_carrot``), not as a loiter round its centre.
-        sagitta: Most the chord to that point may cut inside the arc (m).
     """
 
     name: ClassVar[str] = "ArduPlane"
@@ -231,13 +228,6 @@ class ArduPlane(ArduPilot):
     speed_interval = 1.0
     speed_step = 0.2
     carrot = 600.0
-    # A near-straight leg is an arc of a km or more. Flown as a DO_REPOSITION loiter of
-    # that radius, ArduPlane SITL left its slot by more than R 10-15 s later at every
-    # first re-join on the 90-degree bends (loiters of 1.3-4.8 km; ArduPlane's L1 flies
-    # a loiter with a PD of NAVL1_PERIOD on the radial error), where the mock's did not:
-    # 5-6 re-joins a run, and 0 and 2 once such arcs were flown as carrots.
-    wide_arc = 600.0
-    sagitta = 15.0
     _MOVE_TOL = 1.0  # m (centre, altitude) and 0.5 m (radius) before a loiter is re-sent
     _RADIUS_TOL = 0.5
 
@@ -295,14 +285,10 @@ class ArduPlane(ArduPilot):
             self.sysid, self.compid
         )
 
-    def _is_arc(self, sp: Setpoint) -> bool:
-        """Whether ``sp`` is on an arc flown as a loiter round its centre."""
-        return sp.center is not None and 0.0 < sp.radius <= self.wide_arc
-
     def _loiter_for(self, sp: Setpoint) -> tuple[float, float, float, float, bool]:
         if sp.hold:
             return sp.north, sp.east, sp.down, 0.0, True
-        if sp.center is not None and self._is_arc(sp):
+        if sp.center is not None and sp.radius > 0.0:
             if self.model.samples >= _LEARNT_SAMPLES and not self.model.feasible(sp.radius):
                 self.too_tight = max(self.too_tight or 0.0, sp.radius)
             radius = self.model.command_radius(sp.radius)
@@ -310,21 +296,8 @@ class ArduPlane(ArduPilot):
         v = math.hypot(sp.vn, sp.ve)
         if v < 1e-6:
             return sp.north, sp.east, sp.down, 0.0, True
-        north, east = self._carrot(sp, v)
-        return north, east, sp.down, 0.0, True
-
-    def _carrot(self, sp: Setpoint, v: float) -> tuple[float, float]:
-        """The point ``carrot`` metres ahead along the path: on a straight, along the
-        velocity; on a wide arc, on the arc, nearer when the chord to it would cut
-        more than ``sagitta`` inside (a chord of length c cuts c^2 / 8 rho)."""
-        if sp.center is None or sp.radius <= 0.0:
-            k = self.carrot / v
-            return sp.north + k * sp.vn, sp.east + k * sp.ve
-        ahead = min(self.carrot, math.sqrt(8.0 * sp.radius * self.sagitta))
-        half = 0.5 * ahead / sp.radius * (1.0 if sp.clockwise else -1.0)
-        chord = 2.0 * sp.radius * math.sin(abs(half))
-        course = math.atan2(sp.ve, sp.vn) + half  # (clockwise from north, as a right turn)
-        return sp.north + chord * math.cos(course), sp.east + chord * math.sin(course)
+        k = self.carrot / v
+        return sp.north + k * sp.vn, sp.east + k * sp.ve, sp.down, 0.0, True
 
     def _loiter_changed(self, new: tuple[float, float, float, float, bool], straight: bool) -> bool:
         old = self.loiter
@@ -344,7 +317,7 @@ class ArduPlane(ArduPilot):
         if position is not None:
             self._learn(sp, t, position)
         loiter = self._loiter_for(sp)
-        straight = not sp.hold and not self._is_arc(sp)
+        straight = not sp.hold and (sp.center is None or sp.radius <= 0.0)
         stale = not self.loiter_acked and t - self.loiter_sent_t >= self.retry
         if self._loiter_changed(loiter, straight) or stale:
             out.append(self.reposition(*loiter))
@@ -361,7 +334,7 @@ class ArduPlane(ArduPilot):
 
     def _learn(self, sp: Setpoint, t: float, position: tuple[float, float]) -> None:
         """Measure how wide the arc in force is flown; a new arc restarts the settling."""
-        if sp.hold or sp.center is None or not self._is_arc(sp):
+        if sp.hold or sp.center is None or sp.radius <= 0.0:
             self.arc = None
             return
         arc = (sp.center[0], sp.center[1], sp.radius, sp.clockwise)
