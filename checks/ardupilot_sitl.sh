@@ -131,7 +131,8 @@ PY
   pids+=($!)
 fi
 .venv/bin/convoy-mav run --config "$config" --duration "$duration" \
-  --report "$out/report.json" --tlog "$out/mission.tlog" --plot "$out/mission.png"
+  --report "$out/report.json" --tlog "$out/mission.tlog" --plot "$out/mission.png" \
+  --record-mission "$out/mission.inputs"
 "$py" checks/sitl_report.py "$config" "$out/report.json" "$out/mission.tlog"
 if [ -n "${SET_SPEEDUP:-}" ]; then
   cat "$out/set_speedup.log"

@@ -40,10 +40,11 @@ class AirframeParams:
         max_airspeed_ratio: Plane airspeed never goes above this times ``airspeed``.
         wind_north: Constant wind toward the north (m/s).
         wind_east: Constant wind toward the east (m/s).
-        loiter_lag: T (s) of the navigation controller flying a commanded loiter: a
-            plane circles at ``R + (V T)^2 / R`` for a commanded radius R at airspeed V,
-            as ArduPlane's L1 controller flies its loiters wide (a 100 m loiter at about
-            118 m at 22 m/s, T = 1.9 s). 0: loiters flown exactly (copters).
+        loiter_lag: T (s) of the navigation controller flying a loiter: a plane
+            circles at ``R + (V T)^2 / R`` for a circle of radius R at airspeed V, as
+            ArduPlane's L1 controller flies its loiters wide (T = 1.55 s, with the
+            firmware's density scaling of R: ``Firmware.loiter_scale``). 0: loiters
+            flown exactly (copters).
 
     Raises:
         ValueError: A field is out of range; the message names it.

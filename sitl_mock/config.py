@@ -23,7 +23,7 @@ Schema (every key optional)::
     airspeed = 18.0
     turn_radius = 80.0
     max_climb_rate = 4.0
-    loiter_lag = 1.9                  # s: planes fly a loiter of radius R at R + (V lag)^2 / R
+    loiter_lag = 1.55                 # s: planes fly a loiter of radius R at R + (V lag)^2 / R
                                       # (ArduPlane's L1 overshoot; 0: exact; copters: exact)
     wind = [0.0, 0.0]                 # north, east m/s
     warmup = 3.0                      # s of sim time before arming is allowed
@@ -113,8 +113,10 @@ _TOP_KEYS = {
     "ground",
     "faults",
 }
-_LOITER_LAG_S = 1.9
-"""s: a plane's default loiter overshoot, fitted to ArduPlane SITL (100 m flown at 118 m)."""
+_LOITER_LAG_S = 1.55
+"""s: a plane's default loiter overshoot, fitted to ArduPlane SITL at 630 m AMSL with its
+density scaling (``Firmware.loiter_scale``): 100 m flown at 118 m at 22 m/s, 300 m at
+326 m at 27 m/s."""
 _AIRCRAFT_KEYS = {
     "personality",
     "frame",

@@ -110,6 +110,8 @@ class FlightController:
         self.setpoint: TrackTarget | None = None
         self.setpoint_t = -math.inf
         self.goal: Guidance | None = None
+        self.guided_radius = 0.0
+        """ArduPlane: the last DO_REPOSITION radius given in this GUIDED (0: none)."""
         self.takeoff_down: float | None = None
         self._was_airborne = self.airborne
 
@@ -207,12 +209,21 @@ class FlightController:
 
     def _hold_here(self) -> Loiter:
         s = self._ac().state
-        return Loiter(s.north, s.east, s.down, self.loiter_radius, clockwise=True)
+        return self._loiter(s.north, s.east, s.down, self.loiter_radius, clockwise=True)
 
     def _rtl_goal(self) -> Loiter:
         n, e, d = self.frames.world.to_ned(self.home)
         down = min(self._ac().state.down, d - self.rtl_alt)
-        return Loiter(n, e, down, self.loiter_radius, clockwise=True)
+        return self._loiter(n, e, down, self.loiter_radius, clockwise=True)
+
+    def _loiter(
+        self, north: float, east: float, down: float, radius: float, clockwise: bool
+    ) -> Loiter:
+        """The circle the firmware's navigation flies for a loiter commanded at ``radius``
+        (ArduPlane: wider by the air's density, ``Firmware.loiter_scale``)."""
+        if radius > 0.0:
+            radius *= self.firmware.loiter_scale(self.frames.world.origin.alt - down)
+        return Loiter(north, east, down, radius, clockwise)
 
     def _check_launch(self, now: float) -> None:
         """Start a takeoff when an armed aircraft on the ground is told to fly."""
@@ -411,6 +422,7 @@ class FlightController:
 
     def _set_mode(self, mode: FlightMode) -> None:
         self.mode = mode
+        self.guided_radius = 0.0  # (ArduPlane: ModeGuided::_enter forgets the radius)
         self.goal = None
         self.takeoff_down = None
         self.failsafe = False
@@ -479,20 +491,26 @@ class FlightController:
         down = s.down
         if math.isfinite(c.alt):
             down = min(self.frames.down_of(self._amsl(c, 0.0)), ac.ground_down - _MIN_AGL)
-        radius, clockwise = 0.0, True
-        if self.plane:
-            radius, clockwise = fw.loiter_circle(c.p3, c.p4, self.loiter_radius)
         change_mode = math.isfinite(c.p2) and int(c.p2) & _R.MAV_DO_REPOSITION_FLAGS_CHANGE_MODE
         wanted = fw.external if fw.is_ardupilot and fw.external else fw.hold
         if self.mode.name != wanted:
             if not change_mode:
                 return (_R.MAV_RESULT_FAILED if fw.is_ardupilot else _R.MAV_RESULT_ACCEPTED), []
             self._set_mode(fw.mode(wanted))
+        radius, clockwise = 0.0, True
+        if self.plane:
+            # ArduPlane keeps the radius of the last reposition that gave one until
+            # GUIDED is entered again (``set_radius_and_direction`` only for param3 > 0):
+            # a radius-0 reposition after a 2 km one loiters 2 km around its point.
+            kept = self.guided_radius if fw.is_ardupilot else 0.0
+            radius, clockwise = fw.loiter_circle(c.p3, c.p4, kept or self.loiter_radius)
+            if fw.is_ardupilot and math.isfinite(c.p3) and c.p3 > 0.0:
+                self.guided_radius = radius
         if math.isfinite(c.p1) and c.p1 > 0.0:
             self._set_speed(c.p1)
         if s.airborne and not (self.plane and self.takeoff_down is not None):
             self.takeoff_down = None  # a copter goes now; a plane finishes its climb-out
-        self.goal = Loiter(n, e, down, radius, clockwise)
+        self.goal = self._loiter(n, e, down, radius, clockwise)
         return _R.MAV_RESULT_ACCEPTED, []
 
     def _set_speed(self, speed: float) -> None:

@@ -82,7 +82,13 @@ position rather than copying its motion (which would drift it downwind forever).
 _K_HOLD = 0.8
 """1/s: copter position hold / fly-to gain (copters can brake, so it can be stiffer)."""
 _LOITER_SHARPNESS = 1.0
-"""Vector-field slope: at one radius off the circle the field points 45 deg inward."""
+"""Vector-field slope: at one capture length off the circle the field points 45 deg in."""
+_L1_S = 0.3183 * 0.75 * 15.0
+"""s: the capture length of a loiter is the smaller of its radius and this times the
+speed (at least the turn radius): ArduPlane's L1 distance, ``damping * period * V / pi``
+with SITL's ``NAVL1_PERIOD`` 15 and the default damping 0.75 (79 m at 22 m/s). A plane
+a few L1 distances off a km-wide loiter turns onto it in seconds (its PD on the radial
+error has the period's time scale, whatever the radius), not over a km."""
 _COPTER_STOP_ANGLE = 0.25 * math.pi
 """A copter whose velocity points further than this from the wanted one brakes first."""
 _HOLD_DEADBAND = 0.05
@@ -440,7 +446,8 @@ class Aircraft:
                     steer = False
         elif mode == _M_LOITER:
             # Vector field around the circle (Nelson et al. 2007): tangent on it, 45 deg
-            # inward one radius outside; its derivative along the motion is fed forward.
+            # inward one capture length outside; its derivative along the motion is fed
+            # forward.
             rn = s.north - self._pn
             re = s.east - self._pe
             d2 = rn * rn + re * re
@@ -453,7 +460,8 @@ class Aircraft:
             radius = self._radius
             if self._lag2:  # the navigation controller's overshoot: R + (V T)^2 / R
                 radius += self._lag2 * v0 * v0 / radius
-            kc = _LOITER_SHARPNESS / radius
+            capture = max(self.params.min_turn_radius, _L1_S * v0)
+            kc = _LOITER_SHARPNESS / (radius if radius < capture else capture)
             x = kc * (d - radius)
             chi = math.atan2(re, rn) + sign * (_HALF_PI + math.atan(x))
             chi_rate = (rn * ge - re * gn) / d2 + sign * kc / (1.0 + x * x) * (

@@ -32,6 +32,7 @@ from typing import Literal
 
 from pymavlink.dialects.v20 import common as mavlink
 
+from convoy_mav.atmosphere import eas2tas_squared
 from sitl_mock.params import Knob, ParamDef
 
 __all__ = [
@@ -254,6 +255,16 @@ class Firmware:
         if math.isfinite(param3) and param3 != 0.0:
             return abs(param3), param3 > 0.0
         return default, True
+
+    def loiter_scale(self, amsl: float) -> float:
+        """How much wider than commanded a plane flies a loiter at ``amsl`` (m).
+
+        ArduPlane's L1 flies every loiter at its radius times ``EAS2TAS^2``
+        (``AP_L1_Control::loiter_radius``, ``NAVL1_LIM_BANK`` 0, its default): SITL
+        at 630 m AMSL flies a 2275 m loiter at 2438 m, 1000 m at 1073 m. PX4's
+        NPFG flies the radius it is given.
+        """
+        return eas2tas_squared(amsl) if self.is_ardupilot else 1.0
 
 
 # ============================================================================ tables

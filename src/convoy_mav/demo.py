@@ -78,6 +78,7 @@ class Scenario:
     altitude_m: float = 100.0
     turn_margin: float = 0.85  # mock airframe min turn radius / planned radius
     track: GeoTrack | None = None  # replay: the convoy's recorded route, t = 0 at its start
+    origin: GeoPoint | None = None  # rehearsal: the mission's (its altitude: the air's density)
 
     def fleet(self) -> int:
         """Aircraft a scenario flies by default: the paper's minimum for a parked or
@@ -146,6 +147,7 @@ def rehearsal(scenario: Scenario, mission: MissionConfig) -> Scenario:
         turn_radius_m=craft.turn_radius_m,
         airspeed_mps=craft.airspeed_mps,
         altitude_m=craft.altitude_m,
+        origin=mission.origin,
     )
 
 
@@ -264,8 +266,13 @@ def mock_mapping(
     }
     if signing_key is not None:
         mapping["aircraft"]["signing_key"] = signing_key
-    if scenario.track is not None:  # the world (and mission) origin at the first fix
-        mapping["origin"] = [scenario.track.lats[0], scenario.track.lons[0]]
+    origin = scenario.origin
+    if scenario.track is not None:  # the world (and mission) origin at the first fix,
+        # at the rehearsed mission's elevation (ArduPlane flies wider loiters up high)
+        alt = 0.0 if origin is None else origin.alt
+        mapping["origin"] = [scenario.track.lats[0], scenario.track.lons[0], alt]
+    elif origin is not None:
+        mapping["origin"] = [origin.lat, origin.lon, origin.alt]
     if faults:
         mapping["faults"] = faults
     return mapping

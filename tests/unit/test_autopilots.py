@@ -15,6 +15,7 @@ from typing import Any, Literal
 import pytest
 from pymavlink.dialects.v20 import common as mavlink
 
+from convoy_mav.atmosphere import eas2tas_squared
 from convoy_mav.geo import LocalFrame
 from convoy_mav.mavlink.autopilots import (
     PX4,
@@ -364,8 +365,10 @@ def test_arduplane_reposition_only_when_the_arc_changes() -> None:
     assert msg.get_type() == "COMMAND_INT"
     assert msg.command == M.MAV_CMD_DO_REPOSITION
     assert msg.frame == M.MAV_FRAME_GLOBAL_INT
-    assert (msg.param3, msg.param4) == (120.0, 1.0)
     centre = FRAME.to_geo(0.0, 0.0, -40.0)
+    # (L1 flies it EAS2TAS^2 wider: commanded that much tighter)
+    assert msg.param3 == pytest.approx(120.0 / eas2tas_squared(centre.alt), abs=1e-3)
+    assert msg.param4 == 1.0
     assert (msg.x, msg.y) == (round(centre.lat * 1e7), round(centre.lon * 1e7))
     assert msg.z == pytest.approx(centre.alt)
     # the same arc, further along: nothing new while waiting for the ACK
@@ -416,6 +419,27 @@ def test_arduplane_straight_is_a_moving_carrot() -> None:
     assert ap.setpoint_messages(near, 1.0, None) == []
     far = replace(sp, east=0.2 * ap.carrot)
     assert len(ap.setpoint_messages(far, 2.0, None)) == 1
+
+
+def test_arduplane_carrots_and_holds_carry_a_radius_once_an_arc_had_one() -> None:
+    """ArduPlane keeps the last radius a reposition gave (param3 > 0) until GUIDED is
+    entered again: a carrot sent with 0 after a 2 km arc was a 2 km loiter around it
+    (SITL flew away from the carrot, 1 km off its slot). 0 only before any arc."""
+    ap = plane()
+    east = Setpoint(0.0, 0.0, 0.0, -40.0, 0.0, 18.0, 0.0, math.pi / 2, 0.0)
+    (msg,) = ap.setpoint_messages(east, 0.0, None)
+    assert msg.param3 == 0.0  # nothing given yet: WP_LOITER_RAD
+    ap.on_ack(M.MAV_CMD_DO_REPOSITION, M.MAV_RESULT_ACCEPTED, 0.1)
+    (msg,) = ap.setpoint_messages(circle_setpoint(0.5, radius=2000.0), 1.0, None)
+    scale = eas2tas_squared(FRAME.origin.alt + 40.0)
+    assert msg.param3 == pytest.approx(2000.0 / scale, abs=0.5)
+    ap.on_ack(M.MAV_CMD_DO_REPOSITION, M.MAV_RESULT_ACCEPTED, 1.1)
+    (msg,) = ap.setpoint_messages(replace(east, t=2.0), 2.0, None)  # a straight again
+    assert msg.param3 == pytest.approx(ap.model.command_radius(0.25 * ap.carrot, scale))
+    ap.setpoint_messages(circle_setpoint(0.5, radius=120.0), 3.0, None)
+    hold = replace(east, t=4.0, vn=0.0, ve=0.0, hold=True)
+    (msg,) = ap.setpoint_messages(hold, 4.0, None)
+    assert msg.param3 == pytest.approx(ap.model.command_radius(120.0, scale))  # the tightest
 
 
 def test_arduplane_loiter_is_flown_by_the_mock() -> None:

@@ -182,7 +182,14 @@ def test_a_mission_config_rehearses_its_own_aircraft() -> None:
     """demo/replay --config: the plan and the mock's airframes come from the config."""
     from dataclasses import replace
 
-    from convoy_mav.demo import SCENARIOS, mock_mapping, rehearsal, rehearsed_config
+    from convoy_mav.demo import (
+        SCENARIOS,
+        mock_mapping,
+        rehearsal,
+        rehearsed_config,
+        replay_scenario,
+    )
+    from convoy_mav.tracks import GeoTrack
 
     root = Path(__file__).resolve().parents[2] / "configs"
     mission = load_config(root / "rehearse_fast_planes.toml")
@@ -193,6 +200,14 @@ def test_a_mission_config_rehearses_its_own_aircraft() -> None:
     mock = mock_mapping(scenario, 3, speedup=20.0, duration=60.0)
     assert mock["aircraft"]["airspeed"] == 28.0
     assert mock["aircraft"]["turn_radius"] == pytest.approx(200.0 * scenario.turn_margin)
+    # the mock's world at the mission's origin: its elevation sets the air's density,
+    # and so how wide a mock ArduPlane flies its loiters; a replayed track keeps its own
+    # first fix, at that elevation
+    o = mission.origin
+    assert mock["origin"] == [o.lat, o.lon, o.alt]
+    track = GeoTrack((0.0, 10.0), (-35.0, -35.001), (149.0, 149.0))
+    replayed = mock_mapping(replay_scenario(track, scenario), 3, speedup=20.0, duration=60.0)
+    assert replayed["origin"] == [-35.0, 149.0, o.alt]
     base = parse_config({"mission": {"sensor_radius_m": 50.0}})
     cfg = rehearsed_config(replace(base, end="rtl"), replace(mission, end="land"))
     assert (cfg.end, cfg.altitude_band_m, cfg.sensor_radius_m) == ("land", 15.0, 50.0)

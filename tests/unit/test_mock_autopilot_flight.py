@@ -11,8 +11,9 @@ import math
 import pytest
 from pymavlink.dialects.v20 import common as mavlink
 
-from sitl_mock.autopilot import SimVehicle
-from sitl_mock.kinematics import TrackTarget
+from convoy_mav.atmosphere import eas2tas_squared
+from sitl_mock.autopilot import Personality, SimVehicle
+from sitl_mock.kinematics import Loiter, TrackTarget
 from tests.fakes import (
     AP,
     PX4,
@@ -293,7 +294,8 @@ def test_ardupilot_plane_flow_guided_arm_reposition_loiters_as_told() -> None:
         row = gcs.truth()
         distances.append(math.hypot(row.north - hn - 900.0, row.east - he - 400.0))
         rates.append(row.yaw_rate)
-    assert min(distances) > 145.0 and max(distances) < 155.0
+    flown = 150.0 * eas2tas_squared(WORLD.origin.alt - hd + 80.0)  # L1's density scaling
+    assert min(distances) > flown - 5.0 and max(distances) < flown + 5.0
     assert all(r < 0.0 for r in rates)  # counter-clockwise
     assert row.down == pytest.approx(hd - 80.0, abs=1.0)
     assert row.mode == "GUIDED"
@@ -341,28 +343,107 @@ def test_attitude_roll_is_a_coordinated_turn_and_yaw_is_heading() -> None:
     assert att.yaw == pytest.approx(row.yaw, abs=1e-3)
 
 
-@pytest.mark.parametrize(("radius", "speed"), [(100.0, 22.0), (150.0, 18.0), (300.0, 22.0)])
-def test_plane_loiters_wide_as_the_l1_controller_does(radius: float, speed: float) -> None:
-    lag = 1.9  # sitl_mock's default: ArduPlane SITL flies 100 m at about 118 m at 22 m/s
-    vehicle = make_vehicle(AP, "plane", airspeed=speed, min_turn_radius=60.0, loiter_lag=lag)
+def _guided_plane(personality: Personality, speed: float = 22.0, lag: float = 1.55) -> Gcs:
+    """A plane climbed out in its take-off mode, then in GUIDED (ArduPilot) or Hold (PX4)."""
+    vehicle = make_vehicle(
+        personality, "plane", airspeed=speed, min_turn_radius=60.0, loiter_lag=lag
+    )
     gcs = warm_gcs(vehicle)
-    gcs.set_mode(13)
-    gcs.arm()
-    gcs.run(30.0, telemetry=False)
-    gcs.set_mode(15)
-    rel = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
-    centre = WORLD.to_geo(600.0, 0.0)
-    gcs.command_int(mavlink.MAV_CMD_DO_REPOSITION, rel, (-1.0, 0.0, radius, 0.0),
-                    round(centre.lat * 1e7), round(centre.lon * 1e7), 60.0)  # fmt: skip
-    gcs.run(240.0, telemetry=False)
+    if personality is AP:
+        gcs.set_mode(13)
+        gcs.arm()
+        gcs.run(30.0, telemetry=False)
+        gcs.set_mode(15)
+    else:
+        gcs.arm()
+        gcs.command(mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, math.nan, math.nan, math.nan, 548.0)
+        gcs.run(30.0, telemetry=False)
+    return gcs
+
+
+def _loiter(gcs: Gcs, personality: Personality, north: float, east: float, radius: float,
+            clockwise: bool) -> None:  # fmt: skip
+    """DO_REPOSITION a loiter at 60 m above home: ArduPlane's param3/param4, PX4's signed
+    param3 (``Firmware.loiter_circle``)."""
+    centre = WORLD.to_geo(north, east)
+    if personality is AP:
+        p3, p4 = radius, 0.0 if clockwise else 1.0
+    else:
+        p3, p4 = (radius if clockwise else -radius), 0.0
+    gcs.command_int(mavlink.MAV_CMD_DO_REPOSITION, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+                    (-1.0, 0.0, p3, p4), round(centre.lat * 1e7), round(centre.lon * 1e7),
+                    60.0)  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("personality", "radius", "speed"),
+    [(AP, 100.0, 22.0), (AP, 150.0, 18.0), (AP, 300.0, 22.0), (AP, 2000.0, 22.0),
+     (PX4, 300.0, 22.0), (PX4, 2000.0, 22.0)],
+)  # fmt: skip
+def test_plane_loiters_wide_as_its_navigation_controller_does(
+    personality: Personality, radius: float, speed: float
+) -> None:
+    """ArduPlane: L1 scales the radius by EAS2TAS^2 at the loiter's altitude (548 m
+    AMSL here: 5.4 %), then overshoots by (V T)^2 / R; PX4: the overshoot only."""
+    lag = 1.55
+    gcs = _guided_plane(personality, speed, lag)
+    _loiter(gcs, personality, 600.0, 0.0, radius, clockwise=True)
+    gcs.run(240.0 if radius < 1000.0 else 900.0, telemetry=False)
     flown = []
     for _ in range(60):
         gcs.run(1.0, telemetry=False)
         row = gcs.truth()
         flown.append(math.hypot(row.north - 600.0, row.east))
-    expected = radius + (speed * lag) ** 2 / radius  # wider the faster and the tighter
+    scaled = radius * (eas2tas_squared(548.0) if personality is AP else 1.0)
+    expected = scaled + (speed * lag) ** 2 / scaled  # wider the faster and the tighter
     assert sum(flown) / len(flown) == pytest.approx(expected, abs=1.5)
     assert max(flown) - min(flown) < 3.0  # a steady circle, only a wider one
+    if personality is AP:
+        assert eas2tas_squared(548.0) == pytest.approx(1.0544, abs=1e-4)
+
+
+def test_arduplane_keeps_the_last_reposition_radius_until_guided_is_entered_again() -> None:
+    """``ModeGuided::set_radius_and_direction`` runs only for param3 > 0, and
+    ``active_radius_m`` is cleared only when GUIDED is entered: a reposition with radius
+    0 after a 1500 m one loiters 1500 m around its point (scaled, as every loiter)."""
+    gcs = _guided_plane(AP)
+    scale = eas2tas_squared(548.0)
+    _loiter(gcs, AP, 600.0, 0.0, 1500.0, clockwise=True)
+    goal = gcs.vehicle.flight.goal
+    assert isinstance(goal, Loiter) and goal.radius == pytest.approx(1500.0 * scale)
+    _loiter(gcs, AP, 900.0, 0.0, 0.0, clockwise=True)
+    goal = gcs.vehicle.flight.goal
+    assert isinstance(goal, Loiter) and goal.radius == pytest.approx(1500.0 * scale)
+    assert (goal.north, goal.east) == pytest.approx((900.0, 0.0), abs=0.01)
+    assert gcs.set_mode(12).result == mavlink.MAV_RESULT_ACCEPTED  # LOITER, then GUIDED
+    assert gcs.set_mode(15).result == mavlink.MAV_RESULT_ACCEPTED
+    _loiter(gcs, AP, 900.0, 0.0, 0.0, clockwise=True)
+    goal = gcs.vehicle.flight.goal
+    default = gcs.vehicle.flight.loiter_radius  # WP_LOITER_RAD
+    assert isinstance(goal, Loiter) and goal.radius == pytest.approx(default * scale)
+
+
+def test_a_km_loiter_laid_through_an_arduplane_sends_it_out_in_seconds() -> None:
+    """ArduPlane SITL on a 2275 m circle, told to loiter on it, turned 80 degrees outward
+    and was 160 m out 10 s later: L1 wants the circle 7 % wider and closes on it with
+    its PD's period, whatever the radius. The mock's plane does the same (not within
+    a km, as a field scaled by the radius would)."""
+    gcs = _guided_plane(AP)
+    _loiter(gcs, AP, 600.0, 0.0, 300.0, clockwise=True)
+    gcs.run(120.0, telemetry=False)
+    row = gcs.truth()
+    radius = 2000.0  # a circle through the plane, tangent to its course, clockwise
+    centre = (row.north - radius * math.cos(row.yaw + math.pi / 2),
+              row.east - radius * math.sin(row.yaw + math.pi / 2))  # fmt: skip
+    assert math.hypot(row.north - centre[0], row.east - centre[1]) == pytest.approx(radius)
+    _loiter(gcs, AP, *centre, radius, clockwise=True)
+    out = []
+    for _ in range(12):
+        gcs.run(1.0, telemetry=False)
+        row = gcs.truth()
+        out.append(math.hypot(row.north - centre[0], row.east - centre[1]) - radius)
+    assert out[-1] > 80.0, out  # SITL: 164 m (its T and density a little larger)
+    assert out[-1] < 1.1 * (eas2tas_squared(548.0) - 1.0) * radius, out  # not beyond
 
 
 def test_copter_rtl_returns_home_lands_and_disarms() -> None:

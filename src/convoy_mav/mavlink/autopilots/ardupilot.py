@@ -22,9 +22,15 @@ What differs from PX4 (ArduPilot's ``mode.h`` and ``GCS_Mavlink.cpp``):
       changes (or until accepted), and the along-track phase is corrected with
       rate-limited DO_CHANGE_SPEED. A straight segment is flown as a loiter
       around a point far ahead on the line (a "carrot"), moved as the plane
-      advances. ArduPlane flies its loiters wide (L1): the overshoot is learnt
-      from telemetry and the commanded radius shrunk to match the plan
-      (``loiter.LoiterModel``).
+      advances. Its radius is given (the plan's tightest arc, at most a quarter of
+      the look-ahead), never left 0 once an arc was sent:
+      ArduPlane keeps the last radius a reposition gave until GUIDED is entered
+      again, so a carrot sent with 0 after a 2 km arc was flown as a 2 km loiter
+      around the carrot, away from it (SITL: the plane 1 km off its slot, re-joined;
+      holds alike). ArduPlane flies its loiters wide: L1 scales every radius by
+      ``EAS2TAS^2`` (6-7 % at 600 m AMSL, from the standard atmosphere at the
+      loiter's altitude) and overshoots a tight one (learnt from telemetry); the
+      commanded radius is shrunk to match the plan (``loiter.LoiterModel``).
     * ArduPlane armed in GUIDED on the ground keeps its throttle suppressed and
       never leaves the runway: it takes off in TAKEOFF mode (13), which climbs to
       TKOFF_ALT (set first, by PARAM_SET, to the flight altitude above home) and
@@ -39,6 +45,7 @@ from typing import ClassVar
 
 from pymavlink.dialects.v20 import common as mavlink
 
+from convoy_mav.atmosphere import eas2tas_squared
 from convoy_mav.geo import LocalFrame
 from convoy_mav.mavlink.autopilots.base import (
     Autopilot,
@@ -257,6 +264,10 @@ class ArduPlane(ArduPilot):
         """The along-track phase loop (its learnt speed offset is the airframe's)."""
         self.model = LoiterModel()
         """How wide this aircraft flies its loiters (learnt while flying them)."""
+        self.scale = 1.0
+        """L1's density scaling of the last loiter laid (``EAS2TAS^2`` at its altitude)."""
+        self.tightest_arc: float | None = None
+        """The plan's tightest arc so far (m): the radius of carrots and holds."""
         self.too_tight: float | None = None
         """The largest planned radius no loiter command flies (None: all flyable)."""
         self.arc: tuple[float, float, float, bool] | None = None
@@ -286,18 +297,37 @@ class ArduPlane(ArduPilot):
         )
 
     def _loiter_for(self, sp: Setpoint) -> tuple[float, float, float, float, bool]:
+        scale = self.scale = self._scale(sp.down)
         if sp.hold:
-            return sp.north, sp.east, sp.down, 0.0, True
+            return sp.north, sp.east, sp.down, self._point_radius(scale), True
         if sp.center is not None and sp.radius > 0.0:
-            if self.model.samples >= _LEARNT_SAMPLES and not self.model.feasible(sp.radius):
+            learnt = self.model.samples >= _LEARNT_SAMPLES
+            if learnt and not self.model.feasible(sp.radius, scale):
                 self.too_tight = max(self.too_tight or 0.0, sp.radius)
-            radius = self.model.command_radius(sp.radius)
+            self.tightest_arc = min(self.tightest_arc or math.inf, sp.radius)
+            radius = self.model.command_radius(sp.radius, scale)
             return sp.center[0], sp.center[1], sp.down, radius, sp.clockwise
         v = math.hypot(sp.vn, sp.ve)
         if v < 1e-6:
-            return sp.north, sp.east, sp.down, 0.0, True
+            return sp.north, sp.east, sp.down, self._point_radius(scale), True
         k = self.carrot / v
-        return sp.north + k * sp.vn, sp.east + k * sp.ve, sp.down, 0.0, True
+        return sp.north + k * sp.vn, sp.east + k * sp.ve, sp.down, self._point_radius(scale), True
+
+    def _point_radius(self, scale: float) -> float:
+        """The radius of a loiter around a point (a carrot, a hold): the plan's tightest
+        arc, at most a quarter of the carrot's look-ahead (flown towards, not around);
+        0 (WP_LOITER_RAD) only while no arc was ever sent, for 0 repeats the last
+        radius given in this GUIDED, however wide."""
+        if self.tightest_arc is None:
+            return 0.0
+        return self.model.command_radius(min(self.tightest_arc, 0.25 * self.carrot), scale)
+
+    def _scale(self, down: float) -> float:
+        """L1's ``EAS2TAS^2`` at a loiter ``down`` metres below the frame's origin."""
+        try:
+            return eas2tas_squared(self.frame.origin.alt - down)
+        except ValueError:  # (an origin without a sane altitude: unscaled)
+            return 1.0
 
     def _loiter_changed(self, new: tuple[float, float, float, float, bool], straight: bool) -> bool:
         old = self.loiter
@@ -351,14 +381,17 @@ class ArduPlane(ArduPilot):
         if loiter is None or not self.loiter_acked:
             return
         distance = math.hypot(position[0] - loiter[0], position[1] - loiter[1])
-        self.model.observe(distance, loiter[3], t - self.arc_since, math.hypot(sp.vn, sp.ve))
+        self.model.observe(
+            distance, loiter[3], t - self.arc_since, math.hypot(sp.vn, sp.ve), self.scale
+        )
 
     def learnt(self) -> dict[str, float]:
-        """The loiter overshoot k (m^2), the tightest loiter flown, the speed offset."""
-        k = self.model.k
+        """The loiter overshoot k (m^2) and density scaling, the tightest loiter flown,
+        the speed offset."""
         return {
-            "loiter_overshoot_m2": round(k, 1),
-            "tightest_loiter_m": round(2.0 * math.sqrt(max(k, 0.0)), 1),
+            "loiter_overshoot_m2": round(self.model.k, 1),
+            "loiter_scale": round(self.scale, 4),
+            "tightest_loiter_m": round(self.model.tightest(self.scale), 1),
             "phase_speed_offset": round(self.phase.bias, 4),
         }
 
@@ -366,7 +399,7 @@ class ArduPlane(ArduPilot):
         """The plan's arcs are tighter than any loiter command makes this plane fly."""
         if self.too_tight is None:
             return None
-        tightest = 2.0 * math.sqrt(max(self.model.k, 0.0))
+        tightest = self.model.tightest(self.scale)
         return (
             f"flies no loiter tighter than {tightest:.0f} m (its L1 overshoot), the plan "
             f"asks for {self.too_tight:.0f} m: plan with turn_radius_m >= {tightest:.0f}"
