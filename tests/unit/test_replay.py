@@ -56,7 +56,8 @@ def test_replay_scenario_refuses_a_convoy_as_fast_as_the_aircraft() -> None:
 def test_the_mock_drives_the_track_from_the_world_origin() -> None:
     scenario = replay_scenario(_straight(7.0))
     mapping = mock_mapping(scenario, 4, speedup=40.0, duration=300.0)
-    assert mapping["origin"] == pytest.approx([START.lat, START.lon])
+    # (at sea level: a rehearsal's --config gives the airfield's elevation)
+    assert mapping["origin"] == pytest.approx([START.lat, START.lon, 0.0])
     assert mapping["ground"]["route"] == "track"
     cfg = config_from_mapping(mapping)
     assert (cfg.origin.lat, cfg.origin.lon) == pytest.approx((START.lat, START.lon))
