@@ -32,7 +32,7 @@ from typing import Literal
 
 from pymavlink.dialects.v20 import common as mavlink
 
-from convoy_mav.atmosphere import eas2tas_squared
+from convoy_mav.atmosphere import l1_loiter_scale
 from sitl_mock.params import Knob, ParamDef
 
 __all__ = [
@@ -264,7 +264,7 @@ class Firmware:
         at 630 m AMSL flies a 2275 m loiter at 2438 m, 1000 m at 1073 m. PX4's
         NPFG flies the radius it is given.
         """
-        return eas2tas_squared(amsl) if self.is_ardupilot else 1.0
+        return l1_loiter_scale(amsl) if self.is_ardupilot else 1.0
 
 
 # ============================================================================ tables

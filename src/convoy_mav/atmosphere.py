@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["density_ratio", "eas2tas_squared"]
+__all__ = ["density_ratio", "eas2tas_squared", "l1_loiter_scale"]
 
 _T0 = 288.15  # K, sea-level temperature
 _LAPSE = 0.0065  # K/m, troposphere
@@ -34,3 +34,13 @@ def density_ratio(amsl: float) -> float:
 def eas2tas_squared(amsl: float) -> float:
     """``EAS2TAS^2 = rho0 / rho`` at ``amsl``: how much wider ArduPlane flies a loiter."""
     return 1.0 / density_ratio(amsl)
+
+
+def l1_loiter_scale(amsl: float) -> float:
+    """How much wider than commanded ArduPlane's L1 flies a loiter at ``amsl``:
+    ``EAS2TAS^2`` there, or 1.0 where the standard atmosphere gives no answer (an
+    altitude outside the troposphere, or not finite: left unscaled, not refused)."""
+    try:
+        return eas2tas_squared(amsl)
+    except ValueError:
+        return 1.0

@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from convoy_mav.atmosphere import density_ratio, eas2tas_squared
+from convoy_mav.atmosphere import density_ratio, eas2tas_squared, l1_loiter_scale
 
 
 @pytest.mark.parametrize(
@@ -28,3 +28,9 @@ def test_air_thins_with_altitude() -> None:
 def test_an_altitude_outside_the_troposphere_is_refused(amsl: float) -> None:
     with pytest.raises(ValueError, match="AMSL"):
         density_ratio(amsl)
+
+
+@pytest.mark.parametrize("amsl", [math.nan, -600.0, 12000.0])
+def test_l1_leaves_a_loiter_unscaled_where_the_model_has_no_answer(amsl: float) -> None:
+    assert l1_loiter_scale(amsl) == 1.0
+    assert l1_loiter_scale(1000.0) == eas2tas_squared(1000.0)

@@ -45,7 +45,7 @@ from typing import ClassVar
 
 from pymavlink.dialects.v20 import common as mavlink
 
-from convoy_mav.atmosphere import eas2tas_squared
+from convoy_mav.atmosphere import l1_loiter_scale
 from convoy_mav.geo import LocalFrame
 from convoy_mav.mavlink.autopilots.base import (
     Autopilot,
@@ -324,10 +324,7 @@ class ArduPlane(ArduPilot):
 
     def _scale(self, down: float) -> float:
         """L1's ``EAS2TAS^2`` at a loiter ``down`` metres below the frame's origin."""
-        try:
-            return eas2tas_squared(self.frame.origin.alt - down)
-        except ValueError:  # (an origin without a sane altitude: unscaled)
-            return 1.0
+        return l1_loiter_scale(self.frame.origin.alt - down)
 
     def _loiter_changed(self, new: tuple[float, float, float, float, bool], straight: bool) -> bool:
         old = self.loiter
