@@ -8,8 +8,14 @@ import numpy as np
 import numpy.typing as npt
 import pytest
 
-from convoy_mav.planning.dubins import Pose, Turn
-from convoy_mav.planning.meets import LegLimits, _candidates, _leg_to, plan_leg
+from convoy_mav.planning.dubins import Pose, Turn, wrap_angle
+from convoy_mav.planning.meets import (
+    LegLimits,
+    _candidates,
+    _leg_to,
+    plan_leg,
+    plan_leg_to_pose,
+)
 
 FloatArray = npt.NDArray[np.float64]
 R, V = 150.0, 18.0
@@ -84,3 +90,29 @@ def test_the_scan_meets_near_the_first_time_a_leg_fits_and_never_after_chasing()
             chased = _leg_to(pose, 0.0, chased.t_end, where, LIMITS, 0.0)
         if chased.on_time:
             assert leg.t_end <= chased.t_end + LIMITS.late_step_s
+
+
+@pytest.mark.parametrize(
+    ("heading_deg", "t_meet"),
+    [(0.0, 30.0), (-60.0, 45.0), (90.0, 45.0), (-120.0, 60.0), (90.0, 60.0), (180.0, 80.0)],
+)
+def test_a_leg_to_a_pose_meets_the_pattern_on_its_heading_on_time(
+    heading_deg: float, t_meet: float
+) -> None:
+    """Whatever way the UAV flies now, the leg ends on the pattern, going the pattern's way
+    there, at the meeting: flyable, one speed inside the band."""
+    where = _moving_point(300.0, 200.0, 8.0, 0.0)  # (the pattern's heading: +x)
+    pose = Pose(0.0, 0.0, math.radians(heading_deg))
+    leg = plan_leg_to_pose(pose, 0.0, where, t_meet, LIMITS)
+    assert leg is not None and leg.on_time
+    assert leg.t_end == pytest.approx(t_meet, abs=1e-6)
+    x, y = where(np.array([t_meet]))
+    assert math.hypot(leg.end.x - x[0], leg.end.y - y[0]) < 1e-3
+    assert abs(wrap_angle(leg.end.heading)) < 1e-6
+    assert all(seg.speed == leg.speed for seg in leg.segments)
+    _flyable(leg)
+
+
+def test_no_leg_to_a_pose_the_band_cannot_reach_in_time() -> None:
+    where = _moving_point(2000.0, 0.0, 8.0, 0.0)
+    assert plan_leg_to_pose(Pose(0.0, 0.0, 0.0), 0.0, where, 60.0, LIMITS) is None

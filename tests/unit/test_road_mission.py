@@ -43,8 +43,10 @@ def _fly(
     route: Road | None = None,
     dt: float = 0.1,
     until: float | None = None,
+    starts: dict[int, tuple[float, float, float]] | None = None,
 ) -> tuple[RoadMission, Streams]:
-    """Drive a RoadMission like the service does; every setpoint it would stream, per UAV."""
+    """Drive a RoadMission like the service does; every setpoint it would stream, per UAV
+    (joining from ``starts``, default: round the convoy's first fix)."""
     ids = list(range(1, uavs + 1))
     mission = RoadMission(REQUEST, ids, down=lambda _u: -100.0, route=route)
     tracker = ConvoyTracker(window=4.0)
@@ -60,7 +62,8 @@ def _fly(
             mission.on_convoy(est)
         if not joined and mission.plan is not None:
             mission.join_many(
-                {
+                starts
+                or {
                     u: (north[0] + 300.0 * math.cos(u), east[0] + 300.0 * math.sin(u), u)
                     for u in ids
                 },
@@ -114,6 +117,19 @@ def test_parked_and_straight_convoys_are_covered_throughout(speed: float) -> Non
     assert run.predicted_coverage == pytest.approx(run.coverage, abs=0.01)
 
 
+def _sides(streams: Streams, after: float) -> list[bool]:
+    """The side (east of it) each UAV came back from, 5 s before each meeting with a convoy
+    driving north at 8 m/s, in the order of the meetings after ``after``."""
+    meetings = []
+    for stream in streams.values():
+        sps = [sp for sp in stream if sp.t >= after]
+        dist = np.array([math.hypot(sp.north - 8.0 * sp.t, sp.east) for sp in sps])
+        for k in range(50, len(sps) - 1):
+            if dist[k] < 30.0 and dist[k] <= dist[k - 1] and dist[k] < dist[k + 1]:
+                meetings.append((sps[k].t, sps[k - 50].east > 0.0))
+    return [side for _, side in sorted(meetings)]
+
+
 def test_consecutive_meetings_come_from_alternate_sides_of_the_convoy() -> None:
     """Every other UAV flies the mirror image of the paper's arc (``_offset``): the UAVs
     come back to the convoy from alternate sides, never three in a row from one (the
@@ -121,17 +137,28 @@ def test_consecutive_meetings_come_from_alternate_sides_of_the_convoy() -> None:
     t = np.arange(0.0, 700.0, 1.0)
     mission, streams = _fly(t, 8.0 * t, 0.0 * t, 6, until=600.0)
     assert mission.protect_start is not None
-    meetings = []
-    for stream in streams.values():
-        sps = [sp for sp in stream if sp.t >= mission.protect_start]
-        dist = np.array([math.hypot(sp.north - 8.0 * sp.t, sp.east) for sp in sps])
-        for k in range(50, len(sps) - 1):
-            if dist[k] < 30.0 and dist[k] <= dist[k - 1] and dist[k] < dist[k + 1]:
-                meetings.append((sps[k].t, sps[k - 50].east > 0.0))  # side 5 s before
-    meetings.sort()
-    sides = [side for _, side in meetings]
+    sides = _sides(streams, mission.protect_start)
     assert len(sides) >= 40 and 0 < sum(sides) < len(sides)
     assert all(len(set(sides[i : i + 3])) == 2 for i in range(len(sides) - 2))
+
+
+def test_a_uav_left_on_the_mirror_image_of_its_pattern_goes_back_to_its_side() -> None:
+    """A fleet taking off from one strip, heading away from the road: one UAV meets the
+    convoy going the mirror of its pattern's way and (one arc after another) kept on
+    doing so, three meetings in a row from one side every cycle, until a sudden corner
+    found them all on its inside (the turning demo: 13-16 s unseen). It goes back to
+    its own side at a meeting on its pattern's heading, at little cost, flyably."""
+    t = np.arange(0.0, 800.0, 1.0)
+    starts = {u: (200.0 + 10.0 * u, 400.0, math.pi) for u in range(1, 7)}
+    mission, streams = _fly(t, 8.0 * t, 0.0 * t, 6, until=700.0, starts=starts)
+    assert mission.protect_start is not None and mission.protect_start < 150.0
+    early = _sides(streams, mission.protect_start)
+    assert any(len(set(early[i : i + 3])) == 1 for i in range(len(early) - 2))  # mirrored
+    late = _sides(streams, 350.0)
+    assert len(late) >= 40
+    assert all(len(set(late[i : i + 3])) == 2 for i in range(len(late) - 2))
+    assert mission.predicted_coverage is not None and mission.predicted_coverage >= 0.99
+    _assert_flyable(mission, streams)
 
 
 @pytest.mark.parametrize("turn_deg", [-90.0, 90.0])

@@ -32,6 +32,10 @@ Design rules:
   (and a fill's leg to the convoy) is laid round the midpoint of it standing
   and it driving off (``Forecast.centre``), so the next meetings see it
   either way.
+- A protecting UAV left flying the mirror image of its pattern (met on the
+  mirror of its heading, it meets so again arc after arc) goes back to its
+  side on a straight road, when that costs the fleet little (``_side_switch``):
+  every other UAV then comes back from each side at the next sudden corner.
 - A joining UAV takes a free slot and flies legs from where it is; it is
   ``protect`` from its first meeting on time, within r of the pattern on its
   way there on average (its sensor disk over its slot's). Half of r held a
@@ -72,8 +76,8 @@ from convoy_mav.mission.events import MissionEvent, Phase, PhaseChanged, Replann
 from convoy_mav.mission.forecast import FORECAST_STEP, Forecast, Hedge, Watch
 from convoy_mav.mission.recording import MissionRecording
 from convoy_mav.planning.detours import best_detour
-from convoy_mav.planning.dubins import Pose, Segment, Turn
-from convoy_mav.planning.meets import Leg, LegLimits, Where, plan_leg
+from convoy_mav.planning.dubins import Pose, Segment, Turn, wrap_angle
+from convoy_mav.planning.meets import Leg, LegLimits, Where, plan_leg, plan_leg_to_pose
 from convoy_mav.planning.pattern import (
     PatternClock,
     beta_for_speed,
@@ -91,8 +95,22 @@ __all__ = ["RoadMission", "RoadSettings"]
 FloatArray = npt.NDArray[np.float64]
 
 _SCORE_STEP = 0.5  # s: resolution of the planned-coverage score
+_MEET_HEADING_DT = 0.5  # s: the pattern's heading at a meeting, from points this far apart
+_MOVING_MPS = 1.0  # m/s: a convoy slower than this has no course to speak of
+_SWITCH_STRAIGHT_DEG = 10.0  # a side switch starts while the pattern lies this close to the road
+_SWITCH_STRAIGHT_S = 60.0  # ... and the convoy drove on straight this long
+_SWITCH_PERSIST_S = 90.0  # ... and the UAV has flown the mirror image this long
+_SWITCH_SLACK_S = 5.0  # a meeting this close after a side switch's is that one
+_SWITCH_LAGS_S = (-4.0, -2.0, 0.0, 2.0, 4.0, 6.0, 8.0)  # a side switch meets the pattern so late
 _REPLAN_BATCHES = 8  # a fleet's re-plans are spread over this many mission steps at least
 _RECENT_GAPS = 24  # re-plans the recent re-plan interval is the median of
+
+
+def _off_heading(pose: Pose, pattern: Where, t: float) -> float:
+    """How far ``pose`` at ``t`` heads off the pattern's way there, radians in [0, pi]."""
+    tx, ty = pattern(np.array([t, t + _MEET_HEADING_DT]))
+    want = math.atan2(float(ty[1] - ty[0]), float(tx[1] - tx[0]))
+    return abs(wrap_angle(pose.heading - want))
 
 
 @dataclass(frozen=True, slots=True)
@@ -134,6 +152,9 @@ class RoadSettings:
         drive_off_weight: ... a second of it worth this many of the forecast's (0: never);
         drive_off_blend: ... and the pattern laid this fraction of the way from it
             standing to it driving off (``Forecast.centre``; 0: round it standing).
+        side_switch_cost_s: A UAV flying the mirror image of its pattern goes back to
+            its side when that leaves the convoy unseen this long at most
+            (``_side_switch``; < 0: never).
     """
 
     speed_band: tuple[float, float] = (0.85, 1.15)
@@ -156,6 +177,7 @@ class RoadSettings:
     drive_off_accel: float = 1.0
     drive_off_weight: float = 0.5
     drive_off_blend: float = 0.5
+    side_switch_cost_s: float = 2.0
 
     @property
     def hedge(self) -> Hedge:
@@ -220,6 +242,8 @@ class RoadMission(Roster):
         self._down = down
         self._slots: dict[int, int] = {}  # uav -> slot index in 0..N-1
         self._side = 0  # which parity of slots flies the mirrored arcs (``_offset``)
+        self._switching: dict[int, float] = {}  # uav -> end of its leg back to its side
+        self._mirrored_since: dict[int, float] = {}  # uav -> since when it flies mirrored
         self._trajectories: dict[int, Trajectory] = {}
         self._starts: dict[int, Pose] = {}  # joined, not yet planned: where it was
         self._arrival: dict[int, float] = {}
@@ -235,6 +259,7 @@ class RoadMission(Roster):
         self.legs_late = 0
         self.plans_kept = 0
         self.fills = 0
+        self.side_switches = 0
         self.uav_replans = 0
         # Mission s between two re-plans of one protecting UAV, recent ones and the
         # run's: more than replan_every_s when the host is short of CPU.
@@ -445,6 +470,11 @@ class RoadMission(Roster):
             self._plan_paths(est.t, [u for _, u in due[:batch]])
         return events + self._announce(est.t)
 
+    def _course(self) -> float | None:
+        """The convoy's course now (planner frame), None while it barely moves."""
+        vx, vy = self.model.velocity()
+        return math.atan2(vy, vx) if math.hypot(vx, vy) >= _MOVING_MPS else None
+
     def set_route(self, route: Road) -> None:
         """The route the convoy will drive from now on (a new one over MQTT)."""
         if self.recording is not None:
@@ -621,14 +651,33 @@ class RoadMission(Roster):
             offset = self._offset(slot, n)
             pattern = forecast.pattern(offset)
             close = self.settings.on_pattern_m or self.request.sensor_radius
+            meetings = forecast.meetings(offset, t)
             joining = uav not in self._arrival
             weight = self.settings.join_heading_weight if joining else 0.0
             how = join_limits if joining else limits
-            legs = self._legs(pose, t, pattern, forecast.meetings(offset, t), how, weight)
+            if joining:  # (a UAV lost and back starts afresh)
+                self._switching.pop(uav, None)
+                self._mirrored_since.pop(uav, None)
+            switch = None if joining else self._side_switch(uav, t, forecast, pattern)
+            if (
+                switch is None
+                and t < self._switching.get(uav, -math.inf) - self.settings.min_lead_s
+            ):
+                # On its way back to its side, and no new leg there fits: the one in force
+                # still gets there.
+                self.plans_kept += 1
+                continue
+            if switch is None:
+                legs = self._legs(pose, t, pattern, meetings, how, weight)
+            else:
+                later = [m for m in meetings if m > switch.t_end + _SWITCH_SLACK_S]
+                legs = [switch, *self._legs(switch.end, switch.t_end, pattern, later, how, 0.0)]
             if not legs:
                 continue
             first_leg = legs[0]
             path = self._path(t, legs)
+            filled = None
+            kept = False
             if self._arrival.get(uav, math.inf) <= t and uav in self._trajectories:
                 # A protecting UAV: its path in force, or a detour to the convoy, may
                 # see more of it than the new legs do.
@@ -638,11 +687,16 @@ class RoadMission(Roster):
                 others = self._others_see(uav, t, watch)
                 mine = watch.sees(path)
                 in_force = watch.sees(self._trajectories[uav])
-                kept = self._keeps(in_force, mine, watch, others)
-                # A detour is weighed against what the UAV will fly otherwise:
-                # the path it keeps, or its new legs.
+                # A detour is weighed against what the UAV will fly otherwise: the path
+                # it keeps, or its new legs. (A switch of sides was weighed over its
+                # whole leg, the hole it leaves included: ``_side_switch``.)
+                kept = switch is None and self._keeps(in_force, mine, watch, others)
                 flown = in_force if kept else mine
-                filled = self._fill(uav, t, pose, flown, forecast, watch, others, limits)
+                filled = (
+                    None
+                    if switch is not None
+                    else self._fill(uav, t, pose, flown, forecast, watch, others, limits)
+                )
                 if filled is None and kept:
                     self.plans_kept += 1
                     continue
@@ -651,6 +705,11 @@ class RoadMission(Roster):
                     legs, path = filled
                     first_leg = legs[0]
             segments = tuple(seg for leg in legs for seg in leg.segments)
+            if switch is not None and filled is None:
+                self.side_switches += uav not in self._switching
+                self._switching[uav] = switch.t_end
+            else:
+                self._switching.pop(uav, None)
             self.legs_late += not first_leg.on_time or first_leg.late_s > 0.0
             if uav not in self._arrival and first_leg.on_time and first_leg.mean_offset <= close:
                 self._arrival[uav] = first_leg.t_end
@@ -660,11 +719,108 @@ class RoadMission(Roster):
         if self._replan_gaps:  # (one assignment: the service reads it from another thread)
             self.replan_interval_s = float(np.median(self._replan_gaps))
 
-    def _others_see(self, uav: int, t: float, watch: Watch) -> npt.NDArray[np.bool_]:
-        """Samples of ``watch`` some other protecting UAV's path in force sees."""
+    def _drove_straight(self, t: float, span: float, limit: float) -> bool:
+        """Whether the convoy drove on over the last ``span`` seconds, its course in its
+        two halves within ``limit`` radians of each other."""
+        hist = self._history
+        if len(hist) < 2 or hist[0][0] > t - span:
+            return False
+        times = [h[0] for h in hist]
+        k0 = bisect.bisect_left(times, t - span)
+        k1 = bisect.bisect_left(times, t - 0.5 * span)
+        (_, x0, y0), (_, x1, y1), (_, x2, y2) = hist[k0], hist[k1], hist[-1]
+        reach = _MOVING_MPS * 0.5 * span
+        if math.hypot(x1 - x0, y1 - y0) < reach or math.hypot(x2 - x1, y2 - y1) < reach:
+            return False
+        turned = math.atan2(y2 - y1, x2 - x1) - math.atan2(y1 - y0, x1 - x0)
+        return abs(math.remainder(turned, math.tau)) <= limit
+
+    def _side_switch(self, uav: int, t: float, forecast: Forecast, pattern: Where) -> Leg | None:
+        """The leg that takes a protecting UAV flying the mirror image of its pattern back
+        to its own side, or on there (None: it flies its own side, or stays put).
+
+        Mirrored, its path meets the convoy going the mirror of the pattern's way
+        (more than a right angle off), and from there every ``plan_leg`` arc meets
+        it so again: the same meetings, from the other side. A join that met the
+        pattern so leaves it there for good (the turning demo on the mock: one
+        UAV in each of five runs). On a straight road that covers as well; at a
+        sudden corner every other UAV no longer comes back from each side (the
+        demo's 60-deg corner: three meetings in a row from its inside, 13-16 s
+        unseen). The way back is a leg to the pattern on its heading at one of
+        the next two meetings, up to 8 s late (``plan_leg_to_pose``), taken when
+        it costs at most ``side_switch_cost_s`` of the convoy seen by no other
+        UAV until it arrives, and aimed at the same point at every re-plan. Only
+        on a straight road, after ``_SWITCH_PERSIST_S`` mirrored: on a winding
+        one the next bend may turn the formation round anyway, and a switch
+        under way gives way (fills, keeps) as soon as the road turns.
+        """
+        settings = self.settings
+        traj = self._trajectories.get(uav)
+        if settings.side_switch_cost_s < 0.0 or traj is None or self._protect_start is None:
+            return None
+        offset = self._offset(self._slots[uav], len(self._live))
+        ahead = [m for m in forecast.meetings(offset, t) if m >= t + settings.min_lead_s]
+        if not ahead:
+            return None
+        now = self._course()
+        limit = math.radians(_SWITCH_STRAIGHT_DEG)
+        if now is None or abs(math.remainder(now - float(forecast.course[0]), math.tau)) > limit:
+            # Turning or stopping: the pattern swings round, and the sides with it; a
+            # switch under way gives way to what the fleet needs now (fills).
+            self._switching.pop(uav, None)
+            return None
+        until = self._switching.get(uav)
+        limits = self._limits()
+        pose = self._pose_at(uav, t)
+        assert pose is not None  # (it has a path)
+        if until is not None and t < until - settings.min_lead_s:
+            return plan_leg_to_pose(pose, t, pattern, until, limits)
+        meets = self._pose_at(uav, ahead[0])
+        assert meets is not None  # (it has a path)
+        tx, ty = pattern(np.array([ahead[0]]))
+        on_it = math.hypot(meets.x - float(tx[0]), meets.y - float(ty[0]))
+        mirrored = _off_heading(meets, pattern, ahead[0]) > 0.5 * math.pi
+        if on_it > self.request.sensor_radius or not mirrored:
+            self._mirrored_since.pop(uav, None)
+            return None
+        since = self._mirrored_since.setdefault(uav, t)
+        if t - since < _SWITCH_PERSIST_S or not self._drove_straight(t, _SWITCH_STRAIGHT_S, limit):
+            return None  # (a bend, or the next one, may bring it round as well)
+        best: tuple[float, Leg] | None = None
+        for aim in ahead[:2]:
+            for lag in _SWITCH_LAGS_S:
+                if aim + lag < t + settings.min_lead_s:
+                    continue
+                leg = plan_leg_to_pose(pose, t, pattern, aim + lag, limits)
+                if leg is not None:
+                    cost = self._switch_cost(uav, t, traj, leg, forecast)
+                    if best is None or cost < best[0]:
+                        best = (cost, leg)
+            if best is not None and best[0] <= settings.side_switch_cost_s:
+                return best[1]
+        return None
+
+    def _switch_cost(
+        self, uav: int, t: float, traj: Trajectory, leg: Leg, forecast: Forecast
+    ) -> float:
+        """Seconds of the forecast convoy, until ``leg`` ends, that ``traj`` sees and no
+        other UAV does, less those ``leg`` sees so (a UAV joining again counts: it will
+        be protecting by then)."""
+        watch = Watch(forecast, leg.t_end - t, self.request.sensor_radius)
+        others = self._others_see(uav, t, watch, joining=True)
+        switch = self._path(t, [leg])
+        return watch.seconds(watch.sees(traj) & ~others) - watch.seconds(
+            watch.sees(switch) & ~others
+        )
+
+    def _others_see(
+        self, uav: int, t: float, watch: Watch, *, joining: bool = False
+    ) -> npt.NDArray[np.bool_]:
+        """Samples of ``watch`` some other protecting UAV's path in force sees (``joining``:
+        or a joining one's, on its way to protect)."""
         seen = np.zeros(len(watch.times), dtype=bool)
         for other, traj in self._trajectories.items():
-            if other != uav and self._arrival.get(other, math.inf) <= t:
+            if other != uav and (joining or self._arrival.get(other, math.inf) <= t):
                 seen |= watch.sees(traj)
         return seen
 
@@ -857,6 +1013,7 @@ class RoadMission(Roster):
             "legs_late": self.legs_late,
             "plans_kept": self.plans_kept,
             "fills": self.fills,
+            "side_switches": self.side_switches,
             "convoy_holds": self.holds,
             "flyability": {
                 str(u): {

@@ -39,9 +39,16 @@ import numpy as np
 import numpy.typing as npt
 
 from convoy_mav.errors import PlanningError
-from convoy_mav.planning.dubins import Pose, Segment, Turn, arc_points
+from convoy_mav.planning.dubins import (
+    Pose,
+    Segment,
+    Turn,
+    arc_points,
+    dubins_word_lengths,
+    dubins_word_path,
+)
 
-__all__ = ["Leg", "LegLimits", "Where", "plan_leg"]
+__all__ = ["Leg", "LegLimits", "Where", "plan_leg", "plan_leg_to_pose"]
 
 FloatArray = npt.NDArray[np.float64]
 Where = Callable[["FloatArray"], tuple["FloatArray", "FloatArray"]]
@@ -51,6 +58,8 @@ _TRACK_SAMPLES = 24  # points per candidate at which its distance to the pattern
 _RETARGETS = 3  # past the scan: times a late leg is planned again for where it arrives
 _LATE_CHUNK = 8  # late times the scan for a late leg's meeting tries first (then 16, 32...)
 _HEADING_DT = 0.5  # s: the pattern's heading at a meeting, from its positions this far apart
+_POSE_SCORED = 8  # legs to a pose built and scored: those nearest cruise speed
+_POSE_RADII = tuple(1.0 + 0.125 * i for i in range(25))  # turn radii (x R) of a leg to a pose
 
 
 @dataclass(frozen=True, slots=True)
@@ -170,6 +179,75 @@ def plan_leg(
             break
         leg = _leg_to(pose, t, leg.t_end, pattern, limits, heading_weight)
     return replace(leg, late_s=max(leg.t_end - t_meet, 0.0))
+
+
+def plan_leg_to_pose(
+    pose: Pose, t: float, pattern: Where, t_meet: float, limits: LegLimits
+) -> Leg | None:
+    """A leg from ``pose`` at ``t`` that meets the pattern at ``t_meet`` on its heading
+    there, on time; None when none fits the speed band.
+
+    ``plan_leg``'s legs end on the pattern with whatever heading their arc
+    gives: a UAV that meets the convoy going the mirror image of its pattern's
+    way meets it so again, arc after arc. This one is a Dubins path to the
+    pattern's pose (every word, at turn radii of 1-4 R, after a whole turn
+    either way or not, to take up the time), flown at one speed inside the
+    band; of the few nearest cruise speed, the one nearest the pattern on the
+    way (mean distance, as ``plan_leg``'s).
+    """
+    lo, hi = limits.speeds
+    left = t_meet - t
+    if left <= 0.0:
+        return None
+    tx, ty = pattern(np.array([t_meet, t_meet + _HEADING_DT]))
+    goal = Pose(float(tx[0]), float(ty[0]), math.atan2(float(ty[1] - ty[0]), float(tx[1] - tx[0])))
+    taus = np.linspace(0.0, left, _TRACK_SAMPLES)
+    rx, ry = pattern(t + taus)
+    # Every word's length first (closed form, cheap); the few nearest cruise are built.
+    fits: list[tuple[float, Turn, float, str]] = []
+    for loop in (Turn.STRAIGHT, Turn.LEFT, Turn.RIGHT):
+        # (a whole turn at R first, either way, when the time left is that much longer)
+        lap = 0.0 if loop == Turn.STRAIGHT else 2.0 * math.pi * limits.turn_radius
+        for scale in _POSE_RADII:
+            radius = scale * limits.turn_radius
+            for word, length in dubins_word_lengths(pose, goal, radius).items():
+                if lo * left <= length + lap <= hi * left:
+                    fits.append((abs(length + lap - limits.cruise * left), loop, radius, word))
+    best: tuple[float, tuple[Segment, ...], float] | None = None
+    for _, loop, radius, word in sorted(fits)[:_POSE_SCORED]:
+        path = dubins_word_path(pose, goal, word, radius, limits.cruise)
+        if path is None:
+            continue
+        lap = 0.0 if loop == Turn.STRAIGHT else 2.0 * math.pi * limits.turn_radius
+        speed = (path.length + lap) / left
+        first = (Segment(pose, loop, limits.turn_radius, speed, lap / speed),) if lap else ()
+        segments = first + tuple(
+            Segment(seg.start, seg.turn, seg.radius, speed, seg.length / speed)
+            for seg in path.segments
+            if seg.length > 1e-9
+        )
+        offset = _mean_offset(segments, t, taus, rx, ry)
+        if best is None or offset < best[0]:
+            best = (offset, segments, speed)
+    if best is None:
+        return None
+    offset, segments, speed = best
+    return Leg(segments, t, t + sum(s.duration for s in segments), speed, True, offset)
+
+
+def _mean_offset(
+    segments: tuple[Segment, ...], t: float, taus: FloatArray, rx: FloatArray, ry: FloatArray
+) -> float:
+    """Mean distance of a path (segments from ``t``) from the pattern's points ``rx, ry``
+    at ``t + taus``."""
+    ends = np.cumsum([s.duration for s in segments])
+    total = 0.0
+    for tau, x, y in zip(taus.tolist(), rx.tolist(), ry.tolist(), strict=True):
+        k = min(int(np.searchsorted(ends, tau)), len(segments) - 1)
+        seg = segments[k]
+        p = seg.at(min(max(tau - (ends[k] - seg.duration), 0.0), seg.duration))
+        total += math.hypot(p.x - x, p.y - y)
+    return total / len(taus)
 
 
 def _earliest_late_leg(
