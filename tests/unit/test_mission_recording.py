@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import dataclasses
 import pickle
 from pathlib import Path
 
 import pytest
 
 from convoy_mav.mission.recording import MissionRecording, load_recording
-from convoy_mav.mission.road import RoadMission
+from convoy_mav.mission.road import RoadMission, RoadSettings
 from convoy_mav.mission.simulate import fly_road
 from convoy_mav.planning import PlanRequest
 from convoy_mav.tracks.roads import corner
@@ -72,3 +73,24 @@ def test_a_refused_join_is_not_recorded_and_other_files_are_no_recording(
     with pytest.raises(ValueError, match="not a convoy-mav mission recording"):
         load_recording(other)
     assert RoadMission(REQUEST, [1], down=lambda _u: -100.0).recording is None
+
+
+def test_a_recording_from_before_a_setting_was_added_replays_with_its_default(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """An older build pickled one setting fewer (the last one, added since): the replay
+    gets it at its default instead of failing on it (``RoadSettings.__setstate__``)."""
+
+    def older(self: RoadSettings) -> list[object]:
+        return [getattr(self, f.name) for f in dataclasses.fields(self)][:-1]
+
+    monkeypatch.setattr(RoadSettings, "__getstate__", older)
+    recording = MissionRecording(
+        REQUEST, [1, 2], {1: -100.0, 2: -100.0}, None, RoadSettings(keep_margin_s=0.75)
+    )
+    path = tmp_path / "old.inputs"
+    recording.save(path)
+    monkeypatch.undo()
+    loaded = load_recording(path)
+    assert loaded.settings == RoadSettings(keep_margin_s=0.75)
+    assert RoadMission.replayed(loaded).settings == loaded.settings

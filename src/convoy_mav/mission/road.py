@@ -60,10 +60,11 @@ Design rules:
 from __future__ import annotations
 
 import bisect
+import itertools
 import math
 from collections import deque
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 from typing import Any
 
 import numpy as np
@@ -95,6 +96,7 @@ __all__ = ["RoadMission", "RoadSettings"]
 FloatArray = npt.NDArray[np.float64]
 
 _SCORE_STEP = 0.5  # s: resolution of the planned-coverage score
+_ABSENT = object()  # a setting an older build's pickle does not have
 _MEET_HEADING_DT = 0.5  # s: the pattern's heading at a meeting, from points this far apart
 _MOVING_MPS = 1.0  # m/s: a convoy slower than this has no course to speak of
 _SWITCH_STRAIGHT_DEG = 10.0  # a side switch starts while the pattern lies this close to the road
@@ -178,6 +180,13 @@ class RoadSettings:
     drive_off_weight: float = 0.5
     drive_off_blend: float = 0.5
     side_switch_cost_s: float = 2.0
+
+    def __setstate__(self, state: Sequence[Any]) -> None:
+        """Unpickled (a recording, ``mission.recording``) from an older build, which had
+        fewer settings: those added since (appended) at their defaults."""
+        values = itertools.chain(state, itertools.repeat(_ABSENT))
+        for f, value in zip(fields(self), values, strict=False):
+            object.__setattr__(self, f.name, f.default if value is _ABSENT else value)
 
     @property
     def hedge(self) -> Hedge:
