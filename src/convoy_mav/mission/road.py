@@ -78,7 +78,14 @@ from convoy_mav.mission.forecast import FORECAST_STEP, Forecast, Hedge, Watch
 from convoy_mav.mission.recording import MissionRecording
 from convoy_mav.planning.detours import best_detour
 from convoy_mav.planning.dubins import Pose, Segment, Turn, wrap_angle
-from convoy_mav.planning.meets import Leg, LegLimits, Where, plan_leg, plan_leg_to_pose
+from convoy_mav.planning.meets import (
+    Leg,
+    LegLimits,
+    Where,
+    pattern_pose,
+    plan_leg,
+    plan_leg_to_pose,
+)
 from convoy_mav.planning.pattern import (
     PatternClock,
     beta_for_speed,
@@ -97,7 +104,6 @@ FloatArray = npt.NDArray[np.float64]
 
 _SCORE_STEP = 0.5  # s: resolution of the planned-coverage score
 _ABSENT = object()  # a setting an older build's pickle does not have
-_MEET_HEADING_DT = 0.5  # s: the pattern's heading at a meeting, from points this far apart
 _MOVING_MPS = 1.0  # m/s: a convoy slower than this has no course to speak of
 _SWITCH_STRAIGHT_DEG = 10.0  # a side switch starts while the pattern lies this close to the road
 _SWITCH_STRAIGHT_S = 60.0  # ... and the convoy drove on straight this long
@@ -106,13 +112,6 @@ _SWITCH_SLACK_S = 5.0  # a meeting this close after a side switch's is that one
 _SWITCH_LAGS_S = (-4.0, -2.0, 0.0, 2.0, 4.0, 6.0, 8.0)  # a side switch meets the pattern so late
 _REPLAN_BATCHES = 8  # a fleet's re-plans are spread over this many mission steps at least
 _RECENT_GAPS = 24  # re-plans the recent re-plan interval is the median of
-
-
-def _off_heading(pose: Pose, pattern: Where, t: float) -> float:
-    """How far ``pose`` at ``t`` heads off the pattern's way there, radians in [0, pi]."""
-    tx, ty = pattern(np.array([t, t + _MEET_HEADING_DT]))
-    want = math.atan2(float(ty[1] - ty[0]), float(tx[1] - tx[0]))
-    return abs(wrap_angle(pose.heading - want))
 
 
 @dataclass(frozen=True, slots=True)
@@ -667,7 +666,7 @@ class RoadMission(Roster):
             if joining:  # (a UAV lost and back starts afresh)
                 self._switching.pop(uav, None)
                 self._mirrored_since.pop(uav, None)
-            switch = None if joining else self._side_switch(uav, t, forecast, pattern)
+            switch = None if joining else self._side_switch(uav, t, forecast, pattern, meetings)
             if (
                 switch is None
                 and t < self._switching.get(uav, -math.inf) - self.settings.min_lead_s
@@ -744,7 +743,9 @@ class RoadMission(Roster):
         turned = math.atan2(y2 - y1, x2 - x1) - math.atan2(y1 - y0, x1 - x0)
         return abs(math.remainder(turned, math.tau)) <= limit
 
-    def _side_switch(self, uav: int, t: float, forecast: Forecast, pattern: Where) -> Leg | None:
+    def _side_switch(
+        self, uav: int, t: float, forecast: Forecast, pattern: Where, meetings: Sequence[float]
+    ) -> Leg | None:
         """The leg that takes a protecting UAV flying the mirror image of its pattern back
         to its own side, or on there (None: it flies its own side, or stays put).
 
@@ -767,8 +768,7 @@ class RoadMission(Roster):
         traj = self._trajectories.get(uav)
         if settings.side_switch_cost_s < 0.0 or traj is None or self._protect_start is None:
             return None
-        offset = self._offset(self._slots[uav], len(self._live))
-        ahead = [m for m in forecast.meetings(offset, t) if m >= t + settings.min_lead_s]
+        ahead = [m for m in meetings if m >= t + settings.min_lead_s]
         if not ahead:
             return None
         now = self._course()
@@ -786,9 +786,9 @@ class RoadMission(Roster):
             return plan_leg_to_pose(pose, t, pattern, until, limits)
         meets = self._pose_at(uav, ahead[0])
         assert meets is not None  # (it has a path)
-        tx, ty = pattern(np.array([ahead[0]]))
-        on_it = math.hypot(meets.x - float(tx[0]), meets.y - float(ty[0]))
-        mirrored = _off_heading(meets, pattern, ahead[0]) > 0.5 * math.pi
+        laid = pattern_pose(pattern, ahead[0])
+        on_it = math.hypot(meets.x - laid.x, meets.y - laid.y)
+        mirrored = abs(wrap_angle(meets.heading - laid.heading)) > 0.5 * math.pi
         if on_it > self.request.sensor_radius or not mirrored:
             self._mirrored_since.pop(uav, None)
             return None

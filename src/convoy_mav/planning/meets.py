@@ -47,8 +47,9 @@ from convoy_mav.planning.dubins import (
     dubins_word_lengths,
     dubins_word_path,
 )
+from convoy_mav.planning.plan import chain_positions
 
-__all__ = ["Leg", "LegLimits", "Where", "plan_leg", "plan_leg_to_pose"]
+__all__ = ["Leg", "LegLimits", "Where", "pattern_pose", "plan_leg", "plan_leg_to_pose"]
 
 FloatArray = npt.NDArray[np.float64]
 Where = Callable[["FloatArray"], tuple["FloatArray", "FloatArray"]]
@@ -146,6 +147,13 @@ class Leg:
         return last.at(last.duration)
 
 
+def pattern_pose(pattern: Where, t: float) -> Pose:
+    """Where the pattern puts the UAV at ``t``, going its way there (the heading from its
+    positions ``_HEADING_DT`` apart)."""
+    tx, ty = pattern(np.array([t, t + _HEADING_DT]))
+    return Pose(float(tx[0]), float(ty[0]), math.atan2(float(ty[1] - ty[0]), float(tx[1] - tx[0])))
+
+
 def plan_leg(
     pose: Pose,
     t: float,
@@ -199,8 +207,7 @@ def plan_leg_to_pose(
     left = t_meet - t
     if left <= 0.0:
         return None
-    tx, ty = pattern(np.array([t_meet, t_meet + _HEADING_DT]))
-    goal = Pose(float(tx[0]), float(ty[0]), math.atan2(float(ty[1] - ty[0]), float(tx[1] - tx[0])))
+    goal = pattern_pose(pattern, t_meet)
     taus = np.linspace(0.0, left, _TRACK_SAMPLES)
     rx, ry = pattern(t + taus)
     # Every word's length first (closed form, cheap); the few nearest cruise are built.
@@ -240,14 +247,8 @@ def _mean_offset(
 ) -> float:
     """Mean distance of a path (segments from ``t``) from the pattern's points ``rx, ry``
     at ``t + taus``."""
-    ends = np.cumsum([s.duration for s in segments])
-    total = 0.0
-    for tau, x, y in zip(taus.tolist(), rx.tolist(), ry.tolist(), strict=True):
-        k = min(int(np.searchsorted(ends, tau)), len(segments) - 1)
-        seg = segments[k]
-        p = seg.at(min(max(tau - (ends[k] - seg.duration), 0.0), seg.duration))
-        total += math.hypot(p.x - x, p.y - y)
-    return total / len(taus)
+    x, y = chain_positions(segments, taus)
+    return float(np.mean(np.hypot(x - rx, y - ry)))
 
 
 def _earliest_late_leg(
@@ -293,8 +294,8 @@ def _leg_to(
 ) -> Leg:
     lo, hi = limits.speeds
     left = max(t_meet - t, 1e-3)
-    tx, ty = pattern(np.array([t_meet, t_meet + _HEADING_DT]))
-    target = (float(tx[0]), float(ty[0]))
+    goal = pattern_pose(pattern, t_meet)
+    target = (goal.x, goal.y)
     k1, l1, k2, arc, total = _candidates(pose, target, limits)
     speed = np.clip(total / left, lo, hi)
     late = np.abs(total / speed - left)  # seconds early or late
@@ -303,7 +304,7 @@ def _leg_to(
     bound = np.where(_flyable(k2, limits) & (on_time | (not on_time_only)), late, np.inf)
     bound *= limits.cruise
     if heading_weight > 0.0:
-        want = math.atan2(float(ty[1] - ty[0]), float(tx[1] - tx[0]))
+        want = goal.heading
         h_end = pose.heading + k1 * l1 + np.where(np.isfinite(k2), k2, 0.0) * arc
         bound += heading_weight * np.abs(np.mod(h_end - want + math.pi, 2 * math.pi) - math.pi)
     taus = np.linspace(0.0, left, _TRACK_SAMPLES)

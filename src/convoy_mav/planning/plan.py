@@ -177,6 +177,15 @@ class Trajectory:
         return SampleArray(t, x, y, heading, speed * np.cos(heading), speed * np.sin(heading), rate)
 
 
+def chain_positions(
+    segments: tuple[Segment, ...], taus: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """Positions ``taus`` seconds into a chain of segments (past its end, on its last)."""
+    times = list(itertools.accumulate((seg.duration for seg in segments), initial=0.0))
+    x, y, _, _, _ = _states(_segment_arrays(segments, times), taus)
+    return x, y
+
+
 def _states(
     a: dict[str, FloatArray], tau: FloatArray
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
