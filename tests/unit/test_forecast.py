@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+import numpy.typing as npt
 import pytest
 
 from convoy_mav.mission.convoy_model import ConvoyModel
@@ -168,3 +171,65 @@ def test_a_driving_convoy_s_pattern_is_laid_round_it_as_forecast() -> None:
     )
     assert near.other is not None  # (it may stop short of the corner: not blended)
     assert np.array_equal(near.px, near.cx) and np.array_equal(near.py, near.cy)
+
+
+STRAIGHT = Road.straight(0.0, 0.0, 0.0, 20000.0)  # east from the origin
+
+
+def _driven(speeds: list[tuple[float, float]], *, relax_s: float = 30.0) -> ConvoyModel:
+    """A convoy along ``STRAIGHT`` that drove each (seconds, m/s) in turn, an estimate a second."""
+    model = ConvoyModel(STRAIGHT, relax_s=relax_s, mean_window_s=120.0)
+    t = along = 0.0
+    for seconds, speed in speeds:
+        for _ in range(round(seconds)):
+            t, along = t + 1.0, along + speed
+            model.observe(ConvoyEstimate(t, 0.0, along, 0.0, speed))
+    return model
+
+
+def _ahead(model: ConvoyModel, dt: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    """Metres along ``STRAIGHT`` the model puts the convoy ``dt`` after its estimate."""
+    est = model.estimate
+    assert est is not None
+    x, _ = model.positions(est.t + dt)
+    return np.asarray(x - est.east)
+
+
+def test_a_convoy_faster_than_its_recent_mean_is_forecast_to_slow_to_it() -> None:
+    model = _driven([(80.0, 4.0), (40.0, 12.0)])  # the last 120 s: 4 m/s, then 12
+    mean = model.mean_speed
+    assert mean is not None and 4.0 < mean < 12.0
+    dt = np.array([0.5, 10.0, 30.0, 120.0, 600.0])
+    gone = _ahead(model, dt)
+    expected = mean * dt + (12.0 - mean) * 30.0 * (1.0 - np.exp(-dt / 30.0))
+    assert gone == pytest.approx(expected, abs=1e-6)
+    # At its own speed at first, at the mean in the end, never faster than either.
+    assert gone[0] == pytest.approx(6.0, abs=0.05)
+    assert np.diff(gone[-2:])[0] / 480.0 == pytest.approx(mean, rel=1e-3)
+    assert (gone < 12.0 * dt).all() and (np.diff(gone) > 0).all()
+    # The same forecast one point at a time.
+    est = model.estimate
+    assert est is not None
+    assert model.position(est.t + 30.0)[0] == pytest.approx(est.east + gone[2])
+
+
+def test_a_steady_or_slowing_convoy_is_forecast_at_its_speed() -> None:
+    dt = np.arange(0.0, 300.0, 5.0)
+    steady = _driven([(200.0, 10.0)])
+    assert _ahead(steady, dt) == pytest.approx(10.0 * dt)
+    # Slower than its mean (a queue): it may stay so, never forecast back up.
+    slowed = _driven([(100.0, 12.0), (10.0, 2.0)])
+    assert _ahead(slowed, dt) == pytest.approx(2.0 * dt)
+    # Relaxation off: held at its speed, as with no route.
+    held = _driven([(80.0, 4.0), (40.0, 12.0)], relax_s=0.0)
+    assert _ahead(held, dt) == pytest.approx(12.0 * dt)
+
+
+def test_the_mean_speed_forgets_what_is_older_than_its_window() -> None:
+    model = _driven([(100.0, 2.0), (200.0, 12.0)])  # the slow part left the window
+    assert model.mean_speed == pytest.approx(12.0)
+    assert _ahead(model, np.array([60.0])) == pytest.approx([720.0])
+    assert _driven([(1.0, 5.0)]).mean_speed is None  # one estimate spans no time
+    for bad in ({"relax_s": -1.0}, {"mean_window_s": 0.0}, {"relax_s": math.nan}):
+        with pytest.raises(ValueError, match="must be"):
+            ConvoyModel(STRAIGHT, **bad)

@@ -5,11 +5,24 @@ Design rules:
 - With a route (``convoy_mav.planning.road.Road``) the convoy's arc length is
   its estimated position projected on the route (searched near the last
   one, so a route that doubles back is not confused), and it is predicted
-  to drive on along the route at its speed along it. A convoy farther than
+  to drive on along the route. A convoy farther than
   ``off_route_m`` from the route for ``off_route_s`` has left it: it is
   then predicted like a convoy with no route until it is back on it.
+- Along a route its speed is forecast to relax, with time constant
+  ``relax_s``, to its mean over the last ``mean_window_s`` (stops
+  included): the mean of an Ornstein-Uhlenbeck speed. A convoy in traffic
+  does not hold its speed: faster than its recent mean, it will slow for
+  the next queue, junction or corner, where and when no route says. Held at
+  its speed, every meeting half a minute ahead lies too far on, and the
+  legs planned for them arrive where the convoy is not (the recorded drive,
+  route known, simulation: 94.0 % held, 99.3 % with the true future, the
+  loss all at speed changes). Never up: a convoy slower than its mean may
+  stay so (a queue) for as long as it likes, and one standing has its
+  drive-off weighed apart (``driving_off``).
 - With no route the convoy is predicted to go on at its estimated velocity
-  (the tracker's least-squares slope, never a raw difference of fixes).
+  (the tracker's least-squares slope, never a raw difference of fixes), held:
+  that speed is a chord's, and dips in every bend (relaxed, hairpins without
+  a route lost 5.6 points).
 - A route says where the road turns, not whether the convoy will stop before
   it does: at a junction it may stand for a minute first. ``stopping_short``
   is that other course, the convoy stopped just short of the next sharp
@@ -22,6 +35,7 @@ Design rules:
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -61,14 +75,35 @@ class ConvoyModel:
         route: The route the convoy is expected to drive, or None.
         off_route_m: Farther than this from the route, the convoy may have left it.
         off_route_s: ... for this long, and it has.
+        relax_s: Along the route, a convoy faster than its recent mean speed is
+            forecast to relax to it with this time constant, s (0: held).
+        mean_window_s: ... its mean over this many seconds.
+
+    Raises:
+        ValueError: If ``relax_s`` is negative or ``mean_window_s`` not positive.
     """
 
     def __init__(
-        self, route: Road | None = None, *, off_route_m: float = 60.0, off_route_s: float = 5.0
+        self,
+        route: Road | None = None,
+        *,
+        off_route_m: float = 60.0,
+        off_route_s: float = 5.0,
+        relax_s: float = 0.0,
+        mean_window_s: float = 120.0,
     ) -> None:
+        if not (math.isfinite(relax_s) and relax_s >= 0.0):
+            raise ValueError(f"relax_s must be >= 0, got {relax_s!r}")
+        if not (math.isfinite(mean_window_s) and mean_window_s > 0.0):
+            raise ValueError(f"mean_window_s must be positive, got {mean_window_s!r}")
         self.route = route
         self.off_route_m = off_route_m
         self.off_route_s = off_route_s
+        self.relax_s = relax_s
+        self.mean_window_s = mean_window_s
+        # (t, speed along the route) over the last mean_window_s, and its integral.
+        self._speeds: deque[tuple[float, float]] = deque()
+        self._distance = 0.0
         self._est: ConvoyEstimate | None = None
         self._s = 0.0  # arc length on the route
         self._along = 0.0  # speed along the route
@@ -118,6 +153,7 @@ class ConvoyModel:
         self._along = max(0.0, est.ve * math.cos(p.heading) + est.vn * math.sin(p.heading))
         if self._along >= _CRUISING_MPS:
             self._cruise = self._along
+        self._note_speed(est.t, self._along)
         if off > self.off_route_m:
             if self._off_since is None:
                 self._off_since = est.t
@@ -130,6 +166,36 @@ class ConvoyModel:
                 self.left_route = False
                 self.counters["back_on_route"] += 1
 
+    def _note_speed(self, t: float, speed: float) -> None:
+        """Add a speed along the route to the trailing window (trapezoids, O(1) each)."""
+        speeds = self._speeds
+        if speeds:
+            t0, v0 = speeds[-1]
+            self._distance += 0.5 * (v0 + speed) * (t - t0)
+        speeds.append((t, speed))
+        while len(speeds) > 1 and speeds[1][0] <= t - self.mean_window_s:
+            (t0, v0), (t1, v1) = speeds.popleft(), speeds[0]
+            self._distance -= 0.5 * (v0 + v1) * (t1 - t0)
+
+    @property
+    def mean_speed(self) -> float | None:
+        """Mean speed along the route over the last ``mean_window_s``, None until the
+        window spans a second."""
+        speeds = self._speeds
+        span = speeds[-1][0] - speeds[0][0] if speeds else 0.0
+        return self._distance / span if span >= 1.0 else None
+
+    def ahead(self, dt: FloatArray) -> FloatArray:
+        """Metres the convoy is forecast to drive along the route in ``dt`` seconds:
+        ``m dt + (v - m) relax_s (1 - exp(-dt / relax_s))`` from its speed ``v`` and its
+        recent mean ``m``, when ``v > m``; ``v dt`` otherwise."""
+        v = self._along
+        mean = self.mean_speed
+        tau = self.relax_s
+        if tau <= 0.0 or mean is None or mean >= v:
+            return v * dt
+        return mean * dt - (v - mean) * tau * np.expm1(-dt / tau)
+
     def position(self, t: float) -> tuple[float, float]:
         """Predicted (x, y) at time ``t`` (>= the latest estimate's time)."""
         est = self._est
@@ -138,7 +204,7 @@ class ConvoyModel:
         dt = max(t - est.t, 0.0)
         if self.route is None or self.left_route:
             return est.east + est.ve * dt, est.north + est.vn * dt
-        p = self.route.point(self._s + self._along * dt)
+        p = self.route.point(self._s + float(self.ahead(np.array(dt))))
         return p.x, p.y
 
     def positions(self, times: npt.NDArray[np.float64]) -> tuple[FloatArray, FloatArray]:
@@ -149,7 +215,7 @@ class ConvoyModel:
         dt = _since(times, est)
         if self.route is None or self.left_route:
             return est.east + est.ve * dt, est.north + est.vn * dt
-        x, y, _, _ = self.route.arrays(self._s + self._along * dt)
+        x, y, _, _ = self.route.arrays(self._s + self.ahead(dt))
         return x, y
 
     def stopping_short(
@@ -164,8 +230,7 @@ class ConvoyModel:
         route = self.route
         if est is None or route is None or self.left_route or self._along < _MOVING_MPS:
             return None
-        dt = _since(times, est)
-        s = self._s + self._along * dt
+        s = self._s + self.ahead(_since(times, est))
         ahead = np.arange(self._s, float(s[-1]) + short_m, _CORNER_STEP_M)
         _, _, _, k = route.arrays(ahead)
         sharp = np.abs(k) >= curvature

@@ -156,6 +156,10 @@ class RoadSettings:
         side_switch_cost_s: A UAV flying the mirror image of its pattern goes back to
             its side when that leaves the convoy unseen this long at most
             (``_side_switch``; < 0: never).
+        speed_relax_s: With a route, a convoy faster than its recent mean speed is
+            forecast to relax to it with this time constant, s (``ConvoyModel``; 0:
+            held at its speed) ...
+        speed_mean_s: ... its mean over this many seconds, stops included.
     """
 
     speed_band: tuple[float, float] = (0.85, 1.15)
@@ -179,6 +183,8 @@ class RoadSettings:
     drive_off_weight: float = 0.5
     drive_off_blend: float = 0.5
     side_switch_cost_s: float = 2.0
+    speed_relax_s: float = 30.0
+    speed_mean_s: float = 120.0
 
     def __setstate__(self, state: Sequence[Any]) -> None:
         """Unpickled (a recording, ``mission.recording``) from an older build, which had
@@ -246,7 +252,9 @@ class RoadMission(Roster):
             else None
         )
         self._hedge = self.settings.hedge
-        self.model = ConvoyModel(route)
+        self.model = ConvoyModel(
+            route, relax_s=self.settings.speed_relax_s, mean_window_s=self.settings.speed_mean_s
+        )
         self._down = down
         self._slots: dict[int, int] = {}  # uav -> slot index in 0..N-1
         self._side = 0  # which parity of slots flies the mirrored arcs (``_offset``)
