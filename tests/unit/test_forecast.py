@@ -182,8 +182,8 @@ def _driven(speeds: list[tuple[float, float]], *, relax_s: float = 30.0) -> Conv
     t = along = 0.0
     for seconds, speed in speeds:
         for _ in range(round(seconds)):
-            t, along = t + 1.0, along + speed
             model.observe(ConvoyEstimate(t, 0.0, along, 0.0, speed))
+            t, along = t + 1.0, along + speed
     return model
 
 
@@ -196,7 +196,7 @@ def _ahead(model: ConvoyModel, dt: npt.NDArray[np.float64]) -> npt.NDArray[np.fl
 
 
 def test_a_convoy_faster_than_its_recent_mean_is_forecast_to_slow_to_it() -> None:
-    model = _driven([(80.0, 4.0), (40.0, 12.0)])  # the last 120 s: 4 m/s, then 12
+    model = _driven([(90.0, 4.0), (40.0, 12.0)])  # the last 120 s: 4 m/s, then 12
     mean = model.mean_speed
     assert mean is not None and 4.0 < mean < 12.0
     dt = np.array([0.5, 10.0, 30.0, 120.0, 600.0])
@@ -221,15 +221,18 @@ def test_a_steady_or_slowing_convoy_is_forecast_at_its_speed() -> None:
     slowed = _driven([(100.0, 12.0), (10.0, 2.0)])
     assert _ahead(slowed, dt) == pytest.approx(2.0 * dt)
     # Relaxation off: held at its speed, as with no route.
-    held = _driven([(80.0, 4.0), (40.0, 12.0)], relax_s=0.0)
+    held = _driven([(90.0, 4.0), (40.0, 12.0)], relax_s=0.0)
     assert _ahead(held, dt) == pytest.approx(12.0 * dt)
+    # Seen for less than a window: its start is not its pace.
+    started = _driven([(60.0, 4.0), (40.0, 12.0)])
+    assert started.mean_speed is None
+    assert _ahead(started, dt) == pytest.approx(12.0 * dt)
 
 
 def test_the_mean_speed_forgets_what_is_older_than_its_window() -> None:
     model = _driven([(100.0, 2.0), (200.0, 12.0)])  # the slow part left the window
     assert model.mean_speed == pytest.approx(12.0)
     assert _ahead(model, np.array([60.0])) == pytest.approx([720.0])
-    assert _driven([(1.0, 5.0)]).mean_speed is None  # one estimate spans no time
     for bad in ({"relax_s": -1.0}, {"mean_window_s": 0.0}, {"relax_s": math.nan}):
         with pytest.raises(ValueError, match="must be"):
             ConvoyModel(STRAIGHT, **bad)

@@ -18,7 +18,9 @@ Design rules:
   route known, simulation: 94.0 % held, 99.3 % with the true future, the
   loss all at speed changes). Never up: a convoy slower than its mean may
   stay so (a queue) for as long as it likes, and one standing has its
-  drive-off weighed apart (``driving_off``).
+  drive-off weighed apart (``driving_off``). Nor before the convoy has been
+  seen a whole window: its start from standing is not its pace, and a
+  forecast relaxed to it put the joining UAVs' meetings short.
 - With no route the convoy is predicted to go on at its estimated velocity
   (the tracker's least-squares slope, never a raw difference of fixes), held:
   that speed is a chord's, and dips in every bend (relaxed, hairpins without
@@ -104,6 +106,7 @@ class ConvoyModel:
         # (t, speed along the route) over the last mean_window_s, and its integral.
         self._speeds: deque[tuple[float, float]] = deque()
         self._distance = 0.0
+        self._first_speed_t: float | None = None
         self._est: ConvoyEstimate | None = None
         self._s = 0.0  # arc length on the route
         self._along = 0.0  # speed along the route
@@ -169,6 +172,8 @@ class ConvoyModel:
     def _note_speed(self, t: float, speed: float) -> None:
         """Add a speed along the route to the trailing window (trapezoids, O(1) each)."""
         speeds = self._speeds
+        if self._first_speed_t is None:
+            self._first_speed_t = t
         if speeds:
             t0, v0 = speeds[-1]
             self._distance += 0.5 * (v0 + speed) * (t - t0)
@@ -179,11 +184,14 @@ class ConvoyModel:
 
     @property
     def mean_speed(self) -> float | None:
-        """Mean speed along the route over the last ``mean_window_s``, None until the
-        window spans a second."""
+        """Mean speed along the route over the last ``mean_window_s``; None until the
+        convoy has been seen that long (its start from standing is not its pace)."""
         speeds = self._speeds
-        span = speeds[-1][0] - speeds[0][0] if speeds else 0.0
-        return self._distance / span if span >= 1.0 else None
+        first = self._first_speed_t
+        if first is None or speeds[-1][0] - first < self.mean_window_s:
+            return None
+        span = speeds[-1][0] - speeds[0][0]
+        return self._distance / span if span > 0.0 else None
 
     def ahead(self, dt: FloatArray) -> FloatArray:
         """Metres the convoy is forecast to drive along the route in ``dt`` seconds:
