@@ -92,7 +92,7 @@ class ConvoyModel:
         off_route_m: float = 60.0,
         off_route_s: float = 5.0,
         relax_s: float = 0.0,
-        mean_window_s: float = 120.0,
+        mean_window_s: float = 90.0,
     ) -> None:
         if not (math.isfinite(relax_s) and relax_s >= 0.0):
             raise ValueError(f"relax_s must be >= 0, got {relax_s!r}")

@@ -184,7 +184,7 @@ class RoadSettings:
     drive_off_blend: float = 0.5
     side_switch_cost_s: float = 2.0
     speed_relax_s: float = 30.0
-    speed_mean_s: float = 120.0
+    speed_mean_s: float = 90.0
 
     def __setstate__(self, state: Sequence[Any]) -> None:
         """Unpickled (a recording, ``mission.recording``) from an older build, which had
