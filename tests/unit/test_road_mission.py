@@ -235,9 +235,53 @@ def test_a_join_meets_the_pattern_on_its_heading() -> None:
         heading[on] = off
     turned = [u for u in heading[False] if heading[False][u] > math.radians(15.0)]
     assert turned  # (the case arises)
-    assert for_each[True]._join_aims  # and is met
-    for u in for_each[True]._join_aims:
+    mission = for_each[True]
+    aims = dict(mission._join_aims)
+    assert aims  # and is met
+    for u, aim in aims.items():
         assert heading[True][u] <= math.radians(1.0)
+        assert mission.arrival(u) == pytest.approx(aim, abs=1e-6)  # it protects from there
+
+
+def test_a_join_on_heading_keeps_its_aim_once_its_arrival_is_set() -> None:
+    """A UAV joining on its heading protects from the end of that leg, set when it is
+    first planned: the re-plans that follow (no longer a join's) still aim at it, so
+    it arrives on its heading; one whose aim the forecast puts out of reach keeps
+    the arrival it was given."""
+    starts = {u: (-200.0, 50.0 * u, 0.0) for u in range(1, 7)}
+    mission = RoadMission(REQUEST, range(1, 7), down=lambda _u: -100.0)
+    tracker = ConvoyTracker(window=4.0)
+
+    def step(now: float) -> None:
+        tracker.update(now, 8.0 * now, 0.0)
+        est = tracker.estimate(now)
+        if est is not None:
+            mission.on_convoy(est)
+        mission.tick(now)
+
+    now = 0.0
+    while mission.plan is None:
+        step(now)
+        now += 1.0
+    mission.join_many(starts, now)
+    first_aims = dict(mission._join_aims)
+    assert first_aims
+    last = min(first_aims.values()) - 2.0 * mission.settings.replan_every_s
+    replans = mission.uav_replans
+    while now < last:
+        step(now)
+        now += 0.5
+    assert mission.uav_replans > replans
+    forecast = mission._forecast(now, 100.0)
+    assert mission._join_aims  # still aimed at
+    for u, aim in first_aims.items():
+        assert mission.arrival(u) == aim  # it protects from there
+    for u, aim in mission._join_aims.items():
+        assert aim == first_aims[u]
+        traj = mission.trajectory(u)
+        assert traj is not None
+        laid = pattern_pose(forecast.pattern(mission._offset(mission._slots[u], 6)), aim)
+        assert abs(wrap_angle(traj.sample(aim).heading - laid.heading)) <= math.radians(2.0)
 
 
 @pytest.mark.parametrize("turn_deg", [-90.0, 90.0])
