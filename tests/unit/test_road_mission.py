@@ -16,7 +16,7 @@ from convoy_mav.errors import PlanningError
 from convoy_mav.mission.choose import choose_planner, road_fleet
 from convoy_mav.mission.events import PhaseChanged, Replanned
 from convoy_mav.mission.forecast import Watch
-from convoy_mav.mission.road import RoadMission, RoadSettings
+from convoy_mav.mission.road import _JOIN_LAGS_S, RoadMission, RoadSettings
 from convoy_mav.mission.simulate import RoadRun, fly_road
 from convoy_mav.planning import PlanRequest
 from convoy_mav.planning.dubins import Pose, Segment, Turn, wrap_angle
@@ -282,6 +282,39 @@ def test_a_join_on_heading_keeps_its_aim_once_its_arrival_is_set() -> None:
         assert traj is not None
         laid = pattern_pose(forecast.pattern(mission._offset(mission._slots[u], 6)), aim)
         assert abs(wrap_angle(traj.sample(aim).heading - laid.heading)) <= math.radians(2.0)
+
+
+@pytest.mark.parametrize("north", [-400.0, 0.0, 400.0])
+def test_a_join_that_would_meet_the_pattern_mirrored_waits_for_a_meeting_on_its_heading(
+    north: float,
+) -> None:
+    """UAVs in a line across a convoy that drives east, flying south when they join: one
+    whose legs would meet the pattern mirrored, with no leg on its heading fitting that
+    meeting, aims at the next one. None then protects mirrored, so none has to go back
+    to its side later at a skipped meeting's cost (the mock's straight road: 1-2.5 s
+    unseen)."""
+    starts = {u: (north, 60.0 * u - 200.0, math.pi) for u in range(1, 7)}
+    mission = RoadMission(REQUEST, range(1, 7), down=lambda _u: -100.0)
+    tracker = ConvoyTracker(window=4.0)
+    now, later_aims, joined = 0.0, 0, False
+    while now < 400.0:
+        tracker.update(now, 0.0, 8.0 * now)
+        est = tracker.estimate(now)
+        if est is not None:
+            mission.on_convoy(est)
+        if not joined and mission.plan is not None:
+            mission.join_many(starts, now)
+            joined = True
+            forecast = mission._forecast(now, 300.0)
+            for u, aim in mission._join_aims.items():
+                offset = mission._offset(mission._slots[u], 6)
+                first = forecast.meetings(offset, now + mission.settings.min_lead_s)[0]
+                later_aims += aim > first + max(_JOIN_LAGS_S)
+        mission.tick(now)
+        now += 0.5
+    assert later_aims  # (the case arises)
+    assert mission.protect_start is not None and mission.protect_start < 240.0
+    assert mission.side_switches == 0
 
 
 @pytest.mark.parametrize("turn_deg", [-90.0, 90.0])
