@@ -201,6 +201,44 @@ def test_a_side_switch_is_charged_the_meeting_it_skips() -> None:
     assert any(len(set(sides[i : i + 3])) == 1 for i in range(len(sides) - 2))  # still mirrored
 
 
+_NORTH, _EAST = (8.0, 0.0), (0.0, 8.0)  # a convoy's velocity, m/s north and east
+
+
+def _feed(
+    mission: RoadMission, tracker: ConvoyTracker, now: float, drive: tuple[float, float] = _NORTH
+) -> None:
+    """The fix at ``now`` of a convoy driving straight from the origin at ``drive``, fed
+    to ``mission`` as the service's control loop does."""
+    tracker.update(now, drive[0] * now, drive[1] * now)
+    est = tracker.estimate(now)
+    if est is not None:
+        mission.on_convoy(est)
+    mission.tick(now)
+
+
+def _joined(
+    starts: dict[int, tuple[float, float, float]],
+    settings: RoadSettings | None = None,
+    drive: tuple[float, float] = _NORTH,
+) -> tuple[RoadMission, ConvoyTracker, float]:
+    """Six UAVs joining from ``starts`` as soon as that convoy is located (1-Hz fixes)."""
+    mission = RoadMission(REQUEST, range(1, 7), down=lambda _u: -100.0, settings=settings)
+    tracker = ConvoyTracker(window=4.0)
+    now = 0.0
+    while mission.plan is None:
+        _feed(mission, tracker, now, drive)
+        now += 1.0
+    mission.join_many(starts, now)
+    return mission, tracker, now
+
+
+def _first_meeting(mission: RoadMission, uav: int, now: float, horizon: float) -> float:
+    """The first meeting of ``uav``'s slot that a leg planned at ``now`` aims at."""
+    offset = mission._offset(mission._slots[uav], len(mission.live_uavs))
+    meetings = mission._forecast(now, horizon).meetings(offset, now + mission.settings.min_lead_s)
+    return meetings[0]
+
+
 def test_a_join_meets_the_pattern_on_its_heading() -> None:
     """A joining UAV whose legs would meet the pattern more than ``join_heading_deg`` off
     its heading meets it on its heading instead (when a leg to the same meeting fits):
@@ -210,26 +248,15 @@ def test_a_join_meets_the_pattern_on_its_heading() -> None:
     for_each: dict[bool, RoadMission] = {}
     heading = {}
     for on in (False, True):
-        road_settings = RoadSettings(join_heading_deg=15.0 if on else 180.0)
-        mission = RoadMission(REQUEST, range(1, 7), down=lambda _u: -100.0, settings=road_settings)
-        tracker = ConvoyTracker(window=4.0)
-        now = 0.0
-        while mission.plan is None:
-            tracker.update(now, 8.0 * now, 0.0)
-            est = tracker.estimate(now)
-            if est is not None:
-                mission.on_convoy(est)
-            now += 1.0
-        mission.join_many(starts, now)
+        mission, _, now = _joined(starts, RoadSettings(join_heading_deg=15.0 if on else 180.0))
         forecast = mission._forecast(now, 200.0)
         off = {}
         for u, slot in mission._slots.items():
-            offset = mission._offset(slot, 6)
-            first = forecast.meetings(offset, now + mission.settings.min_lead_s)[0]
+            first = _first_meeting(mission, u, now, 200.0)
             traj = mission.trajectory(u)
             assert traj is not None
             s = traj.sample(mission._join_aims.get(u, first))
-            laid = pattern_pose(forecast.pattern(offset), s.t)
+            laid = pattern_pose(forecast.pattern(mission._offset(slot, 6)), s.t)
             off[u] = abs(wrap_angle(s.heading - laid.heading))
         for_each[on] = mission
         heading[on] = off
@@ -248,28 +275,13 @@ def test_a_join_on_heading_keeps_its_aim_once_its_arrival_is_set() -> None:
     first planned: the re-plans that follow (no longer a join's) still aim at it, so
     it arrives on its heading; one whose aim the forecast puts out of reach keeps
     the arrival it was given."""
-    starts = {u: (-200.0, 50.0 * u, 0.0) for u in range(1, 7)}
-    mission = RoadMission(REQUEST, range(1, 7), down=lambda _u: -100.0)
-    tracker = ConvoyTracker(window=4.0)
-
-    def step(now: float) -> None:
-        tracker.update(now, 8.0 * now, 0.0)
-        est = tracker.estimate(now)
-        if est is not None:
-            mission.on_convoy(est)
-        mission.tick(now)
-
-    now = 0.0
-    while mission.plan is None:
-        step(now)
-        now += 1.0
-    mission.join_many(starts, now)
+    mission, tracker, now = _joined({u: (-200.0, 50.0 * u, 0.0) for u in range(1, 7)})
     first_aims = dict(mission._join_aims)
     assert first_aims
     last = min(first_aims.values()) - 2.0 * mission.settings.replan_every_s
     replans = mission.uav_replans
     while now < last:
-        step(now)
+        _feed(mission, tracker, now)
         now += 0.5
     assert mission.uav_replans > replans
     forecast = mission._forecast(now, 100.0)
@@ -294,23 +306,13 @@ def test_a_join_that_would_meet_the_pattern_mirrored_waits_for_a_meeting_on_its_
     to its side later at a skipped meeting's cost (the mock's straight road: 1-2.5 s
     unseen)."""
     starts = {u: (north, 60.0 * u - 200.0, math.pi) for u in range(1, 7)}
-    mission = RoadMission(REQUEST, range(1, 7), down=lambda _u: -100.0)
-    tracker = ConvoyTracker(window=4.0)
-    now, later_aims, joined = 0.0, 0, False
+    mission, tracker, now = _joined(starts, drive=_EAST)
+    later_aims = sum(
+        aim > _first_meeting(mission, u, now, 300.0) + max(_JOIN_LAGS_S)
+        for u, aim in mission._join_aims.items()
+    )
     while now < 400.0:
-        tracker.update(now, 0.0, 8.0 * now)
-        est = tracker.estimate(now)
-        if est is not None:
-            mission.on_convoy(est)
-        if not joined and mission.plan is not None:
-            mission.join_many(starts, now)
-            joined = True
-            forecast = mission._forecast(now, 300.0)
-            for u, aim in mission._join_aims.items():
-                offset = mission._offset(mission._slots[u], 6)
-                first = forecast.meetings(offset, now + mission.settings.min_lead_s)[0]
-                later_aims += aim > first + max(_JOIN_LAGS_S)
-        mission.tick(now)
+        _feed(mission, tracker, now, _EAST)
         now += 0.5
     assert later_aims  # (the case arises)
     assert mission.protect_start is not None and mission.protect_start < 240.0

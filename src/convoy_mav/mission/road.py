@@ -708,8 +708,7 @@ class RoadMission(Roster):
                         uav, pose, t, pattern, meetings, legs, how
                     )
             else:
-                later = [m for m in meetings if m > switch.t_end + _SWITCH_SLACK_S]
-                legs = [switch, *self._legs(switch.end, switch.t_end, pattern, later, how, 0.0)]
+                legs = self._legs_after(switch, pattern, meetings, how)
             if not legs:
                 continue
             first_leg = legs[0]
@@ -821,9 +820,10 @@ class RoadMission(Roster):
             ahead = [m for m in meetings if m >= t + min_lead]
             first = legs[0]
             limit = math.radians(self.settings.join_heading_deg)
-            if not ahead or not _off_heading(first.end, pattern, first.t_end, limit):
+            off = _heading_error(first.end, pattern, first.t_end)
+            if not ahead or off <= limit:
                 return legs, False
-            mirrored = _off_heading(first.end, pattern, first.t_end, 0.5 * math.pi)
+            mirrored = off > 0.5 * math.pi
             for meet, lag in itertools.product(ahead[: 2 if mirrored else 1], _JOIN_LAGS_S):
                 leg = plan_leg_to_pose(pose, t, pattern, meet + lag, limits)
                 if leg is not None:
@@ -838,8 +838,7 @@ class RoadMission(Roster):
             self._join_aims.pop(uav, None)
             return legs, False
         leg = replace(leg, t_end=aim)  # (its durations sum to it, to the last bits)
-        later = [m for m in meetings if m > leg.t_end + _SWITCH_SLACK_S]
-        return [leg, *self._legs(leg.end, leg.t_end, pattern, later, limits, 0.0)], True
+        return self._legs_after(leg, pattern, meetings, limits), True
 
     def _side_switch(
         self, uav: int, t: float, forecast: Forecast, pattern: Where, meetings: Sequence[float]
@@ -886,9 +885,8 @@ class RoadMission(Roster):
         assert meets is not None  # (it has a path)
         laid = pattern_pose(pattern, ahead[0])
         on_it = math.hypot(meets.x - laid.x, meets.y - laid.y)
-        if on_it > self.request.sensor_radius or not _off_heading(
-            meets, pattern, ahead[0], 0.5 * math.pi
-        ):
+        mirrored = _heading_error(meets, pattern, ahead[0]) > 0.5 * math.pi
+        if on_it > self.request.sensor_radius or not mirrored:
             self._mirrored_since.pop(uav, None)
             return None
         since = self._mirrored_since.setdefault(uav, t)
@@ -1089,6 +1087,14 @@ class RoadMission(Roster):
                 break
         return legs
 
+    def _legs_after(
+        self, leg: Leg, pattern: Where, meetings: Sequence[float], limits: LegLimits
+    ) -> list[Leg]:
+        """``leg`` (a side switch's, a join's on heading), then legs to the meetings after
+        it: one within ``_SWITCH_SLACK_S`` of its end is the one it makes."""
+        later = [m for m in meetings if m > leg.t_end + _SWITCH_SLACK_S]
+        return [leg, *self._legs(leg.end, leg.t_end, pattern, later, limits, 0.0)]
+
     def _pose_at(self, uav: int, t: float) -> Pose | None:
         """Where the UAV's path in force has it at ``t`` (a joining UAV: where it is)."""
         traj = self._trajectories.get(uav)
@@ -1172,7 +1178,7 @@ class RoadMission(Roster):
             self._covered_s += _SCORE_STEP * seen
 
 
-def _off_heading(pose: Pose, pattern: Where, t: float, limit: float) -> bool:
-    """Whether ``pose`` at ``t`` goes more than ``limit`` radians off the pattern's way
-    there (more than a right angle: its mirror image)."""
-    return abs(wrap_angle(pose.heading - pattern_pose(pattern, t).heading)) > limit
+def _heading_error(pose: Pose, pattern: Where, t: float) -> float:
+    """Radians ``pose`` at ``t`` goes off the pattern's way there (more than a right
+    angle: its mirror image)."""
+    return abs(wrap_angle(pose.heading - pattern_pose(pattern, t).heading))
