@@ -6,6 +6,7 @@
     .venv/bin/python benchmarks/road_table.py --unseen --mock  # + against sitl_mock
     .venv/bin/python benchmarks/road_table.py --corners  # sudden corners, no route (~1 min)
     .venv/bin/python benchmarks/road_table.py --junctions  # a stop, then a turn (~2 min)
+    .venv/bin/python benchmarks/road_table.py --gaps  # unseen seconds by convoy state (~3 min)
 
 Simulation: the service's ``RoadMission`` fed the convoy's fixes through its own
 ``ConvoyTracker``, UAVs flying exactly what they are sent (``fly_road``), coverage
@@ -19,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import subprocess
 import sys
 import tempfile
@@ -30,7 +32,7 @@ import numpy.typing as npt
 from convoy_mav.config import DEFAULT_ORIGIN
 from convoy_mav.geo import GeoPoint, LocalFrame
 from convoy_mav.mission.choose import road_fleet
-from convoy_mav.mission.simulate import fly_road
+from convoy_mav.mission.simulate import RoadRun, fly_road
 from convoy_mav.planning import PlanRequest
 from convoy_mav.tracks import GeoTrack, load_track
 from convoy_mav.tracks.roads import KINDS, corner, junction, random_road, road_kind
@@ -55,16 +57,97 @@ def _roads() -> list[tuple[str, GeoTrack, PlanRequest, Truth]]:
     return out
 
 
-def _simulate(track: GeoTrack, req: PlanRequest, truth: Truth, known: bool) -> tuple[str, float]:
+def _true_path(track: GeoTrack, truth: Truth) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """The times of the convoy's fixes and where it truly was then (north, east in the
+    track's own frame): a generated road's true positions, a recorded one's fixes."""
+    times = np.asarray(track.times, dtype=np.float64)
     n, e = track.in_frame(LocalFrame(GeoPoint(track.lats[0], track.lons[0])))
-    tn = te = None
-    if truth is not None and len(truth[0]) == len(n):  # generated: the true positions,
+    if truth is not None and len(truth[0]) == len(n):
         first = LocalFrame(DEFAULT_ORIGIN).to_ned(GeoPoint(track.lats[0], track.lons[0]))
-        tn, te = truth[0] - first[0], truth[1] - first[1]  # in the track's own frame
+        return times, truth[0] - first[0], truth[1] - first[1]
+    return times, np.asarray(n, dtype=np.float64), np.asarray(e, dtype=np.float64)
+
+
+def _fly(track: GeoTrack, req: PlanRequest, truth: Truth, known: bool) -> RoadRun:
+    n, e = track.in_frame(LocalFrame(GeoPoint(track.lats[0], track.lons[0])))
+    _, tn, te = _true_path(track, truth)
     uavs = road_fleet(req.turn_radius, req.sensor_radius)
-    run = fly_road(track.times, n, e, req, uavs, true_north=tn, true_east=te, route_known=known)
+    return fly_road(track.times, n, e, req, uavs, true_north=tn, true_east=te, route_known=known)
+
+
+def _simulate(track: GeoTrack, req: PlanRequest, truth: Truth, known: bool) -> tuple[str, float]:
+    run = _fly(track, req, truth, known)
     start = "-" if run.protect_start is None else f"{run.protect_start:.0f}"
     return f"{100 * run.coverage:.1f} % / {run.longest_gap_s:.0f} s / {start} s", run.coverage
+
+
+GAP_CLASSES = ("stopped", "starting", "turning", "driving")
+_STOPPED_MPS = 0.5  # slower, the convoy stands
+_STARTING_S = 30.0  # this long after standing, it is starting
+_TURNING_DEG = 30.0  # its course changing more than this ...
+_TURN_WINDOW_S = (20.0, 5.0)  # ... from this long before to this long after: turning
+
+
+def gap_classes(
+    run: RoadRun, times: FloatArray, north: FloatArray, east: FloatArray, dt: float = 0.5
+) -> dict[str, float]:
+    """Seconds of ``run``'s unseen stretches by what the convoy (truly at ``north``, ``east``
+    at ``times``) was doing then: standing, starting (within 30 s of standing), turning
+    (its course changing more than 30 deg within 20 s before to 5 s after) or driving.
+
+    Speeds are a 5-s running mean of the fixes' differences, so a recorded drive's
+    jitter does not count as moving."""
+    steps = np.diff(times)
+    raw = np.hypot(np.diff(north), np.diff(east)) / np.maximum(steps, 1e-9)
+    mid = times[:-1] + 0.5 * steps
+    grid = np.arange(times[0], times[-1], dt)
+    k = max(1, round(5.0 / dt))
+    speed = np.convolve(np.interp(grid, mid, raw), np.ones(k) / k, mode="same")
+    stood = grid[speed < _STOPPED_MPS]
+    vx, vy = np.gradient(np.interp(grid, times, east)), np.gradient(np.interp(grid, times, north))
+    course = np.unwrap(np.arctan2(vx, vy))
+    out = dict.fromkeys(GAP_CLASSES, 0.0)
+    for start, end in run.gaps:
+        for when in np.arange(start, end - 1e-9, dt):
+            i = min(int(np.searchsorted(grid, when)), len(grid) - 1)
+            before = stood[stood <= when]
+            if speed[i] < _STOPPED_MPS:
+                what = "stopped"
+            elif len(before) and when - before[-1] <= _STARTING_S:
+                what = "starting"
+            else:
+                lo, hi = when - _TURN_WINDOW_S[0], when + _TURN_WINDOW_S[1]
+                near = course[(grid >= lo) & (grid <= hi) & (speed >= _STOPPED_MPS)]
+                turned = len(near) > 1 and math.degrees(float(np.ptp(near))) > _TURNING_DEG
+                what = "turning" if turned else "driving"
+            out[what] += dt
+    return out
+
+
+def _gaps() -> None:
+    """The table's roads in simulation, both modes: the unseen seconds by what the
+    convoy was doing (``gap_classes``)."""
+    head = "| road | route | coverage | unseen s | " + " | ".join(GAP_CLASSES) + " |"
+    print(head + "\n|" + "---|" * (head.count("|") - 1))
+    totals: dict[bool, dict[str, float]] = {}
+    for name, track, req, truth in _roads():
+        times, north, east = _true_path(track, truth)
+        for known in (True, False):
+            run = _fly(track, req, truth, known)
+            by = gap_classes(run, times, north, east)
+            total = totals.setdefault(known, dict.fromkeys(GAP_CLASSES, 0.0))
+            for what, seconds in by.items():
+                total[what] += seconds
+            cells = [f"{by[w]:.1f}" for w in GAP_CLASSES]
+            print(
+                f"| {name} | {'known' if known else 'none'} | {100 * run.coverage:.1f} % | "
+                f"{sum(by.values()):.1f} | " + " | ".join(cells) + " |",
+                flush=True,
+            )
+    for known, total in totals.items():
+        whole = sum(total.values()) or 1.0
+        shares = " | ".join(f"{100 * total[w] / whole:.0f} %" for w in GAP_CLASSES)
+        print(f"| all | {'known' if known else 'none'} | | {whole:.1f} | {shares} |")
 
 
 def _mock(
@@ -191,7 +274,13 @@ def main() -> None:
     parser.add_argument(
         "--junctions", action="store_true", help="the simulation of a stop, then a turn"
     )
+    parser.add_argument(
+        "--gaps", action="store_true", help="where the loss is: unseen seconds by convoy state"
+    )
     args = parser.parse_args()
+    if args.gaps:
+        _gaps()
+        return
     if args.corners:
         _corners()
         return

@@ -331,6 +331,22 @@ def test_a_sudden_corner_either_way_leaves_no_long_gap(turn_deg: float) -> None:
     assert run.coverage >= 0.98
 
 
+def test_a_run_lists_its_unseen_stretches() -> None:
+    """``RoadRun.gaps``: apart, in order, on the scoring grid, the longest the run's
+    longest gap, and together the coverage's complement."""
+    t, north, east = corner(-90.0, 300.0, then_s=220.0)
+    run = fly_road(t, north, east, REQUEST, road_fleet(R, r))
+    assert run.gaps and run.protect_start is not None
+    ends = [end for _, end in run.gaps]
+    starts = [start for start, _ in run.gaps]
+    assert all(a < b for a, b in zip(ends, starts[1:], strict=False))  # apart, in order
+    assert all(end - start >= 0.5 - 1e-9 for start, end in run.gaps)
+    assert max(end - start for start, end in run.gaps) == pytest.approx(run.longest_gap_s)
+    scored = np.count_nonzero(np.arange(float(t[0]), float(t[-1]), 0.5) >= run.protect_start)
+    unseen = sum(end - start for start, end in run.gaps)
+    assert unseen == pytest.approx((1.0 - run.coverage) * scored * 0.5)
+
+
 @pytest.mark.parametrize("angle", [90.0, -90.0])
 def test_a_junction_track_stops_where_and_as_long_as_asked_then_turns(angle: float) -> None:
     rt = junction(25.0, angle, 2400.0)

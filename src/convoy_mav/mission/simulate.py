@@ -46,6 +46,7 @@ class RoadRun:
     uav_replans: int
     legs_late: int
     recording: MissionRecording | None = None  # the mission's inputs, when asked for
+    gaps: tuple[tuple[float, float], ...] = ()  # (start, end) of every unseen stretch, s
 
 
 def fly_road(
@@ -124,10 +125,15 @@ def fly_road(
                 break
         samples.append((now, seen))
     covered = np.array([s for _, s in samples], dtype=bool)
-    gap = best = 0.0
-    for ok in covered.tolist():
-        gap = 0.0 if ok else gap + dt
-        best = max(best, gap)
+    gaps: list[tuple[float, float]] = []
+    for when, ok in samples:
+        if ok:
+            continue
+        if gaps and math.isclose(gaps[-1][1], when, abs_tol=1e-6):
+            gaps[-1] = (gaps[-1][0], when + dt)
+        else:
+            gaps.append((when, when + dt))
+    best = max((b - a for a, b in gaps), default=0.0)
     return RoadRun(
         uavs,
         mission.protect_start,
@@ -139,4 +145,5 @@ def fly_road(
         mission.uav_replans,
         mission.legs_late,
         mission.recording,
+        tuple(gaps),
     )
