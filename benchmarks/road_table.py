@@ -57,26 +57,29 @@ def _roads() -> list[tuple[str, GeoTrack, PlanRequest, Truth]]:
     return out
 
 
-def _true_path(track: GeoTrack, truth: Truth) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """The times of the convoy's fixes and where it truly was then (north, east in the
-    track's own frame): a generated road's true positions, a recorded one's fixes."""
+Paths = tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]
+
+
+def _paths(track: GeoTrack, truth: Truth) -> Paths:
+    """The convoy's fix times, its fixes (north, east in the track's own frame) and where
+    it truly was then: a generated road's true positions, a recorded one's fixes."""
     times = np.asarray(track.times, dtype=np.float64)
     n, e = track.in_frame(LocalFrame(GeoPoint(track.lats[0], track.lons[0])))
+    north, east = np.asarray(n, dtype=np.float64), np.asarray(e, dtype=np.float64)
     if truth is not None and len(truth[0]) == len(n):
         first = LocalFrame(DEFAULT_ORIGIN).to_ned(GeoPoint(track.lats[0], track.lons[0]))
-        return times, truth[0] - first[0], truth[1] - first[1]
-    return times, np.asarray(n, dtype=np.float64), np.asarray(e, dtype=np.float64)
+        return times, north, east, truth[0] - first[0], truth[1] - first[1]
+    return times, north, east, north, east
 
 
-def _fly(track: GeoTrack, req: PlanRequest, truth: Truth, known: bool) -> RoadRun:
-    n, e = track.in_frame(LocalFrame(GeoPoint(track.lats[0], track.lons[0])))
-    _, tn, te = _true_path(track, truth)
+def _fly(paths: Paths, req: PlanRequest, known: bool) -> RoadRun:
+    times, north, east, tn, te = paths
     uavs = road_fleet(req.turn_radius, req.sensor_radius)
-    return fly_road(track.times, n, e, req, uavs, true_north=tn, true_east=te, route_known=known)
+    return fly_road(times, north, east, req, uavs, true_north=tn, true_east=te, route_known=known)
 
 
 def _simulate(track: GeoTrack, req: PlanRequest, truth: Truth, known: bool) -> tuple[str, float]:
-    run = _fly(track, req, truth, known)
+    run = _fly(_paths(track, truth), req, known)
     start = "-" if run.protect_start is None else f"{run.protect_start:.0f}"
     return f"{100 * run.coverage:.1f} % / {run.longest_gap_s:.0f} s / {start} s", run.coverage
 
@@ -110,10 +113,10 @@ def gap_classes(
     for start, end in run.gaps:
         for when in np.arange(start, end - 1e-9, dt):
             i = min(int(np.searchsorted(grid, when)), len(grid) - 1)
-            before = stood[stood <= when]
+            last_stood = int(np.searchsorted(stood, when, side="right"))  # (one past it)
             if speed[i] < _STOPPED_MPS:
                 what = "stopped"
-            elif len(before) and when - before[-1] <= _STARTING_S:
+            elif last_stood and when - stood[last_stood - 1] <= _STARTING_S:
                 what = "starting"
             else:
                 lo, hi = when - _TURN_WINDOW_S[0], when + _TURN_WINDOW_S[1]
@@ -131,9 +134,10 @@ def _gaps() -> None:
     print(head + "\n|" + "---|" * (head.count("|") - 1))
     totals: dict[bool, dict[str, float]] = {}
     for name, track, req, truth in _roads():
-        times, north, east = _true_path(track, truth)
+        paths = _paths(track, truth)
+        times, _, _, north, east = paths
         for known in (True, False):
-            run = _fly(track, req, truth, known)
+            run = _fly(paths, req, known)
             by = gap_classes(run, times, north, east)
             total = totals.setdefault(known, dict.fromkeys(GAP_CLASSES, 0.0))
             for what, seconds in by.items():
