@@ -7,6 +7,7 @@
     .venv/bin/python benchmarks/road_table.py --corners  # sudden corners, no route (~1 min)
     .venv/bin/python benchmarks/road_table.py --junctions  # a stop, then a turn (~2 min)
     .venv/bin/python benchmarks/road_table.py --gaps  # unseen seconds by convoy state (~3 min)
+    .venv/bin/python benchmarks/road_table.py --foresight  # given the true future (~5 min)
 
 Simulation: the service's ``RoadMission`` fed the convoy's fixes through its own
 ``ConvoyTracker``, UAVs flying exactly what they are sent (``fly_road``), coverage
@@ -21,9 +22,11 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import subprocess
 import sys
 import tempfile
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -72,10 +75,13 @@ def _paths(track: GeoTrack, truth: Truth) -> Paths:
     return times, north, east, north, east
 
 
-def _fly(paths: Paths, req: PlanRequest, known: bool) -> RoadRun:
+def _fly(paths: Paths, req: PlanRequest, known: bool, foresight_s: float | None = None) -> RoadRun:
     times, north, east, tn, te = paths
     uavs = road_fleet(req.turn_radius, req.sensor_radius)
-    return fly_road(times, north, east, req, uavs, true_north=tn, true_east=te, route_known=known)
+    return fly_road(
+        times, north, east, req, uavs, true_north=tn, true_east=te, route_known=known,
+        foresight_s=foresight_s,
+    )  # fmt: skip
 
 
 def _simulate(track: GeoTrack, req: PlanRequest, truth: Truth, known: bool) -> tuple[str, float]:
@@ -266,6 +272,44 @@ def _junctions() -> None:
         print(f"{label}: mean {100 * np.mean(values):.1f} %, worst {100 * min(values):.1f} %")
 
 
+#: (route known, seconds of the true future) of the ``--foresight`` columns; None: none.
+FORESIGHT = (
+    (False, None), (False, 0.0), (False, 10.0), (False, 20.0),
+    (True, None), (True, 10.0), (True, math.inf),
+)  # fmt: skip
+
+
+def _foreseen(job: tuple[int, bool, float | None]) -> float:
+    """Coverage of road ``job[0]`` of ``_roads()``, route known or not, with foresight."""
+    index, known, foresight_s = job
+    _, track, req, truth = _roads()[index]
+    return _fly(_paths(track, truth), req, known, foresight_s).coverage
+
+
+def _foresight() -> None:
+    """The table's roads flown with the forecast given the convoy's true path ahead
+    (``Foresight``): the present known exactly (0 s), 10 and 20 s of it, or all of it.
+    What foresight gains is the loss to the forecast; what it leaves, the fleet's."""
+    names = [name for name, _, _, _ in _roads()]
+    jobs = [(i, known, h) for i in range(len(names)) for known, h in FORESIGHT]
+    with ProcessPoolExecutor(os.cpu_count()) as pool:
+        coverage = list(pool.map(_foreseen, jobs))
+
+    def label(h: float | None) -> str:
+        return "forecast" if h is None else "all" if math.isinf(h) else f"{h:.0f} s"
+
+    head = [f"no route, {label(h)}" for k, h in FORESIGHT if not k]
+    head += [f"route, {label(h)}" for k, h in FORESIGHT if k]
+    print("| road | " + " | ".join(head) + " |")
+    print("|" + "---|" * (len(head) + 1))
+    width = len(FORESIGHT)
+    for i, name in enumerate(names):
+        row = coverage[i * width : (i + 1) * width]
+        print(f"| {name} | " + " | ".join(f"{100 * c:.1f} %" for c in row) + " |")
+    means = np.mean(np.reshape(coverage, (len(names), width)), axis=0)
+    print("| mean | " + " | ".join(f"{100 * m:.1f} %" for m in means) + " |")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--mock", action="store_true", help="also fly them against sitl_mock")
@@ -281,7 +325,13 @@ def main() -> None:
     parser.add_argument(
         "--gaps", action="store_true", help="where the loss is: unseen seconds by convoy state"
     )
+    parser.add_argument(
+        "--foresight", action="store_true", help="the simulation given the true future"
+    )
     args = parser.parse_args()
+    if args.foresight:
+        _foresight()
+        return
     if args.gaps:
         _gaps()
         return

@@ -22,6 +22,7 @@ import numpy as np
 import numpy.typing as npt
 
 from convoy_mav.convoy import ConvoyTracker
+from convoy_mav.mission.foresight import Foresight
 from convoy_mav.mission.recording import MissionRecording
 from convoy_mav.mission.road import RoadMission, RoadSettings
 from convoy_mav.planning.plan import PlanRequest
@@ -62,6 +63,7 @@ def fly_road(
     settings: RoadSettings | None = None,
     dt: float = 0.5,
     record: bool = False,
+    foresight_s: float | None = None,
 ) -> RoadRun:
     """Fly ``uavs`` UAVs over a convoy whose fixes are (t, north, east).
 
@@ -75,6 +77,10 @@ def fly_road(
         settings: Road mission settings.
         dt: Scoring step, seconds.
         record: Keep the mission's inputs (``RoadRun.recording``), to replay.
+        foresight_s: Give the mission's forecast the convoy's true path for this many
+            seconds ahead (``Foresight``: 0, the present known exactly; inf, the whole
+            future), for the bound on what a better forecast could buy. None: the
+            service's own forecast.
     """
     ts = np.asarray(t, dtype=np.float64)
     fn, fe = np.asarray(north, dtype=np.float64), np.asarray(east, dtype=np.float64)
@@ -85,6 +91,8 @@ def fly_road(
     mission = RoadMission(
         request, ids, down=lambda _u: -100.0, route=route, settings=settings, record=record
     )
+    if foresight_s is not None:
+        mission.model = Foresight(mission.model, ts, te, tn, foresight_s)
     tracker = ConvoyTracker(window=4.0)
     # The UAVs start circling near the convoy's first fix, spread around it.
     R = request.turn_radius
