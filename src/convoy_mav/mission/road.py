@@ -168,6 +168,10 @@ class RoadSettings:
         join_heading_deg: A joining UAV whose legs would meet the pattern farther than
             this off its heading meets it on its heading instead, when a leg to the
             same meeting fits (``_join_on_heading``; 180: never).
+        replan_on_change_mps: A UAV is re-planned at once, out of its turn, when the
+            convoy's estimated velocity is this far (m/s) from the one its legs were
+            planned on (``_fold``; 0: only in turn). Just above the tracker's velocity
+            noise in 3 m of GPS noise (about 1 m/s).
     """
 
     speed_band: tuple[float, float] = (0.85, 1.15)
@@ -194,6 +198,7 @@ class RoadSettings:
     speed_relax_s: float = 30.0
     speed_mean_s: float = 90.0
     join_heading_deg: float = 15.0
+    replan_on_change_mps: float = 1.5
 
     def __setstate__(self, state: Sequence[Any]) -> None:
         """Unpickled (a recording, ``mission.recording``) from an older build, which had
@@ -276,6 +281,7 @@ class RoadMission(Roster):
         self._announced: set[int] = set()
         self._clock: PatternClock | None = None
         self._planned_at: dict[int, float] = {}
+        self._planned_v: dict[int, tuple[float, float]] = {}  # convoy velocity planned on
         self._first_fix: float | None = None
         self._history: deque[tuple[float, float, float]] = deque(maxlen=4096)
         self._scored_until: float | None = None
@@ -484,17 +490,35 @@ class RoadMission(Roster):
             return events
         self._clock.advance(est.t, est.ve, est.vn, self.pattern_radius, V)
         # Each UAV is re-planned every replan_every_s, a few at a time (a plan is
-        # about 2 ms a UAV): the loop driving the mission never waits long.
+        # about 2 ms a UAV): the loop driving the mission never waits long. One whose
+        # legs were planned on a convoy velocity replan_on_change_mps off the one now
+        # (a corner, a stop, a start) is re-planned at once: in its turn, the last of
+        # the fleet would be up to replan_every_s late with it.
         every = self.settings.replan_every_s
         due = sorted(
             (self._planned_at.get(u, -math.inf), u)
             for u in self._slots
             if est.t - self._planned_at.get(u, -math.inf) >= every
         )
-        if due:
-            batch = max(1, math.ceil(len(self._slots) / _REPLAN_BATCHES))
-            self._plan_paths(est.t, [u for _, u in due[:batch]])
+        batch = max(1, math.ceil(len(self._slots) / _REPLAN_BATCHES))
+        chosen = [u for _, u in due[:batch]]
+        chosen += [u for u in self._changed() if u not in chosen]
+        if chosen:
+            self._plan_paths(est.t, chosen)
         return events + self._announce(est.t)
+
+    def _changed(self) -> list[int]:
+        """UAVs whose legs were planned on a convoy velocity ``replan_on_change_mps`` or
+        more off the one now."""
+        dv = self.settings.replan_on_change_mps
+        if dv <= 0.0:
+            return []
+        vx, vy = self.model.velocity()
+        return [
+            u
+            for u, (px, py) in self._planned_v.items()
+            if u in self._slots and math.hypot(vx - px, vy - py) > dv
+        ]
 
     def _course(self) -> float | None:
         """The convoy's course now (planner frame), None while it barely moves."""
@@ -569,6 +593,7 @@ class RoadMission(Roster):
         ):
             table.pop(uav, None)
         self._planned_at.pop(uav, None)
+        self._planned_v.pop(uav, None)
         self._announced.discard(uav)
         if self._clock is None:
             return []
@@ -678,6 +703,7 @@ class RoadMission(Roster):
                 self._gaps_total += t - before
                 self._gaps_count += 1
             self._planned_at[uav] = t
+            self._planned_v[uav] = self.model.velocity()
             if pose is None:
                 continue
             offset = self._offset(slot, n)
