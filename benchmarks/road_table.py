@@ -27,6 +27,7 @@ import subprocess
 import sys
 import tempfile
 from concurrent.futures import ProcessPoolExecutor
+from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -50,6 +51,7 @@ FloatArray = npt.NDArray[np.float64]
 Truth = tuple[FloatArray, FloatArray] | None
 
 
+@cache
 def _roads() -> list[tuple[str, GeoTrack, PlanRequest, Truth]]:
     out: list[tuple[str, GeoTrack, PlanRequest, Truth]] = []
     for kind in KINDS:

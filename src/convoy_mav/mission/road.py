@@ -693,6 +693,7 @@ class RoadMission(Roster):
         # arrive, as before the scan: it protects once a leg meets the pattern close,
         # and the earliest-meeting legs the scan gives a protecting UAV skirt it.
         join_limits = replace(limits, late_max_s=0.0)
+        velocity = self.model.velocity()  # (what the legs are planned on, ``_changed``)
         watch: Watch | None = None
         for uav in self._slots if uavs is None else uavs:
             slot = self._slots[uav]
@@ -703,7 +704,7 @@ class RoadMission(Roster):
                 self._gaps_total += t - before
                 self._gaps_count += 1
             self._planned_at[uav] = t
-            self._planned_v[uav] = self.model.velocity()
+            self._planned_v[uav] = velocity
             if pose is None:
                 continue
             offset = self._offset(slot, n)
