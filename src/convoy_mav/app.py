@@ -54,6 +54,7 @@ from convoy_mav.mission import (
     ReplanThresholds,
 )
 from convoy_mav.mission.choose import choose_planner
+from convoy_mav.mission.lag import ReplanLag
 from convoy_mav.mission.road import RoadMission
 from convoy_mav.monitor import Alarm, Monitor, MonitorSnapshot, sees, why_not_counted
 from convoy_mav.planning.export import compass_to_planner
@@ -366,8 +367,10 @@ class ConvoyService:
         self._new_route: Road | None = None  # from MQTT, for the next mission step
         # The mission step running in its worker thread, if one is.
         self._mission_job: (
-            asyncio.Future[tuple[list[Any], MissionView, list[tuple[int, Setpoint]]]] | None
+            asyncio.Future[tuple[list[Any], MissionView, list[tuple[int, Setpoint]], int]] | None
         ) = None
+        self._mission_job_t = 0.0  # (the running step's mission time)
+        self._replan_lag = ReplanLag()  # how long a step's re-plans take to be flown
         self._next_fence_look = -math.inf  # (the worker's: when it next looks along the plan)
         self._planner_note = f"planner: {self.planner} ({why})"
         # What the streamer and the monitor read: swapped after each mission step.
@@ -1112,7 +1115,8 @@ class ConvoyService:
         job = self._mission_job
         if job is not None and job.done():
             self._mission_job = None
-            events, self.view, off_fence = job.result()
+            events, self.view, off_fence, plans = job.result()
+            self._replan_lag.observe(t - self._mission_job_t, plans)
             for ev in events:
                 self._mission_event(ev)
             self._alarm_plan_fence(t, off_fence)
@@ -1132,9 +1136,11 @@ class ConvoyService:
             }
             ready.update(self._off_slot(t, flying))
             alarmed = {s for s in self.vehicles if f"fence_plan:{s}" in self._vehicle_alarms}
+            lead = self._replan_lag.lead()
             job = asyncio.ensure_future(
-                asyncio.to_thread(self._mission_step, t, est, lost, returned, ready, alarmed)
+                asyncio.to_thread(self._mission_step, t, est, lost, returned, ready, alarmed, lead)
             )
+            self._mission_job_t = t
             # (a step still running when the mission ends is never taken in: its
             # failure, if any, must not be reported as "never retrieved")
             job.add_done_callback(lambda f: f.cancelled() or f.exception())
@@ -1233,14 +1239,20 @@ class ConvoyService:
         returned: list[int],
         ready: dict[int, tuple[float, float, float]],
         fence_alarmed: set[int],
-    ) -> tuple[list[Any], MissionView, list[tuple[int, Setpoint]]]:
+        lead: tuple[float, float],
+    ) -> tuple[list[Any], MissionView, list[tuple[int, Setpoint]], int]:
         """The only code that touches the Mission (runs in a worker thread), and the
-        look ahead along its plan for the fence (60 samples a UAV)."""
+        look ahead along its plan for the fence (60 samples a UAV); the UAVs it
+        re-planned (a road mission's, for ``ReplanLag``), last."""
         mission = self.mission
         events: list[Any] = []
         road, self._new_route = self._new_route, None
-        if road is not None and isinstance(mission, RoadMission):
-            mission.set_route(road)
+        plans = 0
+        if isinstance(mission, RoadMission):
+            if road is not None:
+                mission.set_route(road)
+            mission.set_replan_lag(*lead)
+            plans = mission.uav_plans
         if est is not None:
             events += mission.on_convoy(est)
         for sysid in lost:
@@ -1254,7 +1266,9 @@ class ConvoyService:
                 events += mission.join_many(ready, t)
         events += mission.tick(t)
         view = MissionView.of(mission, self._down)
-        return events, view, self._plan_leaves_fence(t, view, fence_alarmed)
+        if isinstance(mission, RoadMission):
+            plans = mission.uav_plans - plans
+        return events, view, self._plan_leaves_fence(t, view, fence_alarmed), plans
 
     def _track(self, tel: Telemetry) -> None:
         """Score each position update of a protecting UAV against its plan, as it comes.

@@ -166,6 +166,50 @@ def test_trajectory_with_lead_in() -> None:
     assert arr.x == pytest.approx([-500.0, -400.0, -300.0, -300.0])
 
 
+@given(
+    st.integers(0, 8),
+    st.floats(-300.0, 600.0),
+    st.floats(0.0, 400.0),
+    st.booleans(),
+)
+@settings(max_examples=150, deadline=None)
+def test_a_span_of_a_trajectory_as_segments_is_the_trajectory(
+    index: int, t0: float, span: float, with_lead_in: bool
+) -> None:
+    # A moving plan's alternating arcs (drift per lap), with a lead-in or without one
+    # (then its cycle runs backwards before t_start too).
+    plan = make_plan(PlanRequest(150.0, 100.0, 18.0, convoy_speed=6.0, convoy_heading=0.8))
+    traj = plan.vehicles[index % len(plan.vehicles)].trajectory
+    if with_lead_in:
+        first = traj.cycle[0].start
+        back = first.translated(-180.0 * math.cos(first.heading), -180.0 * math.sin(first.heading))
+        lead = (Segment(back, Turn.STRAIGHT, 0.0, 18.0, 10.0),)
+        traj = Trajectory(20.0, traj.cycle, lead_in=lead, drift=traj.drift)
+    t1 = t0 + span
+    segments = traj.segments_between(t0, t1)
+    begins = max(t0, traj.t_start) if with_lead_in else t0
+    assert sum(s.duration for s in segments) == pytest.approx(max(t1 - begins, 0.0), abs=1e-6)
+    if not segments:
+        return
+    # Continuous, and where the trajectory is at every instant of the span.
+    last = segments[-1]
+    drift = (last.end.x - last.start.x, last.end.y - last.start.y)
+    kept = Trajectory(begins, (last,), lead_in=segments[:-1], drift=drift)
+    ts = np.linspace(begins, t1, 97, endpoint=False)
+    got, want = kept.sample_array(ts), traj.sample_array(ts)
+    assert np.max(np.hypot(got.x - want.x, got.y - want.y)) < 1e-6
+    assert np.max(np.abs(np.angle(np.exp(1j * (got.heading - want.heading))))) < 1e-9
+    end, there = last.end, traj.sample(t1)
+    assert math.hypot(end.x - there.x, end.y - there.y) < 1e-6
+
+
+def test_no_span_has_no_segments() -> None:
+    plan = make_plan(PlanRequest(150.0, 100.0, 18.0))
+    traj = plan.vehicles[0].trajectory
+    assert traj.segments_between(10.0, 10.0) == ()
+    assert traj.segments_between(10.0, 5.0) == ()
+
+
 def test_trajectory_rejects_discontinuities() -> None:
     a = Segment(Pose(0.0, 0.0, 0.0), Turn.STRAIGHT, 0.0, 1.0, 10.0)
     b = Segment(Pose(50.0, 0.0, 0.0), Turn.STRAIGHT, 0.0, 1.0, 10.0)

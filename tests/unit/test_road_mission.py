@@ -530,10 +530,11 @@ def test_a_hole_the_pattern_leaves_is_filled_by_a_uav_flying_to_the_convoy() -> 
     nobody = np.zeros(len(watch.times), dtype=bool)
     filled = detours = 0
     for u in range(1, 7):
-        pose = mission._pose_at(u, now)
-        assert pose is not None
+        start = mission._start(u, now, 0.0)
+        assert start is not None
+        pose = start.pose
         # The other UAVs gone, and this one's legs (here: a circle far off) see nothing.
-        out = mission._fill(u, now, pose, watch.sees(_far(now)), forecast, watch, nobody, limits)
+        out = mission._fill(u, start, watch.sees(_far(now)), forecast, watch, nobody, limits)
         if out is None:
             continue
         filled += 1
@@ -564,7 +565,7 @@ def test_a_hole_the_pattern_leaves_is_filled_by_a_uav_flying_to_the_convoy() -> 
         # With the convoy seen all the time by the others, there is no hole to fill.
         everywhere = np.ones(len(watch.times), dtype=bool)
         assert (
-            mission._fill(u, now, pose, watch.sees(_far(now)), forecast, watch, everywhere, limits)
+            mission._fill(u, start, watch.sees(_far(now)), forecast, watch, everywhere, limits)
             is None
         )
     # Every UAV flies within a few hundred metres of the convoy: each can reach it,
@@ -610,6 +611,52 @@ def test_a_change_of_the_convoy_s_velocity_re_plans_every_uav_at_once(on_change:
     turned = replanned(ConvoyEstimate(240.1, 1920.0, 0.8, 0.0, 8.0))
     assert turned == 6 if on_change else turned <= 1
     assert replanned(ConvoyEstimate(240.2, 1920.0, 1.6, 0.0, 8.0)) <= 1  # planned on it
+
+
+def test_a_re_plan_that_takes_a_while_keeps_each_uav_on_its_path_until_flown() -> None:
+    """With a lag (a host at 40x), the new legs begin that far ahead, on the path in
+    force: the setpoint never moves under a UAV; at a corner the changed UAVs are
+    re-planned a few a step, the nearest the convoy first."""
+    t = np.arange(0.0, 600.0, 1.0)
+    mission, _ = _fly(t, 8.0 * t, 0.0 * t, 6, until=240.0)
+    base, per_uav = 0.1, 0.4
+    mission.set_replan_lag(base, per_uav)
+    x, y = mission.model.position(240.0)
+    before = {u: mission.trajectory(u) for u in mission._slots}
+    mission.on_convoy(ConvoyEstimate(240.0, 1920.0, 0.8, 0.0, 8.0))  # a sudden 90-deg left
+    planned = [u for u in mission._slots if mission._planned_at[u] == 240.0]
+    # One in its turn and, of the six changed, as many as a second of lag allows.
+    assert 1 <= len(planned) <= 2
+    lead = base + per_uav * len(planned)
+    for u in planned:
+        old, new = before[u], mission.trajectory(u)
+        assert old is not None and new is not None and new is not old
+        ts = np.linspace(240.0, 240.0 + lead, 41)
+        a, b = old.sample_array(ts), new.sample_array(ts)
+        assert np.max(np.hypot(a.x - b.x, a.y - b.y)) < 1e-6  # kept until flown
+        assert new.sample(240.0 + lead + 20.0) != old.sample(240.0 + lead + 20.0)
+    away = {
+        u: math.hypot(p.x - x, p.y - y)
+        for u in mission._slots
+        if (p := mission._pose_at(u, 240.0)) is not None
+    }
+    assert min(away[u] for u in planned) <= min(away.values()) + 1e-9  # the nearest first
+    # The next steps re-plan the rest: within a few steps every UAV flies the corner.
+    for k in range(1, 6):
+        mission.on_convoy(ConvoyEstimate(240.0 + k, 1920.0, 0.8 + 8.0 * k, 0.0, 8.0))
+    assert all(mission._planned_v[u][0] > 7.0 for u in mission._slots)  # (x east)
+
+
+def test_a_host_that_plans_slowly_flies_its_plans_late_not_off_them() -> None:
+    """``fly_road`` with the lag of the mock at 40x: a step at a time, each step's legs
+    flown after it. The prediction is still what is flown; re-plans are fewer."""
+    t = np.arange(0.0, 700.0, 1.0)
+    north, east = 8.0 * t, np.where(t < 400.0, 0.0, 8.0 * (t - 400.0))  # a 90-deg right
+    quick = fly_road(t, north, east, REQUEST, road_fleet(R, r))
+    slow = fly_road(t, north, east, REQUEST, road_fleet(R, r), replan_lag=(0.15, 0.4))
+    assert slow.predicted_coverage == pytest.approx(slow.coverage, abs=0.01)
+    assert slow.uav_replans < quick.uav_replans
+    assert slow.coverage >= quick.coverage - 0.03
 
 
 def test_a_convoy_whose_feed_pauses_is_held_where_last_seen() -> None:

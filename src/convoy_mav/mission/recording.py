@@ -33,7 +33,15 @@ if TYPE_CHECKING:
 
 __all__ = ["INPUTS", "MissionRecording", "load_recording"]
 
-INPUTS = ("on_convoy", "join_many", "on_lost", "on_returned", "tick", "set_route")
+INPUTS = (
+    "on_convoy",
+    "join_many",
+    "on_lost",
+    "on_returned",
+    "tick",
+    "set_route",
+    "set_replan_lag",
+)
 """The ``RoadMission`` methods that take the world in: all a replay needs."""
 
 _FORMAT = 1
@@ -97,7 +105,7 @@ def load_recording(path: str | Path) -> MissionRecording:
 
 
 def _stamp(method: str, args: tuple[Any, ...]) -> float:
-    """Mission time of an input (a route has none: -inf, always replayed)."""
+    """Mission time of an input (a route or a lag has none: -inf, always replayed)."""
     if method == "on_convoy":
         return float(args[0].t)
     if method in ("join_many", "on_lost", "on_returned"):

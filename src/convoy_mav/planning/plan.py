@@ -160,6 +160,31 @@ class Trajectory:
         dx, dy = lap * self.drift[0], lap * self.drift[1]
         return _sample_segment(self.cycle[i], t, tau - self._cycle_times[i], dx, dy)
 
+    def segments_between(self, t0: float, t1: float) -> tuple[Segment, ...]:
+        """The path from ``t0`` to ``t1`` as segments (cut where the span cuts them;
+        laps translated by their drift): what a re-plan keeps flying before its new
+        legs begin. A lead-in's pose held before ``t_start`` is no motion: the
+        segments then begin at ``t_start``."""
+        out: list[Segment] = []
+
+        def cut(seg: Segment, begins: float, dx: float, dy: float) -> None:
+            lo, hi = max(t0, begins), min(t1, begins + seg.duration)
+            if hi > lo:
+                pose = seg.at(lo - begins).translated(dx, dy)
+                out.append(Segment(pose, seg.turn, seg.radius, seg.speed, hi - lo))
+
+        for seg, into in zip(self.lead_in, self._lead_times, strict=False):
+            cut(seg, self.t_start + into, 0.0, 0.0)
+        lap = math.floor((t0 - self.cycle_start) / self.period)
+        if self.lead_in:
+            lap = max(lap, 0)
+        while (begins := self.cycle_start + lap * self.period) < t1:
+            dx, dy = lap * self.drift[0], lap * self.drift[1]
+            for seg, into in zip(self.cycle, self._cycle_times, strict=False):
+                cut(seg, begins + into, dx, dy)
+            lap += 1
+        return tuple(out)
+
     def sample_array(self, times: npt.ArrayLike) -> SampleArray:
         """The planned states at every time of ``times`` (vectorised ``sample``)."""
         t = np.asarray(times, dtype=np.float64)
