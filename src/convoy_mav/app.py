@@ -1247,12 +1247,12 @@ class ConvoyService:
         mission = self.mission
         events: list[Any] = []
         road, self._new_route = self._new_route, None
-        plans = 0
-        if isinstance(mission, RoadMission):
+        road_mission = mission if isinstance(mission, RoadMission) else None
+        if road_mission is not None:
             if road is not None:
-                mission.set_route(road)
-            mission.set_replan_lag(*lead)
-            plans = mission.uav_plans
+                road_mission.set_route(road)
+            road_mission.set_replan_lag(*lead)
+        plans_before = 0 if road_mission is None else road_mission.uav_plans
         if est is not None:
             events += mission.on_convoy(est)
         for sysid in lost:
@@ -1266,8 +1266,7 @@ class ConvoyService:
                 events += mission.join_many(ready, t)
         events += mission.tick(t)
         view = MissionView.of(mission, self._down)
-        if isinstance(mission, RoadMission):
-            plans = mission.uav_plans - plans
+        plans = 0 if road_mission is None else road_mission.uav_plans - plans_before
         return events, view, self._plan_leaves_fence(t, view, fence_alarmed), plans
 
     def _track(self, tel: Telemetry) -> None:

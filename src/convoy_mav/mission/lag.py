@@ -46,7 +46,7 @@ class ReplanLag:
             self.per_uav += self.alpha * (max(lag - self.base, 0.0) / plans - self.per_uav)
 
     def lead(self) -> tuple[float, float]:
-        """``(base, per_uav)`` for the mission: the means with the margin, the whole
-        capped at ``cap`` for one UAV and proportionally beyond."""
+        """``(base, per_uav)`` for the mission: the means with the margin, capped so a
+        step that re-plans one UAV leads by ``cap`` at most."""
         base = min(self.margin * self.base, self.cap)
         return base, min(self.margin * self.per_uav, self.cap - base)

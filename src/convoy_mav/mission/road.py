@@ -81,6 +81,7 @@ from convoy_mav.mission.assign import Roster, best_assignment
 from convoy_mav.mission.convoy_model import ConvoyModel, RoadMotion
 from convoy_mav.mission.events import MissionEvent, Phase, PhaseChanged, Replanned, phase_at
 from convoy_mav.mission.forecast import FORECAST_STEP, Forecast, Hedge, Watch
+from convoy_mav.mission.join import slot_pose
 from convoy_mav.mission.recording import MissionRecording
 from convoy_mav.planning.detours import best_detour
 from convoy_mav.planning.dubins import Pose, Segment, Turn, wrap_angle
@@ -233,7 +234,7 @@ class RoadSettings:
 class _Start:
     """Where a UAV's re-planned legs begin: ``t_legs``, at ``pose``, along its path in
     force (``kept``, its part from ``t``), so the new path begins at ``t`` where the old
-    one is (``_lead``)."""
+    one is (``_start``)."""
 
     t: float
     t_legs: float
@@ -579,7 +580,7 @@ class RoadMission(Roster):
     def set_replan_lag(self, base_s: float, per_uav_s: float) -> None:
         """How long a re-plan takes to reach the UAVs, mission seconds: ``base_s`` plus
         ``per_uav_s`` for each UAV re-planned (the service measures it). The new legs
-        begin that far ahead along each UAV's path in force (``_lead``)."""
+        begin that far ahead along each UAV's path in force (``_start``)."""
         lag = (max(base_s, 0.0), max(per_uav_s, 0.0))
         if not all(map(math.isfinite, lag)) or lag == self._lag:
             return
@@ -739,7 +740,7 @@ class RoadMission(Roster):
 
     def _plan_paths(self, t: float, uavs: Sequence[int] | None = None) -> None:
         """Re-plan the legs of ``uavs`` (default: every slotted UAV) from where their
-        current paths have them when the new paths reach them (``_lead``)."""
+        current paths have them when the new paths reach them (``_start``)."""
         if self._clock is None:
             return
         self._score(t)
@@ -1076,11 +1077,8 @@ class RoadMission(Roster):
         if traj is None:
             pose = self._starts.get(uav)
             return None if pose is None else _Start(t, t, pose)
-        if lead <= 0.0:
-            return _Start(t, t, self._pose_on(traj, t))
-        return _Start(
-            t, t + lead, self._pose_on(traj, t + lead), traj.segments_between(t, t + lead)
-        )
+        t_legs = t + lead
+        return _Start(t, t_legs, slot_pose(traj, t_legs), traj.segments_between(t, t_legs))
 
     def _fill(
         self,
@@ -1222,12 +1220,7 @@ class RoadMission(Roster):
     def _pose_at(self, uav: int, t: float) -> Pose | None:
         """Where the UAV's path in force has it at ``t`` (a joining UAV: where it is)."""
         traj = self._trajectories.get(uav)
-        return self._starts.get(uav) if traj is None else self._pose_on(traj, t)
-
-    @staticmethod
-    def _pose_on(traj: Trajectory, t: float) -> Pose:
-        s = traj.sample(t)
-        return Pose(s.x, s.y, s.heading)
+        return self._starts.get(uav) if traj is None else slot_pose(traj, t)
 
     def _record(self, uav: int, segments: Sequence[Segment]) -> None:
         """Flyability margins of what is commanded, per UAV (for the report)."""
