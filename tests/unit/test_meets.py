@@ -7,15 +7,20 @@ import math
 import numpy as np
 import numpy.typing as npt
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from convoy_mav.planning.dubins import Pose, Turn, wrap_angle
+from convoy_mav.planning.dubins import Pose, Segment, Turn, wrap_angle
 from convoy_mav.planning.meets import (
     LegLimits,
     _candidates,
     _leg_to,
+    _positions,
+    _steer,
     plan_leg,
     plan_leg_to_pose,
 )
+from convoy_mav.planning.plan import chain_positions
 
 FloatArray = npt.NDArray[np.float64]
 R, V = 150.0, 18.0
@@ -63,7 +68,7 @@ def test_a_late_leg_meets_at_the_earliest_feasible_later_time() -> None:
     lo, hi = LIMITS.speeds
     tau = leg.t_end - LIMITS.late_step_s
     px, py = where(np.array([tau]))
-    _, _, k2, _, total = _candidates(pose, (float(px[0]), float(py[0])), LIMITS)
+    _, _, k2, _, total = _candidates(_steer(pose, LIMITS), (float(px[0]), float(py[0])))
     fits = (np.abs(k2) <= 1.0 / R + 1e-12) & (total <= hi * tau) & (total >= lo * tau)
     assert not fits.any()
 
@@ -80,14 +85,14 @@ def test_the_scan_meets_near_the_first_time_a_leg_fits_and_never_after_chasing()
         first = None
         for tau in np.arange(11.0, 71.0, 1.0).tolist():
             px, py = where(np.array([tau]))
-            _, _, k2, _, total = _candidates(pose, (float(px[0]), float(py[0])), LIMITS)
+            _, _, k2, _, total = _candidates(_steer(pose, LIMITS), (float(px[0]), float(py[0])))
             if ((np.abs(k2) <= 1.0 / R + 1e-12) & (total <= hi * tau) & (total >= lo * tau)).any():
                 first = tau
                 break
         assert first is not None and first <= leg.t_end <= first + 3.0
-        chased = _leg_to(pose, 0.0, 10.0, where, LIMITS, 0.0)
+        chased = _leg_to(_steer(pose, LIMITS), 0.0, 10.0, where, LIMITS, 0.0)
         for _ in range(3):
-            chased = _leg_to(pose, 0.0, chased.t_end, where, LIMITS, 0.0)
+            chased = _leg_to(_steer(pose, LIMITS), 0.0, chased.t_end, where, LIMITS, 0.0)
         if chased.on_time:
             assert leg.t_end <= chased.t_end + LIMITS.late_step_s
 
@@ -116,3 +121,42 @@ def test_a_leg_to_a_pose_meets_the_pattern_on_its_heading_on_time(
 def test_no_leg_to_a_pose_the_band_cannot_reach_in_time() -> None:
     where = _moving_point(2000.0, 0.0, 8.0, 0.0)
     assert plan_leg_to_pose(Pose(0.0, 0.0, 0.0), 0.0, where, 60.0, LIMITS) is None
+
+
+@given(
+    x=st.floats(-500.0, 500.0),
+    y=st.floats(-500.0, 500.0),
+    heading=st.floats(-math.pi, math.pi),
+    gx=st.floats(-900.0, 900.0),
+    gy=st.floats(-900.0, 900.0),
+    left=st.floats(5.0, 90.0),
+)
+@settings(max_examples=60, deadline=None)
+def test_the_candidates_scored_are_the_legs_built_from_them(
+    x: float, y: float, heading: float, gx: float, gy: float, left: float
+) -> None:
+    # The score's positions (steering part, then the arc from where it ends, in one
+    # pass) are where the leg built from the same candidate is: a candidate is
+    # judged on the path the UAV would fly.
+    pose = Pose(x, y, heading)
+    steer = _steer(pose, LIMITS)
+    k1, l1, k2, arc, total = _candidates(steer, (gx, gy))
+    rows = np.nonzero(np.abs(k2) <= 1.0 / R + 1e-12)[0][::7]
+    speed = np.clip(total[rows] / left, *LIMITS.speeds)
+    taus = np.linspace(0.0, left, 9)
+    px, py = _positions(steer, rows, k2[rows], speed, taus)
+    for j, i in enumerate(rows.tolist()):
+        v = float(speed[j])
+        segments: list[Segment] = []
+        if l1[i] > 0.0:
+            turn = Turn.STRAIGHT if k1[i] == 0.0 else (Turn.LEFT if k1[i] > 0.0 else Turn.RIGHT)
+            radius = 0.0 if k1[i] == 0.0 else 1.0 / abs(float(k1[i]))
+            segments.append(Segment(pose, turn, radius, v, float(l1[i]) / v))
+        start = segments[-1].at(segments[-1].duration) if segments else pose
+        if abs(k2[i]) > 1e-12:
+            turn = Turn.LEFT if k2[i] > 0.0 else Turn.RIGHT
+            segments.append(Segment(start, turn, 1.0 / abs(float(k2[i])), v, float(arc[i]) / v))
+        else:
+            segments.append(Segment(start, Turn.STRAIGHT, 0.0, v, max(float(arc[i]), 1e-6) / v))
+        bx, by = chain_positions(tuple(segments), taus)
+        assert np.allclose(px[j], bx, atol=1e-6) and np.allclose(py[j], by, atol=1e-6)

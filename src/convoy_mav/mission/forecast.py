@@ -169,11 +169,20 @@ class Watch:
             if forecast.other_weight != 1.0:
                 self.worth = np.tile([KEEP_STEP, KEEP_STEP * forecast.other_weight], len(other[0]))
         self.r = sensor_radius
+        # Paths seen already (by identity; the path is held so its id stays its own):
+        # a step that re-plans several UAVs asks of each other UAV's path each time.
+        self._seen: dict[int, tuple[Trajectory, npt.NDArray[np.bool_]]] = {}
 
     def sees(self, path: Trajectory) -> npt.NDArray[np.bool_]:
-        """Samples of the convoy within the sensor radius of ``path``."""
-        s = path.sample_array(self.times)
-        return np.asarray(np.hypot(s.x - self.cx, s.y - self.cy) <= self.r)
+        """Samples of the convoy within the sensor radius of ``path`` (read-only)."""
+        hit = self._seen.get(id(path))
+        if hit is not None and hit[0] is path:
+            return hit[1]
+        x, y = path.positions(self.times)
+        seen = np.hypot(x - self.cx, y - self.cy) <= self.r
+        seen.flags.writeable = False
+        self._seen[id(path)] = (path, seen)
+        return seen
 
     def seconds(self, seen: npt.NDArray[np.bool_]) -> float:
         """Seconds of convoy ``seen`` covers (of each course at its weight, added, when two)."""

@@ -83,6 +83,10 @@ def best_detour(
     Returns:
         The best-scoring detour, or None when none scores above 0.
     """
+    # (Samples past the longest detour are never flown: not laid out.)
+    n_flown = int(np.searchsorted(times, t + max(_FIRST_S) + max(_SECOND_S), side="right"))
+    times, wanted, mine = times[:n_flown], wanted[:n_flown], mine[:n_flown]
+    target = (target[0][:n_flown], target[1][:n_flown])
     if len(times) == 0:
         return None
     tau = np.asarray(times, dtype=np.float64) - t

@@ -58,6 +58,7 @@ Where = Callable[["FloatArray"], tuple["FloatArray", "FloatArray"]]
 _TRACK_SAMPLES = 24  # points per candidate at which its distance to the pattern is taken
 _RETARGETS = 3  # past the scan: times a late leg is planned again for where it arrives
 _LATE_CHUNK = 8  # late times the scan for a late leg's meeting tries first (then 16, 32...)
+_SCORE_CHUNK = 16  # late candidates scored first, least late first (then 32, 64...)
 _HEADING_DT = 0.5  # s: the pattern's heading at a meeting, from its positions this far apart
 _POSE_SCORED = 8  # legs to a pose built and scored: those nearest cruise speed
 _POSE_RADII = tuple(1.0 + 0.125 * i for i in range(25))  # turn radii (x R) of a leg to a pose
@@ -176,16 +177,17 @@ def plan_leg(
             off the pattern's at the meeting is worth: a joining UAV that meets the
             pattern going its way flies it from there (0: position only).
     """
-    leg = _leg_to(pose, t, t_meet, pattern, limits, heading_weight)
+    steer = _steer(pose, limits)
+    leg = _leg_to(steer, t, t_meet, pattern, limits, heading_weight)
     if leg.on_time:
         return leg
-    late = _earliest_late_leg(pose, t, t_meet, pattern, limits, heading_weight)
+    late = _earliest_late_leg(steer, t, t_meet, pattern, limits, heading_weight)
     if late is not None:
         return late
     for _ in range(_RETARGETS):
         if leg.on_time:
             break
-        leg = _leg_to(pose, t, leg.t_end, pattern, limits, heading_weight)
+        leg = _leg_to(steer, t, leg.t_end, pattern, limits, heading_weight)
     return replace(leg, late_s=max(leg.t_end - t_meet, 0.0))
 
 
@@ -252,7 +254,7 @@ def _mean_offset(
 
 
 def _earliest_late_leg(
-    pose: Pose, t: float, t_meet: float, pattern: Where, limits: LegLimits, heading_weight: float
+    steer: _Steer, t: float, t_meet: float, pattern: Where, limits: LegLimits, heading_weight: float
 ) -> Leg | None:
     """The leg to the pattern at the first time past ``t_meet`` some candidate reaches it
     in the speed band; None if none does within ``late_max_s``.
@@ -269,13 +271,13 @@ def _earliest_late_leg(
     while begin < len(taus):
         chunk = taus[begin : begin + size]
         tx, ty = pattern(chunk)
-        _, _, k2, _, total = _candidates(pose, (tx, ty), limits)
+        _, _, k2, _, total = _candidates(steer, (tx, ty))
         left = (chunk - t)[:, None]
         fits = _flyable(k2, limits) & (total >= lo * left) & (total <= hi * left)
         first = np.nonzero(fits.any(axis=1))[0]
         if len(first):
             tau = float(chunk[first[0]])
-            leg = _leg_to(pose, t, tau, pattern, limits, heading_weight, on_time_only=True)
+            leg = _leg_to(steer, t, tau, pattern, limits, heading_weight, on_time_only=True)
             return replace(leg, late_s=tau - t_meet)
         begin += size
         size *= 2
@@ -283,7 +285,7 @@ def _earliest_late_leg(
 
 
 def _leg_to(
-    pose: Pose,
+    steer: _Steer,
     t: float,
     t_meet: float,
     pattern: Where,
@@ -296,7 +298,8 @@ def _leg_to(
     left = max(t_meet - t, 1e-3)
     goal = pattern_pose(pattern, t_meet)
     target = (goal.x, goal.y)
-    k1, l1, k2, arc, total = _candidates(pose, target, limits)
+    pose = steer.pose
+    k1, l1, k2, arc, total = _candidates(steer, target)
     speed = np.clip(total / left, lo, hi)
     late = np.abs(total / speed - left)  # seconds early or late
     on_time = late < 0.05
@@ -313,16 +316,30 @@ def _leg_to(
     offset = np.zeros(len(bound))
 
     def score(rows: npt.NDArray[np.intp]) -> None:
-        px, py = _positions(pose, k1[rows], l1[rows], k2[rows], speed[rows], taus)
+        if len(rows) == 0:
+            return
+        px, py = _positions(steer, rows, k2[rows], speed[rows], taus)
         offset[rows] = np.mean(np.hypot(px - rx[None, :], py - ry[None, :]), axis=1)
         cost[rows] = bound[rows] + offset[rows]
 
-    # The on-time candidates first; a late one whose bound alone is above the best of
-    # them cannot win (the same leg as scoring all, for half the work at a corner).
+    # The on-time candidates first; then the late ones, least late first, in growing
+    # chunks: one whose bound alone is above the best so far cannot win (the same
+    # leg as scoring all, for a fraction of the work at a corner).
     finite = np.isfinite(bound)
     score(np.nonzero(finite & on_time)[0])
     best = float(np.min(cost))
-    score(np.nonzero(finite & ~on_time & (bound < best))[0])
+    rows = np.nonzero(finite & ~on_time & (bound < best))[0]
+    rows = rows[np.argsort(bound[rows], kind="stable")]
+    begin, size = 0, _SCORE_CHUNK
+    while begin < len(rows):
+        chunk = rows[begin : begin + size]
+        chunk = chunk[bound[chunk] < best]
+        if len(chunk) == 0:
+            break  # (the rest are later still)
+        score(chunk)
+        best = min(best, float(np.min(cost[chunk])))
+        begin += size
+        size *= 2
     i = int(np.argmin(cost))
     if not math.isfinite(float(cost[i])):  # pragma: no cover - a long enough turn always fits
         raise PlanningError("no flyable leg reaches the pattern")
@@ -351,26 +368,49 @@ def _flyable(k2: FloatArray, limits: LegLimits) -> npt.NDArray[np.bool_]:
     return np.abs(k2) <= 1.0 / limits.turn_radius + 1e-12
 
 
-def _candidates(
-    pose: Pose, target: tuple[float, float] | tuple[FloatArray, FloatArray], limits: LegLimits
-) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
-    """Every candidate: (steer curvature, steer length, arc curvature, arc length, total).
+@dataclass(frozen=True, slots=True)
+class _Steer:
+    """The steering parts a leg from ``pose`` may start with, and where each ends.
 
-    ``target`` may be arrays of points: the arc parts (and ``total``) then have one row
-    per point.
+    The same for every target a leg from this pose is tried against (the meeting,
+    then the late scan's times), so it is laid out once per leg.
     """
+
+    pose: Pose
+    k1: FloatArray  # steer curvature
+    l1: FloatArray  # steer length
+    x1: FloatArray  # where the steering part ends (planner frame)
+    y1: FloatArray
+    h1: FloatArray  # heading there
+    hx: FloatArray  # cos h1
+    hy: FloatArray  # sin h1
+
+
+def _steer(pose: Pose, limits: LegLimits) -> _Steer:
+    """Every steering part from ``pose``: three kinds x the grid of lengths."""
     step = limits.steer_step_s * limits.cruise
     lengths = np.arange(0.0, limits.steer_max_s * limits.cruise + 0.5 * step, step)
     kinds = np.array(limits.steer_curvatures)
     k1 = np.repeat(kinds, len(lengths))
     l1 = np.tile(lengths, len(kinds))
     x1, y1, h1 = arc_points(pose.x, pose.y, pose.heading, k1, l1)
+    return _Steer(pose, k1, l1, x1, y1, h1, np.cos(h1), np.sin(h1))
+
+
+def _candidates(
+    steer: _Steer, target: tuple[float, float] | tuple[FloatArray, FloatArray]
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Every candidate: (steer curvature, steer length, arc curvature, arc length, total).
+
+    ``target`` may be arrays of points: the arc parts (and ``total``) then have one row
+    per point.
+    """
     gx, gy = (np.asarray(g, dtype=np.float64) for g in target)
     if gx.ndim:
         gx, gy = gx[:, None], gy[:, None]
-    dx, dy = gx - x1, gy - y1
+    dx, dy = gx - steer.x1, gy - steer.y1
     d2 = dx * dx + dy * dy
-    hx, hy = np.cos(h1), np.sin(h1)
+    hx, hy = steer.hx, steer.hy
     cross = hx * dy - hy * dx
     dot = hx * dx + hy * dy
     # The circle tangent to the heading through the target: signed curvature
@@ -381,17 +421,27 @@ def _candidates(
     arc = np.where(straight, np.sqrt(d2), turn / np.where(straight, 1.0, np.abs(k2)))
     # A target straight behind is only reached by a full turn: not a candidate.
     k2 = np.where(straight & (dot < 0.0), np.inf, k2)
-    return k1, l1, k2, arc, l1 + arc
+    return steer.k1, steer.l1, k2, arc, steer.l1 + arc
 
 
 def _positions(
-    pose: Pose, k1: FloatArray, l1: FloatArray, k2: FloatArray, speed: FloatArray, taus: FloatArray
+    steer: _Steer, rows: npt.NDArray[np.intp], k2: FloatArray, speed: FloatArray, taus: FloatArray
 ) -> tuple[FloatArray, FloatArray]:
-    """Where each candidate (rows) is ``taus`` seconds after it starts (columns)."""
+    """Where each candidate (``rows`` of the steering parts, with their arcs ``k2`` and
+    speeds) is ``taus`` seconds after it starts (columns).
+
+    One pass of ``arc_points`` over the grid: on the steering part from the pose,
+    past it on the arc from where the steering part ends (that end, per row).
+    """
     dist = speed[:, None] * taus[None, :]
-    l1c = l1[:, None]
-    s1 = np.minimum(dist, l1c)
-    x1, y1, h1 = arc_points(pose.x, pose.y, pose.heading, k1[:, None], s1)
+    l1c = steer.l1[rows][:, None]
+    on_arc = dist > l1c
+    pose = steer.pose
+    x0 = np.where(on_arc, steer.x1[rows][:, None], pose.x)
+    y0 = np.where(on_arc, steer.y1[rows][:, None], pose.y)
+    h0 = np.where(on_arc, steer.h1[rows][:, None], pose.heading)
     k2c = np.where(np.isfinite(k2), k2, 0.0)[:, None]
-    x2, y2, _ = arc_points(x1, y1, h1, k2c, np.maximum(dist - l1c, 0.0))
-    return x2, y2
+    k = np.where(on_arc, k2c, steer.k1[rows][:, None])
+    s = np.where(on_arc, dist - l1c, dist)
+    x, y, _ = arc_points(x0, y0, h0, k, s)
+    return x, y

@@ -185,8 +185,20 @@ class Trajectory:
             lap += 1
         return tuple(out)
 
+    def positions(self, times: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
+        """The planned positions at every time of ``times`` (``sample_array``'s x and y,
+        without the velocities: what a coverage check asks, many times a re-plan)."""
+        _, x, y, _, _, _ = self._states_at(times)
+        return x, y
+
     def sample_array(self, times: npt.ArrayLike) -> SampleArray:
         """The planned states at every time of ``times`` (vectorised ``sample``)."""
+        t, x, y, heading, speed, rate = self._states_at(times)
+        return SampleArray(t, x, y, heading, speed * np.cos(heading), speed * np.sin(heading), rate)
+
+    def _states_at(
+        self, times: npt.ArrayLike
+    ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
         t = np.asarray(times, dtype=np.float64)
         lap = np.floor((t - self.cycle_start) / self.period)
         tau = (t - self.cycle_start) - lap * self.period
@@ -199,7 +211,7 @@ class Trajectory:
                 tau_in = np.maximum(t[lead] - self.t_start, 0.0)
                 lx, ly, lh, lv, lr = _states(self._lead_arrays, tau_in)
                 x[lead], y[lead], heading[lead], speed[lead], rate[lead] = lx, ly, lh, lv, lr
-        return SampleArray(t, x, y, heading, speed * np.cos(heading), speed * np.sin(heading), rate)
+        return t, x, y, heading, speed, rate
 
 
 def chain_positions(
