@@ -645,6 +645,8 @@ def test_a_re_plan_that_takes_a_while_keeps_each_uav_on_its_path_until_flown() -
     for k in range(1, 6):
         mission.on_convoy(ConvoyEstimate(240.0 + k, 1920.0, 0.8 + 8.0 * k, 0.0, 8.0))
     assert all(mission._planned_v[u][0] > 7.0 for u in mission._slots)  # (x east)
+    mission.set_replan_lag(0.05, 0.1)  # the report: the lag now, and the longest told
+    assert mission.report()["replan_lag_s"] == {"base": 0.05, "per_uav": 0.1, "max_one_uav": 0.5}
 
 
 def test_a_host_that_plans_slowly_flies_its_plans_late_not_off_them() -> None:

@@ -317,6 +317,7 @@ class RoadMission(Roster):
         self.uav_replans = 0
         self.uav_plans = 0  # UAVs re-planned (their plans kept too): the cost of re-planning
         self._lag = (0.0, 0.0)  # mission s a re-plan takes to reach the UAVs: fixed, per UAV
+        self._lag_max = 0.0  # the longest lag of a one-UAV re-plan told (the report)
         # Mission s between two re-plans of one protecting UAV, recent ones and the
         # run's: more than replan_every_s when the host is short of CPU.
         self._replan_gaps: deque[float] = deque(maxlen=_RECENT_GAPS)
@@ -587,6 +588,7 @@ class RoadMission(Roster):
         if self.recording is not None:
             self.recording.add("set_replan_lag", lag)
         self._lag = lag
+        self._lag_max = max(self._lag_max, lag[0] + lag[1])
 
     def set_route(self, route: Road) -> None:
         """The route the convoy will drive from now on (a new one over MQTT)."""
@@ -1248,6 +1250,11 @@ class RoadMission(Roster):
             "replan_interval_s": None
             if not self._gaps_count
             else round(self._gaps_total / self._gaps_count, 2),
+            "replan_lag_s": {
+                "base": round(self._lag[0], 3),
+                "per_uav": round(self._lag[1], 3),
+                "max_one_uav": round(self._lag_max, 3),
+            },
             "legs_late": self.legs_late,
             "plans_kept": self.plans_kept,
             "fills": self.fills,
