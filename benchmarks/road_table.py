@@ -4,6 +4,7 @@
     .venv/bin/python benchmarks/road_table.py --mock     # + flown against sitl_mock (~20 min)
     .venv/bin/python benchmarks/road_table.py --unseen   # random roads, other grids (~2 min)
     .venv/bin/python benchmarks/road_table.py --unseen --mock  # + against sitl_mock
+    .venv/bin/python benchmarks/road_table.py --variants  # the kinds with other numbers (~2 min)
     .venv/bin/python benchmarks/road_table.py --corners  # sudden corners, no route (~1 min)
     .venv/bin/python benchmarks/road_table.py --junctions  # a stop, then a turn (~2 min)
     .venv/bin/python benchmarks/road_table.py --gaps  # unseen seconds by convoy state (~3 min)
@@ -39,7 +40,7 @@ from convoy_mav.mission.choose import road_fleet
 from convoy_mav.mission.simulate import RoadRun, fly_road
 from convoy_mav.planning import PlanRequest
 from convoy_mav.tracks import GeoTrack, load_track
-from convoy_mav.tracks.roads import KINDS, corner, junction, random_road, road_kind
+from convoy_mav.tracks.roads import KINDS, VARIANTS, corner, junction, random_road, road_kind
 
 ROOT = Path(__file__).resolve().parents[1]
 TRACKS = ROOT.parent / "shared" / "tracks"
@@ -212,6 +213,16 @@ def _unseen() -> list[tuple[str, GeoTrack, PlanRequest, Truth]]:
     return out
 
 
+def _variants() -> list[tuple[str, GeoTrack, PlanRequest, Truth]]:
+    """The kinds with other numbers (``tracks.roads.VARIANTS``): faster convoys, sharper
+    bends, coarser fixes, as other roads of these kinds may have."""
+    out: list[tuple[str, GeoTrack, PlanRequest, Truth]] = []
+    for name, make in VARIANTS.items():
+        rt = make(np.random.default_rng(7))
+        out.append((name, rt.geotrack(DEFAULT_ORIGIN), DEFAULT, (rt.true_north, rt.true_east)))
+    return out
+
+
 CORNERS_DEG = (-120.0, -90.0, -60.0, -30.0, 30.0, 60.0, 90.0, 120.0)  # + turns right
 CORNER_AT_S = (300.0, 311.0, 323.0)  # a third of the meet period apart at 8 m/s
 
@@ -319,6 +330,9 @@ def main() -> None:
         "--unseen", action="store_true", help="the simulation on random roads and other grids"
     )
     parser.add_argument(
+        "--variants", action="store_true", help="the simulation on the kinds with other numbers"
+    )
+    parser.add_argument(
         "--corners", action="store_true", help="the simulation of single unforeseen corners"
     )
     parser.add_argument(
@@ -343,13 +357,13 @@ def main() -> None:
     if args.junctions:
         _junctions()
         return
-    if args.unseen:
+    if args.unseen or args.variants:
         head = "| road | route known | no route |"
         if args.mock:
             head += " mock, route known | mock, no route |"
         print(head + "\n|" + "---|" * (head.count("|") - 1))
         means: dict[tuple[bool, bool], list[float]] = {}  # (mock, route known) -> coverages
-        for name, track, req, truth in _unseen():
+        for name, track, req, truth in _unseen() if args.unseen else _variants():
             cells = []
             runs = [(False, k) for k in (True, False)] + [(True, k) for k in (True, False)]
             for mock, known in runs[: 4 if args.mock else 2]:

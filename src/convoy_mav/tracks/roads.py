@@ -8,8 +8,9 @@ Design rules:
 - The track is the drive sampled at ``rate_hz`` with optional GPS noise
   (Gaussian, per axis) and optional repeated time stamps, as receivers
   record them; a seeded ``numpy.random.Generator`` makes it reproducible.
-- :data:`KINDS` are the named roads ``demo`` and the tests fly; :func:`random_road`
-  draws one of any kind for property tests. Pure: nothing here opens a file.
+- :data:`KINDS` are the named roads ``demo`` and the tests fly; :data:`VARIANTS`
+  the same kinds with other numbers; :func:`random_road` draws one of any kind
+  for property tests. Pure: nothing here opens a file.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from convoy_mav.tracks.geotrack import GeoTrack
 
 __all__ = [
     "KINDS",
+    "VARIANTS",
     "Drive",
     "Piece",
     "RoadTrack",
@@ -256,20 +258,21 @@ def _hairpins(rng: np.random.Generator) -> RoadTrack:
     return drive("hairpins", _zigzag(10, 300.0, 25.0, 180.0), Drive(((0.0, 6.0),), accel=0.8))
 
 
-def _roundabout(rng: np.random.Generator) -> RoadTrack:
-    pieces = [
+def _to_roundabout(flare: float, ring: float, angle_deg: float) -> list[Piece]:
+    """1.5 km of road, then round a roundabout of radius ``ring`` (entry and exit flares
+    of radius ``flare``), leaving it ``angle_deg`` round."""
+    return [
         Piece(1500.0),
-        Piece(radius=15.0, angle_deg=-30.0),
-        Piece(radius=25.0, angle_deg=240.0),
-        Piece(radius=15.0, angle_deg=-30.0),
-        Piece(1500.0),
-        Piece(radius=15.0, angle_deg=-30.0),
-        Piece(radius=25.0, angle_deg=150.0),
-        Piece(radius=15.0, angle_deg=-30.0),
-        Piece(1500.0),
+        Piece(radius=flare, angle_deg=-30.0),
+        Piece(radius=ring, angle_deg=angle_deg),
+        Piece(radius=flare, angle_deg=-30.0),
     ]
+
+
+def _roundabout(rng: np.random.Generator) -> RoadTrack:
+    pieces = [*_to_roundabout(15.0, 25.0, 240.0), *_to_roundabout(15.0, 25.0, 150.0)]
     how = Drive(((0.0, 10.0), (1450.0, 4.0), (1700.0, 10.0), (3150.0, 4.0), (3400.0, 10.0)))
-    return drive("roundabouts", pieces, how)
+    return drive("roundabouts", [*pieces, Piece(1500.0)], how)
 
 
 def _stop_and_go(rng: np.random.Generator) -> RoadTrack:
@@ -289,6 +292,47 @@ def _urban_grid(rng: np.random.Generator) -> RoadTrack:
     )
 
 
+def _roundabout_fast(rng: np.random.Generator) -> RoadTrack:
+    way = _to_roundabout(12.0, 20.0, 270.0)
+    # Three roundabouts, each taken at 5 m/s, 12 m/s between them.
+    apart = sum(p.arc_length for p in way)
+    at = [1450.0 + k * apart for k in range(3)]  # (slowing 50 m before each)
+    speeds = [(0.0, 12.0)] + [p for a in at for p in ((a, 5.0), (a + 250.0, 12.0))]
+    return drive("roundabouts at 12 m/s", [*way, *way, *way, Piece(1500.0)], Drive(tuple(speeds)))
+
+
+def _stops_at(speed: float, stop_s: float) -> Callable[[np.random.Generator], RoadTrack]:
+    def make(rng: np.random.Generator) -> RoadTrack:
+        stops = tuple((1500.0 * k, stop_s) for k in range(1, 5))
+        return drive(f"stops from {speed:g} m/s", [Piece(8000.0)], Drive(((0.0, speed),), stops))
+
+    return make
+
+
+def _speeds_between(low: float, high: float) -> Callable[[np.random.Generator], RoadTrack]:
+    def make(rng: np.random.Generator) -> RoadTrack:
+        how = Drive(((0.0, low), (1200.0, high), (5000.0, low), (6200.0, high)))
+        return drive(f"{low:g} and {high:g} m/s", [Piece(9000.0)], how)
+
+    return make
+
+
+def _urban_coarse(rate_hz: float, noise_m: float) -> Callable[[np.random.Generator], RoadTrack]:
+    def make(rng: np.random.Generator) -> RoadTrack:
+        pieces, stops = _urban(rng, 20)
+        how = Drive(((0.0, 9.0),), stops=tuple(stops))
+        return drive(
+            "urban grid",
+            pieces,
+            how,
+            rate_hz=rate_hz,
+            noise_m=noise_m,
+            seed=int(rng.integers(1 << 30)),
+        )
+
+    return make
+
+
 #: The named roads: a generator of each from a random source.
 KINDS: dict[str, Callable[[np.random.Generator], RoadTrack]] = {
     "gentle": _gentle,
@@ -298,6 +342,28 @@ KINDS: dict[str, Callable[[np.random.Generator], RoadTrack]] = {
     "stop-and-go": _stop_and_go,
     "speeds": _speeds,
     "urban": _urban_grid,
+}
+
+#: The kinds again with other numbers (the road table's ``--variants``): sharper
+#: bends, wider hairpins, faster convoys (stops and slow-downs from 10-15 m/s,
+#: nearer the 18 m/s of the demo's planes), coarser and noisier fixes.
+VARIANTS: dict[str, Callable[[np.random.Generator], RoadTrack]] = {
+    "bends 100 m at 10 m/s": lambda rng: drive(
+        "bends", _zigzag(18, 300.0, 100.0, 90.0), Drive(((0.0, 10.0),))
+    ),
+    "hairpins 40 m at 8 m/s": lambda rng: drive(
+        "hairpins", _zigzag(8, 500.0, 40.0, 180.0), Drive(((0.0, 8.0),), accel=1.0)
+    ),
+    "gentle 45 deg at 12 m/s": lambda rng: drive(
+        "gentle", _zigzag(11, 300.0, 600.0, 45.0), Drive(((0.0, 12.0),))
+    ),
+    "roundabout at 12 m/s": _roundabout_fast,
+    "stops of 30 s from 10 m/s": _stops_at(10.0, 30.0),
+    "stops of 60 s from 12 m/s": _stops_at(12.0, 60.0),
+    "2 and 14 m/s": _speeds_between(2.0, 14.0),
+    "5 and 15 m/s": _speeds_between(5.0, 15.0),
+    "urban, 5 m noise at 2 Hz": _urban_coarse(2.0, 5.0),
+    "urban at 0.5 Hz": _urban_coarse(0.5, 3.0),
 }
 
 
