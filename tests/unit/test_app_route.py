@@ -65,6 +65,33 @@ def test_a_planner_falling_behind_is_said_once_and_its_catching_up_too(
     ]
 
 
+def test_re_plans_flown_late_are_warned_once_with_the_remedy_and_noted_after(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    uavs = [{"connection": f"udpin:127.0.0.1:{14560 + i}", "sysid": i + 1} for i in range(6)]
+    cfg = parse_config(
+        {
+            "mission": {"sensor_radius_m": 100.0, "planner": "road"},
+            "aircraft": {"airspeed_mps": 18.0, "turn_radius_m": 150.0},
+            "uav": uavs,
+        }
+    )
+    service = ConvoyService(cfg, rate_hint=40.0)
+    fit = service._replan_lag
+    # (base, per UAV): on time, late (40x on two cores), a little better but still late
+    # (above half the bar), on time again, late again.
+    for base, per_uav in ((0.1, 0.01), (0.14, 0.45), (0.1, 0.05), (0.1, 0.0), (0.14, 0.3)):
+        fit.base, fit.per_uav = base, per_uav
+        service._check_planner()
+    warned = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
+    assert warned == [
+        "re-plans late: a re-planned UAV flies its new legs 0.59 mission s after the step "
+        "that laid them, at 40x; coverage pays for it on winding roads: lower the speedup"
+    ]
+    said = [e.split(" ", 1)[1].split(":")[0] for e in service.events if "re-plans" in e]
+    assert said == ["re-plans late", "re-plans on time again", "re-plans late"]
+
+
 def test_setpoint_rounds_far_apart_are_warned_once_with_the_remedy_and_noted_after(
     caplog: pytest.LogCaptureFixture,
 ) -> None:
