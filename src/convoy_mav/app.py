@@ -312,11 +312,10 @@ class ConvoyService:
         self._stalled_s = 0.0  # mission s the control loop was held up (a loaded host)
         self._planner_behind = False
         self._replans_late = False
-        self._replans_late_warned = False
+        self._warned: set[str] = set()  # what ``_warn_once`` has warned of
         self._setpoints_late_t: float | None = None  # last look that found rounds late
         self.streamer: SetpointStreamer | None = None  # (while the mission flies)
         self._end_t: float | None = None  # mission time the flight ended
-        self._setpoints_late_warned = False
         # Slowing the simulator (``_check_speedup``): the look begun (mission t, stalled s
         # then), the speedup asked for, and whether the simulator took no SIM_SPEEDUP.
         self._slow_look: tuple[float, float] | None = None
@@ -716,12 +715,7 @@ class ConvoyService:
                 f"the step that laid them, at {rate:.3g}x; coverage pays for it on winding "
                 f"roads: {remedy}"
             )
-            if self._replans_late_warned:
-                self._note(text)
-            else:
-                log.warning("%s", text)
-                self._note(text, logged=True)
-                self._replans_late_warned = True
+            self._warn_once("replans_late", text)
         elif self._replans_late and not late:
             self._note(f"re-plans on time again: {lag:.2f} mission s")
         self._replans_late = late
@@ -754,12 +748,7 @@ class ConvoyService:
                     "(PX4 leaves OFFBOARD after 1 s without one); "
                     f"the host is short of CPU {remedy}"
                 )
-                if self._setpoints_late_warned:
-                    self._note(text)
-                else:
-                    log.warning("%s", text)
-                    self._note(text, logged=True)
-                    self._setpoints_late_warned = True
+                self._warn_once("setpoints_late", text)
             self._setpoints_late_t = t
         elif (
             self._setpoints_late_t is not None and t - self._setpoints_late_t >= _SETPOINTS_CLEAR_S
@@ -846,6 +835,16 @@ class ConvoyService:
                     f"signed frames, {claims} frames claiming another vehicle's id"
                 )
                 self._alarm(Alarm(t, "link_stranger", True, text), sysid)
+
+    def _warn_once(self, what: str, text: str) -> None:
+        """An event for the report, logged as a warning the first time ``what`` happens
+        (news the operator acts on once; its comings back are in the events)."""
+        if what in self._warned:
+            self._note(text)
+        else:
+            self._warned.add(what)
+            log.warning("%s", text)
+            self._note(text, logged=True)
 
     def _note(self, text: str, *, logged: bool = False) -> None:
         """An event for the report (and the log, unless already logged)."""

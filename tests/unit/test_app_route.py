@@ -11,7 +11,7 @@ from types import SimpleNamespace
 import pytest
 
 from convoy_mav.app import ConvoyService
-from convoy_mav.config import parse_config
+from convoy_mav.config import MissionConfig, parse_config
 from convoy_mav.mission.road import RoadMission
 
 
@@ -36,18 +36,22 @@ def test_the_scripted_route_starts_when_the_mission_does() -> None:
     assert service._report().route_start_s == boot
 
 
-def test_a_planner_falling_behind_is_said_once_and_its_catching_up_too(
-    caplog: pytest.LogCaptureFixture,
-) -> None:
+def _road_config() -> MissionConfig:
+    """Six planes on the road planner (nothing listens at their ports)."""
     uavs = [{"connection": f"udpin:127.0.0.1:{14560 + i}", "sysid": i + 1} for i in range(6)]
-    cfg = parse_config(
+    return parse_config(
         {
             "mission": {"sensor_radius_m": 100.0, "planner": "road"},
             "aircraft": {"airspeed_mps": 18.0, "turn_radius_m": 150.0},
             "uav": uavs,
         }
     )
-    service = ConvoyService(cfg)
+
+
+def test_a_planner_falling_behind_is_said_once_and_its_catching_up_too(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    service = ConvoyService(_road_config())
     mission = service.mission
     assert isinstance(mission, RoadMission)
     every = mission.settings.replan_every_s
@@ -68,15 +72,7 @@ def test_a_planner_falling_behind_is_said_once_and_its_catching_up_too(
 def test_re_plans_flown_late_are_warned_once_with_the_remedy_and_noted_after(
     caplog: pytest.LogCaptureFixture,
 ) -> None:
-    uavs = [{"connection": f"udpin:127.0.0.1:{14560 + i}", "sysid": i + 1} for i in range(6)]
-    cfg = parse_config(
-        {
-            "mission": {"sensor_radius_m": 100.0, "planner": "road"},
-            "aircraft": {"airspeed_mps": 18.0, "turn_radius_m": 150.0},
-            "uav": uavs,
-        }
-    )
-    service = ConvoyService(cfg, rate_hint=40.0)
+    service = ConvoyService(_road_config(), rate_hint=40.0)
     fit = service._replan_lag
     # (base, per UAV): on time, late (40x on two cores), a little better but still late
     # (above half the bar), on time again, late again.
