@@ -85,7 +85,7 @@ _REFLY_FAILSAFE_S = 30.0  # mission s after flying again in which a hold is our 
 _TAKEN_CONFIRM_S = 3.0  # mission s a mode change must stand (no reboot) to be a pilot's
 _STALL_TICKS = 3  # a control tick this many periods late is a stall of the host
 _PLANNER_BEHIND = 1.5  # re-plans this many times rarer than planned: the planner is behind
-_REPLANS_LATE_S = 0.25  # mission s a one-UAV re-plan takes to be flown: late (half: on time)
+_REPLANS_LATE_S = 0.1  # mission s past its tick a one-UAV re-plan is flown: late (half: not)
 _SETPOINTS_LATE_S = 0.5  # mission s between setpoint rounds: half PX4's COM_OF_LOSS_T (1 s)
 _REAL_TIME_ABOVE = 1.5  # a speedup up to this is real time (no speedup to lower)
 _SETPOINTS_CLEAR_S = 60.0  # mission s of on-time rounds before late ones are news again
@@ -701,15 +701,25 @@ class ConvoyService:
         (``ReplanLag``), so the UAVs fly them correctly, but later: in simulation a
         lag of 0.1 mission s a UAV cost 0.7 points of coverage on 26 roads without a
         route, 0.2-0.4 s two points, and the urban grids four (the mock at 40x on two
-        cores: 0.3-0.6 s). At real time it is a control tick. Warned the first time,
-        with the remedy; noted each time it comes back.
+        cores: 0.3-0.6 s). At real time it is a control tick: late is ``_REPLANS_LATE_S``
+        past it. Warned the first time, with the remedy (the speedup that would bring it
+        there); noted each time it comes back.
         """
         fit = self._replan_lag
+        if not fit.settled:
+            return
         lag = fit.base + fit.per_uav  # (a one-UAV step, the means without the margin)
-        late = lag > (_REPLANS_LATE_S / 2.0 if self._replans_late else _REPLANS_LATE_S)
+        past = lag - self._control_dt  # (a step is taken in at the tick after it ends)
+        late = past > (_REPLANS_LATE_S / 2.0 if self._replans_late else _REPLANS_LATE_S)
         if late and not self._replans_late:
             rate = self.clock.rate
-            remedy = "lower the speedup" if rate > _REAL_TIME_ABOVE else "a faster host"
+            # The step's compute, in mission s, scales with the speedup; the tick does not.
+            fits = max(1.0, rate * _REPLANS_LATE_S / past)
+            remedy = (
+                f"lower the speedup (to about {fits:.2g}x on this host)"
+                if rate > _REAL_TIME_ABOVE
+                else "a faster host"
+            )
             text = (
                 f"re-plans late: a re-planned UAV flies its new legs {lag:.2f} mission s after "
                 f"the step that laid them, at {rate:.3g}x; coverage pays for it on winding "

@@ -22,6 +22,17 @@ def test_the_lag_is_fitted_as_a_tick_plus_a_cost_per_uav() -> None:
     assert per_uav == pytest.approx(1.25 * 0.4, rel=1e-3)
 
 
+def test_the_fit_is_settled_after_a_few_times_its_memory_of_re_planning_steps() -> None:
+    lag = ReplanLag(alpha=0.2)
+    for k in range(20):
+        assert lag.settled == (k >= 15)
+        lag.observe(0.1, 0)  # (steps that re-plan nobody do not count)
+        lag.observe(0.5, 1)
+    assert lag.planned == 20 and lag.settled
+    lag.observe(math.nan, 1)  # (nor nonsense)
+    assert lag.planned == 20
+
+
 def test_a_host_at_real_time_has_next_to_no_lag() -> None:
     lag = ReplanLag()
     for _ in range(60):

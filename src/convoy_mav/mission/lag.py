@@ -35,6 +35,12 @@ class ReplanLag:
     cap: float = 8.0
     base: float = 0.0
     per_uav: float = 0.0
+    planned: int = 0  # steps that re-planned a UAV or more, folded in
+
+    @property
+    def settled(self) -> bool:
+        """Whether ``per_uav`` has seen enough steps to be its host's (a few times 1/alpha)."""
+        return self.planned >= 3.0 / self.alpha
 
     def observe(self, lag: float, plans: int) -> None:
         """Fold in one step: ``lag`` mission seconds, ``plans`` UAVs re-planned."""
@@ -44,6 +50,7 @@ class ReplanLag:
             self.base += self.alpha * (lag - self.base)
         else:
             self.per_uav += self.alpha * (max(lag - self.base, 0.0) / plans - self.per_uav)
+            self.planned += 1
 
     def lead(self) -> tuple[float, float]:
         """``(base, per_uav)`` for the mission: the means with the margin, capped so a
