@@ -10,9 +10,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from convoy_mav.planning.dubins import Pose, Segment, Turn, wrap_angle
+from convoy_mav.planning.dubins import Pose, Turn, wrap_angle
 from convoy_mav.planning.meets import (
     LegLimits,
+    _candidate_segments,
     _candidates,
     _leg_to,
     _positions,
@@ -140,23 +141,15 @@ def test_the_candidates_scored_are_the_legs_built_from_them(
     # judged on the path the UAV would fly.
     pose = Pose(x, y, heading)
     steer = _steer(pose, LIMITS)
-    k1, l1, k2, arc, total = _candidates(steer, (gx, gy))
+    _, _, k2, arc, total = _candidates(steer, (gx, gy))
     rows = np.nonzero(np.abs(k2) <= 1.0 / R + 1e-12)[0][::7]
     speed = np.clip(total[rows] / left, *LIMITS.speeds)
     taus = np.linspace(0.0, left, 9)
     px, py = _positions(steer, rows, k2[rows], speed, taus)
     for j, i in enumerate(rows.tolist()):
-        v = float(speed[j])
-        segments: list[Segment] = []
-        if l1[i] > 0.0:
-            turn = Turn.STRAIGHT if k1[i] == 0.0 else (Turn.LEFT if k1[i] > 0.0 else Turn.RIGHT)
-            radius = 0.0 if k1[i] == 0.0 else 1.0 / abs(float(k1[i]))
-            segments.append(Segment(pose, turn, radius, v, float(l1[i]) / v))
-        start = segments[-1].at(segments[-1].duration) if segments else pose
-        if abs(k2[i]) > 1e-12:
-            turn = Turn.LEFT if k2[i] > 0.0 else Turn.RIGHT
-            segments.append(Segment(start, turn, 1.0 / abs(float(k2[i])), v, float(arc[i]) / v))
-        else:
-            segments.append(Segment(start, Turn.STRAIGHT, 0.0, v, max(float(arc[i]), 1e-6) / v))
-        bx, by = chain_positions(tuple(segments), taus)
-        assert np.allclose(px[j], bx, atol=1e-6) and np.allclose(py[j], by, atol=1e-6)
+        segments = _candidate_segments(steer, i, float(k2[i]), float(arc[i]), float(speed[j]))
+        bx, by = chain_positions(segments, taus)
+        # 1e-6 m, and what a segment's closed form (its radius times a difference of
+        # sines) can hold of an arc of huge radius: a target a hair off the heading.
+        tol = 1e-6 + 1e-15 * max(s.radius for s in segments)
+        assert np.allclose(px[j], bx, atol=tol) and np.allclose(py[j], by, atol=tol)

@@ -344,23 +344,33 @@ def _leg_to(
     if not math.isfinite(float(cost[i])):  # pragma: no cover - a long enough turn always fits
         raise PlanningError("no flyable leg reaches the pattern")
     v = float(speed[i])
+    segments = _candidate_segments(steer, i, float(k2[i]), float(arc[i]), v)
+    end = t + sum(s.duration for s in segments)
+    return Leg(segments, t, end, v, bool(late[i] < 0.05), float(offset[i]))
+
+
+def _candidate_segments(
+    steer: _Steer, i: int, k2: float, arc: float, speed: float
+) -> tuple[Segment, ...]:
+    """Candidate ``i``'s path flown at ``speed``: its steering part (if any), then its arc
+    of curvature ``k2`` and length ``arc`` (what ``_positions`` scores it on)."""
+    k1, l1 = float(steer.k1[i]), float(steer.l1[i])
     segments = []
-    start = pose
-    if l1[i] > 0.0:
-        kind = Turn.STRAIGHT if k1[i] == 0.0 else (Turn.LEFT if k1[i] > 0.0 else Turn.RIGHT)
-        radius = 0.0 if k1[i] == 0.0 else 1.0 / abs(float(k1[i]))
-        first = Segment(start, kind, radius, v, float(l1[i]) / v)
+    start = steer.pose
+    if l1 > 0.0:
+        kind = Turn.STRAIGHT if k1 == 0.0 else (Turn.LEFT if k1 > 0.0 else Turn.RIGHT)
+        radius = 0.0 if k1 == 0.0 else 1.0 / abs(k1)
+        first = Segment(start, kind, radius, speed, l1 / speed)
         segments.append(first)
         start = first.at(first.duration)
-    if abs(k2[i]) > 1e-12:
-        kind = Turn.LEFT if k2[i] > 0.0 else Turn.RIGHT
-        segments.append(Segment(start, kind, 1.0 / abs(float(k2[i])), v, float(arc[i]) / v))
-    elif arc[i] > 1e-9:
-        segments.append(Segment(start, Turn.STRAIGHT, 0.0, v, float(arc[i]) / v))
+    if abs(k2) > 1e-12:
+        kind = Turn.LEFT if k2 > 0.0 else Turn.RIGHT
+        segments.append(Segment(start, kind, 1.0 / abs(k2), speed, arc / speed))
+    elif arc > 1e-9:
+        segments.append(Segment(start, Turn.STRAIGHT, 0.0, speed, arc / speed))
     if not segments:  # already there, at the meeting time
-        segments.append(Segment(start, Turn.STRAIGHT, 0.0, v, 1e-3))
-    end = t + sum(s.duration for s in segments)
-    return Leg(tuple(segments), t, end, v, bool(late[i] < 0.05), float(offset[i]))
+        segments.append(Segment(start, Turn.STRAIGHT, 0.0, speed, 1e-3))
+    return tuple(segments)
 
 
 def _flyable(k2: FloatArray, limits: LegLimits) -> npt.NDArray[np.bool_]:

@@ -280,11 +280,6 @@ def _stop_and_go(rng: np.random.Generator) -> RoadTrack:
     return drive("stop and go", [Piece(6500.0)], how)
 
 
-def _speeds(rng: np.random.Generator) -> RoadTrack:
-    how = Drive(((0.0, 4.0), (1200.0, 12.0), (5000.0, 4.0), (6200.0, 12.0)))
-    return drive("speed changes", [Piece(9000.0)], how)
-
-
 def _urban_grid(rng: np.random.Generator) -> RoadTrack:
     pieces, stops = _urban(rng, 24)
     return drive(
@@ -309,10 +304,14 @@ def _stops_at(speed: float, stop_s: float) -> Callable[[np.random.Generator], Ro
     return make
 
 
-def _speeds_between(low: float, high: float) -> Callable[[np.random.Generator], RoadTrack]:
+def _speeds_between(
+    low: float, high: float, name: str = ""
+) -> Callable[[np.random.Generator], RoadTrack]:
+    """9 km of straight road in stretches at ``low`` and ``high`` m/s, twice."""
+
     def make(rng: np.random.Generator) -> RoadTrack:
         how = Drive(((0.0, low), (1200.0, high), (5000.0, low), (6200.0, high)))
-        return drive(f"{low:g} and {high:g} m/s", [Piece(9000.0)], how)
+        return drive(name or f"{low:g} and {high:g} m/s", [Piece(9000.0)], how)
 
     return make
 
@@ -340,7 +339,7 @@ KINDS: dict[str, Callable[[np.random.Generator], RoadTrack]] = {
     "hairpins": _hairpins,
     "roundabout": _roundabout,
     "stop-and-go": _stop_and_go,
-    "speeds": _speeds,
+    "speeds": _speeds_between(4.0, 12.0, "speed changes"),
     "urban": _urban_grid,
 }
 
