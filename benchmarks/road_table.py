@@ -9,6 +9,7 @@
     .venv/bin/python benchmarks/road_table.py --junctions  # a stop, then a turn (~2 min)
     .venv/bin/python benchmarks/road_table.py --gaps  # unseen seconds by convoy state (~3 min)
     .venv/bin/python benchmarks/road_table.py --foresight  # given the true future (~5 min)
+    .venv/bin/python benchmarks/road_table.py --fast-stops  # stops from speed (~2 min)
 
 Simulation: the service's ``RoadMission`` fed the convoy's fixes through its own
 ``ConvoyTracker``, UAVs flying exactly what they are sent (``fly_road``), coverage
@@ -40,7 +41,15 @@ from convoy_mav.mission.choose import road_fleet
 from convoy_mav.mission.simulate import RoadRun, fly_road
 from convoy_mav.planning import PlanRequest
 from convoy_mav.tracks import GeoTrack, load_track
-from convoy_mav.tracks.roads import KINDS, VARIANTS, corner, junction, random_road, road_kind
+from convoy_mav.tracks.roads import (
+    KINDS,
+    VARIANTS,
+    corner,
+    junction,
+    random_road,
+    road_kind,
+    stops_from,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 TRACKS = ROOT.parent / "shared" / "tracks"
@@ -323,6 +332,41 @@ def _foresight() -> None:
     print("| mean | " + " | ".join(f"{100 * m:.1f} %" for m in means) + " |")
 
 
+#: Convoy speeds of ``--fast-stops``, as fractions of the airspeed, and the aircraft.
+FAST_STOP_RATIOS = (0.33, 0.44, 0.5, 0.56, 0.61, 0.67, 0.78)
+FAST_STOP_AIRCRAFT = (DEFAULT, PlanRequest(150.0, 100.0, 24.0), FAST)
+
+
+def _stopped(job: tuple[float, PlanRequest]) -> RoadRun:
+    ratio, req = job
+    rt = stops_from(ratio * req.uav_speed)
+    uavs = road_fleet(req.turn_radius, req.sensor_radius)
+    return fly_road(
+        rt.t, rt.north, rt.east, req, uavs, true_north=rt.true_north, true_east=rt.true_east,
+        route_known=True,
+    )  # fmt: skip
+
+
+def _fast_stops() -> None:
+    """Stops from a steady speed (1 m/s^2 braking, four stops of 60 s, the route known),
+    for convoy speeds from a third of the airspeed to 0.78 of it, on three airframes:
+    coverage of the protect phase and the longest gap (``FAST_CONVOY_RATIO``)."""
+    jobs = [(ratio, req) for ratio in FAST_STOP_RATIOS for req in FAST_STOP_AIRCRAFT]
+    with ProcessPoolExecutor(os.cpu_count()) as pool:
+        runs = list(pool.map(_stopped, jobs))
+    head = [
+        f"R {q.turn_radius:g} m, r {q.sensor_radius:g} m, {q.uav_speed:g} m/s"
+        for q in FAST_STOP_AIRCRAFT
+    ]
+    print("| convoy speed / airspeed | " + " | ".join(head) + " |")
+    print("|" + "---|" * (len(head) + 1))
+    width = len(FAST_STOP_AIRCRAFT)
+    for i, ratio in enumerate(FAST_STOP_RATIOS):
+        row = runs[i * width : (i + 1) * width]
+        cells = [f"{100 * run.coverage:.1f} % / {run.longest_gap_s:.0f} s" for run in row]
+        print(f"| {ratio:.2f} | " + " | ".join(cells) + " |", flush=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--mock", action="store_true", help="also fly them against sitl_mock")
@@ -344,7 +388,13 @@ def main() -> None:
     parser.add_argument(
         "--foresight", action="store_true", help="the simulation given the true future"
     )
+    parser.add_argument(
+        "--fast-stops", action="store_true", help="the simulation of stops from speed"
+    )
     args = parser.parse_args()
+    if args.fast_stops:
+        _fast_stops()
+        return
     if args.foresight:
         _foresight()
         return

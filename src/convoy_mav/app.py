@@ -55,7 +55,7 @@ from convoy_mav.mission import (
 )
 from convoy_mav.mission.choose import choose_planner
 from convoy_mav.mission.lag import ReplanLag
-from convoy_mav.mission.road import RoadMission
+from convoy_mav.mission.road import FAST_CONVOY_RATIO, RoadMission
 from convoy_mav.monitor import Alarm, Monitor, MonitorSnapshot, sees, why_not_counted
 from convoy_mav.planning.export import compass_to_planner
 from convoy_mav.planning.road import Road
@@ -87,6 +87,7 @@ _STALL_TICKS = 3  # a control tick this many periods late is a stall of the host
 _PLANNER_BEHIND = 1.5  # re-plans this many times rarer than planned: the planner is behind
 _REPLANS_LATE_S = 0.1  # mission s past its tick a one-UAV re-plan is flown: late (half: not)
 _SETPOINTS_LATE_S = 0.5  # mission s between setpoint rounds: half PX4's COM_OF_LOSS_T (1 s)
+_FAST_CLEARS = 0.9  # the convoy_fast alarm clears below this fraction of its ratio
 _REAL_TIME_ABOVE = 1.5  # a speedup up to this is real time (no speedup to lower)
 _SETPOINTS_CLEAR_S = 60.0  # mission s of on-time rounds before late ones are news again
 _SLOW_LOOK_S = 30.0  # mission s the host is judged over before (and after) a speedup change
@@ -312,6 +313,7 @@ class ConvoyService:
         self._stalled_s = 0.0  # mission s the control loop was held up (a loaded host)
         self._planner_behind = False
         self._replans_late = False
+        self._convoy_fast = False
         self._warned: set[str] = set()  # what ``_warn_once`` has warned of
         self._setpoints_late_t: float | None = None  # last look that found rounds late
         self.streamer: SetpointStreamer | None = None  # (while the mission flies)
@@ -693,6 +695,31 @@ class ConvoyService:
             self._note(f"planner caught up: re-plans every {lag:.1f} mission s")
         self._planner_behind = behind
         self._check_replan_lag()
+
+    def _check_convoy_speed(self, t: float) -> None:
+        """Alarm (``convoy_fast``) while the convoy drives faster than the road pattern
+        can follow it to a stop (``FAST_CONVOY_RATIO`` of the airspeed), and clear it
+        once it is back under 0.9 of that (its low-passed speed: no flicker on a stretch
+        at the limit). No plan covers that stop: the operator learns it from the alarm
+        before a gap shows it, and what aircraft would (twice the convoy's speed)."""
+        mission = self.mission
+        ratio = mission.speed_ratio if isinstance(mission, RoadMission) else None
+        if ratio is None:
+            return
+        speed = ratio * self._airspeed
+        limit = FAST_CONVOY_RATIO if not self._convoy_fast else _FAST_CLEARS * FAST_CONVOY_RATIO
+        fast = ratio >= limit
+        if fast and not self._convoy_fast:
+            text = (
+                f"convoy at {speed:.1f} m/s, {ratio:.2f} of the airspeed: the UAVs' arcs "
+                "barely turn back towards it, and a stop from this fast can leave it "
+                "unseen 10-20 s while they turn round; aircraft of twice its speed would "
+                "cover it"
+            )
+            self._alarm(Alarm(t, "convoy_fast", True, text))
+        elif self._convoy_fast and not fast:
+            self._alarm(Alarm(t, "convoy_fast", False, f"convoy slowed to {speed:.1f} m/s"))
+        self._convoy_fast = fast
 
     def _check_replan_lag(self) -> None:
         """Say when re-plans reach the UAVs late in mission time, and when they no longer do.
@@ -1131,6 +1158,7 @@ class ConvoyService:
                 self._stalled_s += held - self._control_dt  # the loop was held up
             last = now
             await self._control_step(t)
+            self._check_convoy_speed(t)
             if t >= next_publish:
                 next_publish = t + self._publish_every
                 self._publish_state(t)

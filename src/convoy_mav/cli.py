@@ -42,13 +42,15 @@ from convoy_mav.errors import ConfigError, ConvoyError, PlanningError
 from convoy_mav.fence import fence_from
 from convoy_mav.geo import LocalFrame
 from convoy_mav.mavlink.signing import load_key
+from convoy_mav.mission.road import FAST_CONVOY_RATIO
 from convoy_mav.oplog import operator_log
 from convoy_mav.planning import Plan, Pose, make_plan, optimal_path_from_entry
 from convoy_mav.planning.export import entry_to_dict, plan_to_dict
 from convoy_mav.plot import plot_mission
 from convoy_mav.provision import provision_signing
 from convoy_mav.schedule import setpoint_at
-from convoy_mav.tracks import FORMATS, load_track
+from convoy_mav.tracks import FORMATS, load_track, track_speeds
+from convoy_mav.tracks.geotrack import SPEED_WINDOW_S
 from convoy_mav.tracks.roads import KINDS as ROAD_KINDS
 from convoy_mav.tracks.roads import road_kind
 
@@ -620,6 +622,15 @@ async def _cmd_replay(args: argparse.Namespace) -> int:
             f"{uavs} UAVs{known}",
             flush=True,
         )
+        top = track_speeds(track).max_mps
+        if top >= FAST_CONVOY_RATIO * scenario.airspeed_mps:
+            print(
+                f"note: the convoy drives at up to {top:.1f} m/s (over {SPEED_WINDOW_S:g}-s "
+                f"windows), {top / scenario.airspeed_mps:.2f} of the airspeed: a stop from "
+                f"faster than {FAST_CONVOY_RATIO:g} of it can leave it unseen 10-20 s "
+                "(alarm convoy_fast)",
+                flush=True,
+            )
     return await _fly_mock(args, scenario, duration)
 
 

@@ -49,6 +49,7 @@ def test_a_road_is_protected_as_predicted(
     if known:
         assert planner["route_length_m"] > 5000.0
         assert planner["route_max_curvature_per_m"] == pytest.approx(1 / 150, rel=0.2)
+    assert 0.3 < planner["convoy_fast"]["max_speed_ratio"] < 0.6  # (8 m/s of 18)
     for margins in planner["flyability"].values():  # what was commanded was flyable
         assert margins["min_turn_radius_m"] >= 150.0 - 0.1
         assert margins["speed_range_mps"][0] >= 0.85 * 18.0 - 0.01

@@ -13,6 +13,7 @@ import pytest
 from convoy_mav.app import ConvoyService
 from convoy_mav.config import MissionConfig, parse_config
 from convoy_mav.mission.road import RoadMission
+from convoy_mav.types import ConvoyEstimate
 
 
 def test_the_scripted_route_starts_when_the_mission_does() -> None:
@@ -128,3 +129,27 @@ def test_setpoint_rounds_far_apart_are_warned_once_with_the_remedy_and_noted_aft
     real_time.streamer = SimpleNamespace(take_widest_gap=lambda: 0.8)  # type: ignore[assignment]
     real_time._check_setpoints(0.0)
     assert real_time.events[-1].endswith("the host is short of CPU (real time)")
+
+
+def test_a_convoy_too_fast_for_the_pattern_is_alarmed_until_it_slows() -> None:
+    """``convoy_fast`` is raised when the convoy's low-passed speed reaches
+    ``FAST_CONVOY_RATIO`` of the airspeed (18 m/s here: 9 m/s), and cleared below 0.9
+    of that (8.1 m/s): a stretch at 8.5 m/s between two fast ones is one alarm, not
+    two."""
+    service = ConvoyService(_road_config())
+    mission = service.mission
+    assert isinstance(mission, RoadMission)
+    t, north = 0.0, 0.0
+    for speed, seconds in ((6.0, 40.0), (12.0, 40.0), (8.5, 40.0), (12.0, 40.0), (6.0, 40.0)):
+        for _ in range(int(seconds / 0.5)):
+            t += 0.5
+            north += 0.5 * speed
+            mission.on_convoy(ConvoyEstimate(t, north, 0.0, speed, 0.0))
+            service._check_convoy_speed(t)
+    raised = [a for a in service.alarms if a["kind"] == "convoy_fast"]
+    assert [a["active"] for a in raised] == [True, False]
+    # (the pattern's speed: the velocity low-passed over 20 s, 6 -> 12 m/s reaches 9 in
+    # 14 s; its speed over 5 s, 12 -> 6 m/s is under 8.1 in 5 s)
+    assert 50.0 < raised[0]["t"] < 60.0 and 160.0 < raised[1]["t"] < 170.0
+    assert raised[0]["message"].startswith("convoy at 9.0 m/s, 0.50 of the airspeed")
+    assert raised[1]["message"].startswith("convoy slowed to 8.")

@@ -16,7 +16,12 @@ from convoy_mav.errors import PlanningError
 from convoy_mav.mission.choose import choose_planner, road_fleet
 from convoy_mav.mission.events import PhaseChanged, Replanned
 from convoy_mav.mission.forecast import Watch
-from convoy_mav.mission.road import _JOIN_LAGS_S, RoadMission, RoadSettings
+from convoy_mav.mission.road import (
+    _JOIN_LAGS_S,
+    FAST_CONVOY_RATIO,
+    RoadMission,
+    RoadSettings,
+)
 from convoy_mav.mission.simulate import RoadRun, fly_road
 from convoy_mav.planning import PlanRequest
 from convoy_mav.planning.dubins import Pose, Segment, Turn, wrap_angle
@@ -332,6 +337,34 @@ def test_a_sudden_corner_either_way_leaves_no_long_gap(turn_deg: float) -> None:
     assert run.protect_start is not None and run.protect_start < 240.0
     assert run.longest_gap_s <= 7.0
     assert run.coverage >= 0.98
+
+
+def _braking(speed: float, brake_at: float, end: float) -> tuple[Arr, Arr, Arr]:
+    """1-Hz fixes of a convoy driving north at ``speed``, braking at 1 m/s^2 from
+    ``brake_at`` to a stop, then standing until ``end``."""
+    t = np.arange(0.0, end + 0.5, 1.0)
+    v = np.clip(speed - np.maximum(t - brake_at, 0.0), 0.0, None)
+    north = np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(t))])
+    return t, north, np.zeros_like(t)
+
+
+@pytest.mark.parametrize("speed", [12.0, 6.0])
+def test_a_convoy_faster_than_half_the_airspeed_is_told_with_how_long(speed: float) -> None:
+    """``speed_ratio`` and the report's ``convoy_fast``: the seconds of the protect phase
+    the convoy drove faster than ``FAST_CONVOY_RATIO`` of the airspeed, and how fast."""
+    t, north, east = _braking(speed, 250.0, 330.0)
+    mission, _ = _fly(t, north, east, road_fleet(R, r), dt=0.5)
+    start = mission.protect_start
+    assert start is not None and start < 200.0
+    fast = mission.report()["convoy_fast"]
+    assert fast["above_speed_ratio"] == FAST_CONVOY_RATIO
+    ratio = speed / V
+    assert fast["max_speed_ratio"] == pytest.approx(ratio, abs=0.02)
+    if ratio >= FAST_CONVOY_RATIO:  # from the start of protection into the braking (to 262 s)
+        assert 250.0 - start <= fast["seconds"] <= 262.0 - start
+    else:
+        assert fast["seconds"] == 0.0
+    assert mission.speed_ratio is not None and mission.speed_ratio < 0.05  # (standing)
 
 
 def test_a_run_lists_its_unseen_stretches() -> None:

@@ -105,11 +105,23 @@ from convoy_mav.planning.road import Road
 from convoy_mav.schedule import setpoint_on, yaw_to_heading
 from convoy_mav.types import ConvoyEstimate, Setpoint
 
-__all__ = ["RoadMission", "RoadSettings"]
+__all__ = ["FAST_CONVOY_RATIO", "RoadMission", "RoadSettings"]
 
 FloatArray = npt.NDArray[np.float64]
 
 _SCORE_STEP = 0.5  # s: resolution of the planned-coverage score
+FAST_CONVOY_RATIO = 0.5
+"""A convoy faster than this fraction of the airspeed is one a stop can leave unseen.
+
+The pattern's arcs turn back less the faster the convoy (Lemma 4.1: v/V = sin b / b,
+b 109 deg at 0.5 V, 90 at 2/pi = 0.64 V): at speed hardly a UAV flies back towards it,
+so when it brakes to a stop every UAV overshoots and the first back has to turn round.
+Stops from a steady speed (1 m/s^2 braking, the route known; ``road_table.py
+--fast-stops``): 98.8-99.8 % up to half the airspeed on three airframes, gaps of 2 s at
+most; from 0.56-0.61 V on, 87-97 % with gaps of 6-27 s. Neither a UAV more (91.6 % at
+0.67 V) nor knowing the stop from the onset of braking (93 %) buys it back; knowing it
+8 s before it, or aircraft twice the convoy's speed, do.
+"""
 _ABSENT = object()  # a setting an older build's pickle does not have
 _MOVING_MPS = 1.0  # m/s: a convoy slower than this has no course to speak of
 _SWITCH_STRAIGHT_DEG = 10.0  # a side switch starts while the pattern lies this close to the road
@@ -326,6 +338,9 @@ class RoadMission(Roster):
         self.replan_interval_s: float | None = None  # median of the recent ones
         self._margins: dict[int, tuple[float, float, float]] = {}  # radius, slowest, fastest
         self._convoy_speeds: tuple[float, float] | None = None
+        self._fast_s = 0.0  # protect-phase seconds the convoy was fast (FAST_CONVOY_RATIO)
+        self._top_ratio = 0.0  # the highest speed_ratio in the protect phase
+        self._ratio_t: float | None = None  # (up to when _fast_s is counted)
         # The convoy feed: the latest fresh estimate's time, and whether the convoy is
         # held where it was last seen (``tick``; the model's estimate says where).
         self._fresh_t: float | None = None
@@ -384,6 +399,15 @@ class RoadMission(Roster):
     def plan_t0(self) -> float:
         """Planner time is mission time."""
         return 0.0
+
+    @property
+    def speed_ratio(self) -> float | None:
+        """The convoy's speed as the pattern is laid for it (``PatternClock.speed``, low-
+        passed), over the airspeed; None before the convoy is located. From
+        ``FAST_CONVOY_RATIO`` on, a stop can leave the convoy unseen."""
+        if self._clock is None:
+            return None
+        return self._clock.speed / self.request.uav_speed
 
     @property
     def predicted_coverage(self) -> float | None:
@@ -514,6 +538,13 @@ class RoadMission(Roster):
             events.append(self._replanned(est.t, "initial"))
             return events
         self._clock.advance(est.t, est.ve, est.vn, self.pattern_radius, V)
+        if self._protect_start is not None:
+            ratio = self._clock.speed / V
+            self._top_ratio = max(self._top_ratio, ratio)
+            since = self._ratio_t
+            if since is not None and est.t > since:
+                self._fast_s += (est.t - since) * (ratio >= FAST_CONVOY_RATIO)
+            self._ratio_t = est.t if since is None else max(since, est.t)
         # Each UAV is re-planned every replan_every_s, a few at a time (a plan is
         # 3-5 ms a UAV): the loop driving the mission never waits long. One whose
         # legs were planned on a convoy velocity replan_on_change_mps off the one now
@@ -1246,6 +1277,11 @@ class RoadMission(Roster):
             "route_max_curvature_per_m": None if route is None else route.max_curvature(),
             "convoy_left_route": self.model.counters["left_route"],
             "convoy_speed_range_mps": None if speeds is None else [round(v, 2) for v in speeds],
+            "convoy_fast": {
+                "above_speed_ratio": FAST_CONVOY_RATIO,
+                "seconds": round(self._fast_s, 1),
+                "max_speed_ratio": round(self._top_ratio, 3),
+            },
             "uav_replans": self.uav_replans,
             "replan_interval_s": None
             if not self._gaps_count

@@ -36,6 +36,7 @@ __all__ = [
     "junction",
     "random_road",
     "road_kind",
+    "stops_from",
 ]
 
 FloatArray = npt.NDArray[np.float64]
@@ -296,12 +297,15 @@ def _roundabout_fast(rng: np.random.Generator) -> RoadTrack:
     return drive("roundabouts at 12 m/s", [*way, *way, *way, Piece(1500.0)], Drive(tuple(speeds)))
 
 
-def _stops_at(speed: float, stop_s: float) -> Callable[[np.random.Generator], RoadTrack]:
-    def make(rng: np.random.Generator) -> RoadTrack:
-        stops = tuple((1500.0 * k, stop_s) for k in range(1, 5))
-        return drive(f"stops from {speed:g} m/s", [Piece(8000.0)], Drive(((0.0, speed),), stops))
+def stops_from(speed: float, stop_s: float = 60.0) -> RoadTrack:
+    """8 km of straight road at ``speed``, braking at 1 m/s^2 to four stops of ``stop_s``
+    1.5 km apart: a fast convoy's stops, which no plan sees coming."""
+    stops = tuple((1500.0 * k, stop_s) for k in range(1, 5))
+    return drive(f"stops from {speed:g} m/s", [Piece(8000.0)], Drive(((0.0, speed),), stops))
 
-    return make
+
+def _stops_at(speed: float, stop_s: float) -> Callable[[np.random.Generator], RoadTrack]:
+    return lambda rng: stops_from(speed, stop_s)
 
 
 def _speeds_between(
