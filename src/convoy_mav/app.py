@@ -711,10 +711,10 @@ class ConvoyService:
         fast = ratio >= limit
         if fast and not self._convoy_fast:
             text = (
-                f"convoy at {speed:.1f} m/s, {ratio:.2f} of the airspeed: the UAVs' arcs "
-                "barely turn back towards it, and a stop from this fast can leave it "
-                "unseen 10-20 s while they turn round; aircraft of twice its speed would "
-                "cover it"
+                f"convoy at {speed:.1f} m/s, {FAST_CONVOY_RATIO:g} of the airspeed or more: "
+                "the UAVs' arcs barely turn back towards it, and a stop from this fast can "
+                "leave it unseen 10-20 s while they turn round; aircraft of twice its speed "
+                "would cover it"
             )
             self._alarm(Alarm(t, "convoy_fast", True, text))
         elif self._convoy_fast and not fast:

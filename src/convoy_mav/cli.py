@@ -42,7 +42,7 @@ from convoy_mav.errors import ConfigError, ConvoyError, PlanningError
 from convoy_mav.fence import fence_from
 from convoy_mav.geo import LocalFrame
 from convoy_mav.mavlink.signing import load_key
-from convoy_mav.mission.road import FAST_CONVOY_RATIO
+from convoy_mav.mission.road import FAST_CONVOY_RATIO, RoadMission
 from convoy_mav.oplog import operator_log
 from convoy_mav.planning import Plan, Pose, make_plan, optimal_path_from_entry
 from convoy_mav.planning.export import entry_to_dict, plan_to_dict
@@ -470,6 +470,9 @@ def _plot(args: argparse.Namespace, report: dict[str, Any], service: ConvoyServi
         args.plot,
         sensor_radius=service.config.sensor_radius_m,
         road=None if route is None else (route.y.tolist(), route.x.tolist()),
+        fast_mps=FAST_CONVOY_RATIO * service.config.plan_aircraft.airspeed_mps
+        if isinstance(service.mission, RoadMission)
+        else None,
         title=f"convoy-mav: {report.get('scenario', 'mission')}"
         + (f" of {os.path.basename(track)}" if track else "")
         + f", {report['uav_count']} UAVs, coverage "

@@ -7,16 +7,37 @@ plot is asked for.
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Sequence
 
+import numpy as np
 from matplotlib import colormaps
 from matplotlib.figure import Figure
 from matplotlib.patches import Circle
 
 from convoy_mav.history import History
 
-__all__ = ["plot_mission"]
+__all__ = ["convoy_speeds", "plot_mission"]
+
+SPEED_SPAN_S = 5.0  # the convoy's speed is drawn as its chord over this long
+
+
+def convoy_speeds(history: History, span: float = SPEED_SPAN_S) -> tuple[list[float], list[float]]:
+    """The convoy's speed at each sample that has it, m/s: the chord from where it was
+    ``span`` seconds before (at the start, since the first sample), so GPS jitter
+    between samples is not drawn as speed."""
+    pts = [(s.t, s.convoy) for s in history.samples if s.convoy is not None]
+    if len(pts) < 2:
+        return [], []
+    t = np.array([p[0] for p in pts])
+    north = np.array([p[1][0] for p in pts])
+    east = np.array([p[1][1] for p in pts])
+    before = np.maximum(t - span, t[0])
+    dt = t - before
+    moved = np.hypot(north - np.interp(before, t, north), east - np.interp(before, t, east))
+    speed = np.divide(moved, dt, out=np.zeros_like(moved), where=dt > 0.0)
+    return t[1:].tolist(), speed[1:].tolist()
 
 
 def plot_mission(
@@ -27,6 +48,7 @@ def plot_mission(
     title: str = "",
     disk_instants: Sequence[float] | None = None,
     road: tuple[Sequence[float], Sequence[float]] | None = None,
+    fast_mps: float | None = None,
 ) -> None:
     """Write a PNG: tracks and disks on the left, the coverage timeline below.
 
@@ -38,6 +60,9 @@ def plot_mission(
         disk_instants: Mission times at which to draw every UAV's sensor disk
             (default: three instants spread over the protect phase).
         road: The convoy's known route, (norths, easts), drawn under the tracks.
+        fast_mps: A convoy speed to mark on the timeline, where the convoy's own is
+            drawn: the road planner's ``FAST_CONVOY_RATIO`` of the airspeed, above which
+            a stop can leave the convoy unseen (a gap after the speed crossed it).
     """
     samples = history.samples
     if not samples:
@@ -88,4 +113,13 @@ def plot_mission(
     tl.set_yticks([0, 1], ["not seen", "seen"])
     tl.set_xlabel("mission time (s)")
     tl.legend(loc="lower right", fontsize="small")
+    if fast_mps is not None and math.isfinite(fast_mps):
+        st, speed = convoy_speeds(history)
+        sp = tl.twinx()
+        sp.plot(st, speed, color="0.35", lw=0.8, label="convoy speed")
+        sp.axhline(fast_mps, color="tab:orange", ls="--", lw=1.0,
+                   label=f"{fast_mps:.1f} m/s: a stop from faster can leave gaps")  # fmt: skip
+        sp.set_ylabel("convoy speed (m/s)")
+        sp.set_ylim(bottom=0.0, top=max([fast_mps, *speed]) * 1.15)
+        sp.legend(loc="lower left", fontsize="small")
     fig.savefig(path, dpi=110)
