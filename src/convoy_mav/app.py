@@ -87,7 +87,7 @@ _STALL_TICKS = 3  # a control tick this many periods late is a stall of the host
 _PLANNER_BEHIND = 1.5  # re-plans this many times rarer than planned: the planner is behind
 _REPLANS_LATE_S = 0.1  # mission s past its tick a one-UAV re-plan is flown: late (half: not)
 _SETPOINTS_LATE_S = 0.5  # mission s between setpoint rounds: half PX4's COM_OF_LOSS_T (1 s)
-_FAST_CLEARS = 0.9  # the convoy_fast alarm clears below this fraction of its ratio
+_FAST_CLEARS = 0.9  # a convoy speed alarm clears below this fraction of its bound
 _REAL_TIME_ABOVE = 1.5  # a speedup up to this is real time (no speedup to lower)
 _SETPOINTS_CLEAR_S = 60.0  # mission s of on-time rounds before late ones are news again
 _SLOW_LOOK_S = 30.0  # mission s the host is judged over before (and after) a speedup change
@@ -313,7 +313,7 @@ class ConvoyService:
         self._stalled_s = 0.0  # mission s the control loop was held up (a loaded host)
         self._planner_behind = False
         self._replans_late = False
-        self._convoy_fast = False
+        self._speed_alarms: set[str] = set()  # convoy_fast, convoy_outruns in force
         self._warned: set[str] = set()  # what ``_warn_once`` has warned of
         self._setpoints_late_t: float | None = None  # last look that found rounds late
         self.streamer: SetpointStreamer | None = None  # (while the mission flies)
@@ -697,29 +697,43 @@ class ConvoyService:
         self._check_replan_lag()
 
     def _check_convoy_speed(self, t: float) -> None:
-        """Alarm (``convoy_fast``) while the convoy drives faster than the road pattern
-        can follow it to a stop (``FAST_CONVOY_RATIO`` of the airspeed), and clear it
-        once it is back under 0.9 of that (its low-passed speed: no flicker on a stretch
-        at the limit). No plan covers that stop: the operator learns it from the alarm
-        before a gap shows it, and what aircraft would (twice the convoy's speed)."""
+        """Alarm while the convoy drives faster than the road pattern can follow it to a
+        stop (``convoy_fast``: ``FAST_CONVOY_RATIO`` of the airspeed), and while it
+        outruns the UAVs' fastest speed (``convoy_outruns``: the top of the road
+        planner's speed band); each cleared once the convoy is back under 0.9 of its
+        bound (its low-passed speed: no flicker on a stretch at the limit). No plan
+        covers either: the operator learns it from the alarm before a gap shows it,
+        and what aircraft would (twice the convoy's speed)."""
         mission = self.mission
-        ratio = mission.speed_ratio if isinstance(mission, RoadMission) else None
-        if ratio is None:
+        if not isinstance(mission, RoadMission) or (ratio := mission.speed_ratio) is None:
             return
         speed = ratio * self._airspeed
-        limit = FAST_CONVOY_RATIO if not self._convoy_fast else _FAST_CLEARS * FAST_CONVOY_RATIO
-        fast = ratio >= limit
-        if fast and not self._convoy_fast:
-            text = (
-                f"convoy at {speed:.1f} m/s, {FAST_CONVOY_RATIO:g} of the airspeed or more: "
-                "the UAVs' arcs barely turn back towards it, and a stop from this fast can "
-                "leave it unseen 10-20 s while they turn round; aircraft of twice its speed "
-                "would cover it"
-            )
-            self._alarm(Alarm(t, "convoy_fast", True, text))
-        elif self._convoy_fast and not fast:
-            self._alarm(Alarm(t, "convoy_fast", False, f"convoy slowed to {speed:.1f} m/s"))
-        self._convoy_fast = fast
+        top = mission.settings.speed_band[1]
+        fast = (
+            f"convoy at {speed:.1f} m/s, {FAST_CONVOY_RATIO:g} of the airspeed or more: "
+            "the UAVs' arcs barely turn back towards it, and a stop from this fast can "
+            "leave it unseen 10-20 s while they turn round; aircraft of twice its speed "
+            "would cover it"
+        )
+        outrun = (
+            f"convoy at {speed:.1f} m/s, faster than the UAVs fly ({top * self._airspeed:.1f} "
+            "m/s at most): they fall behind it until it slows"
+        )
+        self._speed_alarm(t, "convoy_fast", ratio, FAST_CONVOY_RATIO, fast, speed)
+        self._speed_alarm(t, "convoy_outruns", ratio, top, outrun, speed)
+
+    def _speed_alarm(
+        self, t: float, kind: str, ratio: float, bound: float, text: str, speed: float
+    ) -> None:
+        """Raise ``kind`` at ``bound`` (a speed ratio), clear it below 0.9 of that."""
+        active = kind in self._speed_alarms
+        now = ratio >= (_FAST_CLEARS * bound if active else bound)
+        if now and not active:
+            self._speed_alarms.add(kind)
+            self._alarm(Alarm(t, kind, True, text))
+        elif active and not now:
+            self._speed_alarms.discard(kind)
+            self._alarm(Alarm(t, kind, False, f"convoy slowed to {speed:.1f} m/s"))
 
     def _check_replan_lag(self) -> None:
         """Say when re-plans reach the UAVs late in mission time, and when they no longer do.

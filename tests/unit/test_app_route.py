@@ -153,3 +153,26 @@ def test_a_convoy_too_fast_for_the_pattern_is_alarmed_until_it_slows() -> None:
     assert 50.0 < raised[0]["t"] < 60.0 and 160.0 < raised[1]["t"] < 170.0
     assert raised[0]["message"].startswith("convoy at 9.0 m/s, 0.5 of the airspeed or more:")
     assert raised[1]["message"].startswith("convoy slowed to 8.")
+
+
+def test_a_convoy_that_outruns_the_uavs_is_alarmed_too() -> None:
+    """``convoy_outruns`` from the top of the speed band (18 x 1.15 = 20.7 m/s), on top
+    of ``convoy_fast``; both cleared as the convoy slows back to 6 m/s."""
+    service = ConvoyService(_road_config())
+    mission = service.mission
+    assert isinstance(mission, RoadMission)
+    t, north = 0.0, 0.0
+    for speed in [6.0] * 80 + [25.0] * 160 + [6.0] * 160:
+        t += 0.5
+        north += 0.5 * speed
+        mission.on_convoy(ConvoyEstimate(t, north, 0.0, speed, 0.0))
+        service._check_convoy_speed(t)
+    said = [(a["kind"], a["active"]) for a in service.alarms if a["kind"].startswith("convoy_")]
+    assert said == [
+        ("convoy_fast", True),
+        ("convoy_outruns", True),
+        ("convoy_outruns", False),
+        ("convoy_fast", False),
+    ]
+    outruns = next(a for a in service.alarms if a["kind"] == "convoy_outruns")
+    assert "faster than the UAVs fly (20.7 m/s at most)" in outruns["message"]
