@@ -625,13 +625,18 @@ async def _cmd_replay(args: argparse.Namespace) -> int:
             f"{uavs} UAVs{known}",
             flush=True,
         )
-        top = track_speeds(track).max_mps
-        if top >= FAST_CONVOY_RATIO * scenario.airspeed_mps:
+        top, airspeed = track_speeds(track).max_mps, scenario.airspeed_mps
+        if top >= FAST_CONVOY_RATIO * airspeed:
+            outruns = (
+                "faster than the UAVs' airspeed: they fall behind it there, and "
+                if top >= airspeed
+                else ""
+            )
             print(
                 f"note: the convoy drives at up to {top:.1f} m/s (over {SPEED_WINDOW_S:g}-s "
-                f"windows), {top / scenario.airspeed_mps:.2f} of the airspeed: a stop from "
-                f"faster than {FAST_CONVOY_RATIO:g} of it can leave it unseen 10-20 s "
-                "(alarm convoy_fast)",
+                f"windows), {top / airspeed:.2f} of the airspeed: {outruns}a stop from faster "
+                f"than {FAST_CONVOY_RATIO:g} of it can leave it unseen 10-20 s "
+                f"(alarm{'s convoy_outruns,' if outruns else ''} convoy_fast)",
                 flush=True,
             )
     return await _fly_mock(args, scenario, duration)

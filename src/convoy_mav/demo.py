@@ -178,14 +178,18 @@ def replay_scenario(track: GeoTrack, base: Scenario | None = None) -> Scenario:
     scenario's convoy speed (reported as the track's *planning speed*) is the
     speed the convoy is at least as fast as 90 % of the time over 10-s windows
     (:func:`~convoy_mav.tracks.track_speeds`), what the paper's planner would plan
-    for; the fastest window must still be slower than the aircraft.
+    for; it must be slower than the aircraft. Faster windows are flown: the
+    planners keep their plans through them and the service alarms them
+    (``convoy_outruns``, ``convoy_fast``), so a real drive that speeds past the
+    aircraft now and then is rehearsed, not refused (the recorded drive, 20.3 m/s
+    at most, with 18 m/s planes: 94.4 % on the mock, predicted 94.2 %).
 
     Args:
         track: The recorded track (rebased here to start at ``t = 0``).
         base: Aircraft, sensor and altitude (default: the demo's).
 
     Raises:
-        PlanningError: Somewhere the convoy is not slower than the aircraft.
+        PlanningError: The convoy is not slower than the aircraft most of the time.
     """
     track = track.rebased()
     speeds = track_speeds(track)
@@ -198,12 +202,12 @@ def replay_scenario(track: GeoTrack, base: Scenario | None = None) -> Scenario:
         track=track,
     )
     try:
-        replace(scenario, convoy_speed_mps=speeds.max_mps).plan_request()
+        scenario.plan_request()
     except PlanningError as e:
         raise PlanningError(
-            f"{track.source or 'the track'}: the convoy drives at up to "
-            f"{speeds.max_mps:.1f} m/s (over {SPEED_WINDOW_S:g}-s windows), not below the "
-            f"UAVs' airspeed of {scenario.airspeed_mps:g} m/s: they cannot keep up"
+            f"{track.source or 'the track'}: the convoy drives at {speeds.planning_mps:.1f} "
+            f"m/s or faster 90 % of the time (over {SPEED_WINDOW_S:g}-s windows), not below "
+            f"the UAVs' airspeed of {scenario.airspeed_mps:g} m/s: they cannot keep up"
         ) from e
     return scenario
 
