@@ -42,7 +42,7 @@ from convoy_mav.errors import ConfigError, ConvoyError, PlanningError
 from convoy_mav.fence import fence_from
 from convoy_mav.geo import LocalFrame
 from convoy_mav.mavlink.signing import load_key
-from convoy_mav.mission.road import FAST_CONVOY_RATIO, RoadMission
+from convoy_mav.mission.road import FAST_CONVOY_RATIO, RoadMission, RoadSettings
 from convoy_mav.oplog import operator_log
 from convoy_mav.planning import Plan, Pose, make_plan, optimal_path_from_entry
 from convoy_mav.planning.export import entry_to_dict, plan_to_dict
@@ -627,18 +627,18 @@ async def _cmd_replay(args: argparse.Namespace) -> int:
         )
         top, airspeed = track_speeds(track).max_mps, scenario.airspeed_mps
         if top >= FAST_CONVOY_RATIO * airspeed:
-            outruns = (
-                "faster than the UAVs' airspeed: they fall behind it there, and "
-                if top >= airspeed
-                else ""
-            )
+            fastest = RoadSettings().speed_band[1] * airspeed  # (the road planner's band)
+            outruns = top >= fastest
             print(
                 f"note: the convoy drives at up to {top:.1f} m/s (over {SPEED_WINDOW_S:g}-s "
-                f"windows), {top / airspeed:.2f} of the airspeed: {outruns}a stop from faster "
-                f"than {FAST_CONVOY_RATIO:g} of it can leave it unseen 10-20 s "
-                f"(alarm{'s convoy_outruns,' if outruns else ''} convoy_fast)",
+                f"windows), {top / airspeed:.2f} of the airspeed"
+                + (f", faster than the UAVs fly ({fastest:.1f} m/s at most): they fall behind "
+                   "it there, and" if outruns else ":")
+                + f" a stop from faster than {FAST_CONVOY_RATIO:g} of it can leave it unseen "
+                + ("10-20 s (alarms convoy_outruns, convoy_fast)" if outruns else
+                   "10-20 s (alarm convoy_fast)"),
                 flush=True,
-            )
+            )  # fmt: skip
     return await _fly_mock(args, scenario, duration)
 
 

@@ -96,3 +96,28 @@ def test_replay_gpx_end_to_end_and_the_tlog_round_trip(
         errors.append(math.dist((north, east), centroid))
     assert max(errors) < 3.0, f"worst {max(errors):.2f} m"
     assert track_speeds(load_track(tlog)).planning_mps == pytest.approx(SPEED, rel=0.02)
+
+
+@pytest.mark.parametrize(
+    ("fast_m", "said"),
+    [
+        (1312.0, "of the airspeed, faster than the UAVs fly (20.7 m/s at most)"),
+        (730.0, "0.68 of the airspeed: a stop from faster than 0.5 of it"),
+    ],
+)
+def test_a_track_faster_than_the_aircraft_now_and_then_is_flown_with_a_note(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], fast_m: float, said: str
+) -> None:
+    """A minute at 21.9 or 12.2 m/s, then one at 7 m/s (planned for: slower than the
+    18 m/s planes 90 % of the time): flown, and said beforehand."""
+    frame = LocalFrame(START)
+    rows = [(0.0, 0.0), (60.0, fast_m), (120.0, fast_m + 420.0)]
+    path = tmp_path / "fast.csv"
+    lines = [f"{t},{p.lat:.8f},{p.lon:.8f}" for t, d in rows for p in [frame.to_geo(d, 0.0)]]
+    path.write_text("time,lat,lon\n" + "\n".join(lines) + "\n", encoding="utf-8")
+    report = tmp_path / "r.json"
+    argv = ["replay", str(path), "--duration", "2", "--speedup", "10", "--report", str(report)]
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    assert said in out, out
+    assert json.loads(report.read_text())["track_planning_speed_mps"] < 18.0
