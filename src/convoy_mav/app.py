@@ -709,31 +709,19 @@ class ConvoyService:
         mission = self.mission
         if not isinstance(mission, RoadMission) or (ratio := mission.speed_ratio) is None:
             return
-        speed = ratio * self._airspeed
         top = mission.settings.speed_band[1]
-        fast = (
-            f"convoy at {speed:.1f} m/s, {FAST_CONVOY_RATIO:g} of the airspeed or more: "
-            "the UAVs' arcs barely turn back towards it, and a stop from this fast can "
-            "leave it unseen 10-20 s while they turn round; aircraft of twice its speed "
-            "would cover it"
-        )
-        outrun = (
-            f"convoy at {speed:.1f} m/s, faster than the UAVs fly ({top * self._airspeed:.1f} "
-            "m/s at most): they fall behind it until it slows"
-        )
-        self._speed_alarm(t, "convoy_fast", ratio, FAST_CONVOY_RATIO, fast, speed)
-        self._speed_alarm(t, "convoy_outruns", ratio, top, outrun, speed)
+        self._speed_alarm(t, "convoy_fast", ratio, FAST_CONVOY_RATIO)
+        self._speed_alarm(t, "convoy_outruns", ratio, top)
 
-    def _speed_alarm(
-        self, t: float, kind: str, ratio: float, bound: float, text: str, speed: float
-    ) -> None:
+    def _speed_alarm(self, t: float, kind: str, ratio: float, bound: float) -> None:
         """Raise ``kind`` at ``bound`` (a speed ratio); clear it once the convoy has been
         below 0.9 of that for ``_FAST_CLEARS_AFTER_S``: in city traffic the recorded drive
         crossed half the airspeed 24 times an hour, often 10-20 s apart."""
+        speed = ratio * self._airspeed
         if kind not in self._speed_alarms:
             if ratio >= bound:
                 self._speed_alarms[kind] = None
-                self._alarm(Alarm(t, kind, True, text))
+                self._alarm(Alarm(t, kind, True, self._speed_text(kind, speed, bound)))
             return
         slowed = self._speed_alarms[kind]
         if ratio >= _FAST_CLEARS * bound:
@@ -743,6 +731,19 @@ class ConvoyService:
         elif t - slowed >= _FAST_CLEARS_AFTER_S:
             del self._speed_alarms[kind]
             self._alarm(Alarm(t, kind, False, f"convoy slowed to {speed:.1f} m/s"))
+
+    def _speed_text(self, kind: str, speed: float, bound: float) -> str:
+        """What a convoy speed alarm says when raised (built then, not every tick)."""
+        if kind == "convoy_outruns":
+            return (
+                f"convoy at {speed:.1f} m/s, faster than the UAVs fly "
+                f"({bound * self._airspeed:.1f} m/s at most): they fall behind it until it slows"
+            )
+        return (
+            f"convoy at {speed:.1f} m/s, {bound:g} of the airspeed or more: the UAVs' arcs "
+            "barely turn back towards it, and a stop from this fast can leave it unseen "
+            "10-20 s while they turn round; aircraft of twice its speed would cover it"
+        )
 
     def _check_replan_lag(self) -> None:
         """Say when re-plans reach the UAVs late in mission time, and when they no longer do.

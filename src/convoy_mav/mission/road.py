@@ -538,8 +538,8 @@ class RoadMission(Roster):
             events.append(self._replanned(est.t, "initial"))
             return events
         self._clock.advance(est.t, est.ve, est.vn, self.pattern_radius, V)
-        if self._protect_start is not None:
-            ratio = self._clock.speed / V
+        ratio = self.speed_ratio
+        if self._protect_start is not None and ratio is not None:
             self._top_ratio = max(self._top_ratio, ratio)
             since = self._ratio_t
             if since is not None and est.t > since:
