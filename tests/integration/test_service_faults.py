@@ -19,6 +19,7 @@ from typing import Any
 
 import pytest
 
+from convoy_mav import app
 from convoy_mav.app import ConvoyService
 from convoy_mav.demo import SCENARIOS, run_demo, score_fleet
 from convoy_mav.mission.road import RoadMission
@@ -177,12 +178,27 @@ Script = Callable[[MockFleet, ConvoyService], Awaitable[None]]
 
 
 async def _until_slowed(
-    scenario: str, fault: Script, marks: dict[str, float], then: Script | None = None
+    scenario: str,
+    fault: Script,
+    marks: dict[str, float],
+    then: Script | None = None,
+    *,
+    late_replans: bool = False,
 ) -> dict[str, Any]:
     """Fly ``scenario`` with the mock's speedup allowed down to half: once protecting,
     ``fault`` makes the host fall behind; the run stops once the service has halved the
     speedup (``marks["asked"]``, sim time) and ``then`` (or 5 mission s) has run: the
-    rest would fly at half speed. Returns the report."""
+    rest would fly at half speed. Re-plans flown late slow it too only when
+    ``late_replans`` (a slow host's own would before the fault). Returns the report."""
+    with pytest.MonkeyPatch.context() as patch:
+        if not late_replans:
+            patch.setattr(app, "_SLOW_REPLANS_S", math.inf)
+        return await _slowed(scenario, fault, marks, then)
+
+
+async def _slowed(
+    scenario: str, fault: Script, marks: dict[str, float], then: Script | None
+) -> dict[str, Any]:
     stop = asyncio.Event()
 
     async def script(fleet: MockFleet, service: ConvoyService) -> None:
@@ -253,6 +269,31 @@ async def test_a_planner_behind_the_simulator_slows_it_by_sim_speedup() -> None:
         f"\nplanner slowed at {marks['slowed_planner']:.0f} s, speedup halved at "
         f"{marks['asked']:.0f} s: {clock}"
     )
+
+
+async def test_re_plans_flown_late_slow_the_simulator() -> None:
+    """A host whose re-plans take a while, yet keep their pace: each step that re-plans
+    takes 12 wall ms more (0.3 mission s at 25x). The road mission lays its legs that far
+    ahead on the paths in force, so nothing moves under a UAV, but the legs follow the
+    convoy that much later: the service halves the speedup, saying why."""
+    marks: dict[str, float] = {}
+
+    async def slow_replans(fleet: MockFleet, service: ConvoyService) -> None:
+        mission = service.mission
+        assert isinstance(mission, RoadMission)
+        plan_paths = mission._plan_paths
+
+        def slow(*args: Any, **kwargs: Any) -> None:
+            time.sleep(0.012)
+            plan_paths(*args, **kwargs)
+
+        mission._plan_paths = slow  # type: ignore[method-assign]
+
+    report = await _until_slowed("turning", slow_replans, marks, late_replans=True)
+    slowed = [e for e in report["events"] if "simulator slowed" in e]
+    assert "re-plans flown" in slowed[0], slowed
+    lag = report["planner"]["replan_lag_s"]
+    assert lag["base"] + lag["per_uav"] > 0.1 + 0.15, lag  # (a tick, and late past it)
 
 
 async def test_setpoint_rounds_a_second_apart_slow_the_simulator_before_the_look_ends() -> None:

@@ -6,6 +6,7 @@ an hour before, a route timed from boot would start 3600 s x speed down the road
 
 from __future__ import annotations
 
+from dataclasses import replace
 from types import SimpleNamespace
 
 import pytest
@@ -92,6 +93,25 @@ def test_re_plans_flown_late_are_warned_once_with_the_remedy_and_noted_after(
     ]
     said = [e.split(" ", 1)[1].split(":")[0] for e in service.events if "re-plans" in e]
     assert said == ["re-plans late", "re-plans on time again", "re-plans late"]
+
+
+def test_re_plans_flown_late_under_a_speedup_governor_say_the_simulator_is_slowed(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """``demo`` and ``replay`` let the service slow the mock (``sim_speedup_floor``): the
+    remedy is then its own doing, not the operator's."""
+    config = replace(_road_config(), sim_speedup_floor=5.0)
+    service = ConvoyService(config, rate_hint=40.0)
+    fit = service._replan_lag
+    fit.base, fit.per_uav, fit.planned = 0.14, 0.45, 15
+    service._check_planner()
+    assert service._replans_past == pytest.approx(0.49)
+    warned = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
+    assert warned == [
+        "re-plans late: a re-planned UAV flies its new legs 0.59 mission s after the step "
+        "that laid them, at 40x; coverage pays for it on winding roads: slowing the "
+        "simulator (towards about 8.2x, not below 5x)"
+    ]
 
 
 def test_setpoint_rounds_far_apart_are_warned_once_with_the_remedy_and_noted_after(
