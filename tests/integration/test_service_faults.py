@@ -291,9 +291,8 @@ async def test_re_plans_flown_late_slow_the_simulator() -> None:
 
     report = await _until_slowed("turning", slow_replans, marks, late_replans=True)
     slowed = [e for e in report["events"] if "simulator slowed" in e]
-    assert "re-plans flown" in slowed[0], slowed
-    lag = report["planner"]["replan_lag_s"]
-    assert lag["base"] + lag["per_uav"] > 0.1 + 0.15, lag  # (a tick, and late past it)
+    late = re.search(r"re-plans flown ([\d.]+) mission s past their tick", slowed[0])
+    assert late is not None and float(late[1]) > 0.15, slowed  # (the bar, _SLOW_REPLANS_S)
 
 
 async def test_setpoint_rounds_a_second_apart_slow_the_simulator_before_the_look_ends() -> None:
