@@ -316,7 +316,6 @@ class ConvoyService:
         self._stalled_s = 0.0  # mission s the control loop was held up (a loaded host)
         self._planner_behind = False
         self._replans_late = False
-        self._replans_past: float | None = None  # s past its tick a re-plan is flown (settled)
         # convoy_fast, convoy_outruns in force: since when the convoy is slow (None: fast)
         self._speed_alarms: dict[str, float | None] = {}
         self._warned: set[str] = set()  # what ``_warn_once`` has warned of
@@ -760,23 +759,21 @@ class ConvoyService:
         past it. Warned the first time, with the remedy (the speedup that would bring it
         there); noted each time it comes back.
         """
-        fit = self._replan_lag
-        if not fit.settled:
+        past = self._replans_past()
+        if past is None:
             return
-        lag = fit.base + fit.per_uav  # (a one-UAV step, the means without the margin)
-        past = lag - self._control_dt  # (a step is taken in at the tick after it ends)
-        self._replans_past = past
+        lag = past + self._control_dt
         late = past > (_REPLANS_LATE_S / 2.0 if self._replans_late else _REPLANS_LATE_S)
         if late and not self._replans_late:
             rate = self.clock.rate
             # The step's compute, in mission s, scales with the speedup; the tick does not.
             fits = max(1.0, rate * _REPLANS_LATE_S / past)
-            floor = self.config.sim_speedup_floor
             remedy = (
                 "a faster host"
                 if rate <= _REAL_TIME_ABOVE
-                else f"slowing the simulator (towards about {fits:.2g}x, not below {floor:g}x)"
-                if floor is not None and not self._speedup_refused and rate > floor * _SLOW_TAKEN
+                else f"slowing the simulator (towards about {fits:.2g}x, not below "
+                f"{self.config.sim_speedup_floor:g}x)"
+                if self._slowable(rate)
                 else f"lower the speedup (to about {fits:.2g}x on this host)"
             )
             text = (
@@ -788,6 +785,22 @@ class ConvoyService:
         elif self._replans_late and not late:
             self._note(f"re-plans on time again: {lag:.2f} mission s")
         self._replans_late = late
+
+    def _replans_past(self) -> float | None:
+        """Mission s past its control tick a one-UAV re-plan is flown (the lag fit's means,
+        without the margin; a step is taken in at the tick after it ends), None until the
+        fit has settled."""
+        fit = self._replan_lag
+        if not fit.settled:
+            return None
+        return fit.base + fit.per_uav - self._control_dt
+
+    def _slowable(self, rate: float) -> bool:
+        """Whether ``_check_speedup`` may slow a simulator running at ``rate`` (x): a floor
+        is set, the simulator takes SIM_SPEEDUP, and ``rate`` is at least ``_SLOW_TAKEN``
+        times the floor (nearer it, the simulator is at the floor already)."""
+        floor = self.config.sim_speedup_floor
+        return floor is not None and not self._speedup_refused and floor * _SLOW_TAKEN <= rate
 
     def _check_setpoints(self, t: float) -> None:
         """Say when setpoint rounds go out too far apart in mission time, and when they
@@ -873,7 +886,7 @@ class ConvoyService:
             return
         stalled = (self._stalled_s - look[1]) / looked
         gap, self._slow_gap = self._slow_gap, 0.0
-        past = self._replans_past
+        past = self._replans_past()
         late = (
             past is not None
             and past > _SLOW_REPLANS_S
@@ -881,9 +894,9 @@ class ConvoyService:
         )
         if not (self._planner_behind or stalled >= _SLOW_STALLED or gap >= _SLOW_GAP_S or late):
             return
-        target = max(floor, rate / 2.0)
-        if target * _SLOW_TAKEN > rate:
+        if not self._slowable(rate):
             return  # (at the floor)
+        target = max(floor, rate / 2.0)
         asked_any = [v.request_param("SIM_SPEEDUP", target) for v in self.vehicles.values()]
         if not any(asked_any):
             return

@@ -105,7 +105,7 @@ def test_re_plans_flown_late_under_a_speedup_governor_say_the_simulator_is_slowe
     fit = service._replan_lag
     fit.base, fit.per_uav, fit.planned = 0.14, 0.45, 15
     service._check_planner()
-    assert service._replans_past == pytest.approx(0.49)
+    assert service._replans_past() == pytest.approx(0.49)
     warned = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
     assert warned == [
         "re-plans late: a re-planned UAV flies its new legs 0.59 mission s after the step "
