@@ -292,7 +292,8 @@ async def test_re_plans_flown_late_slow_the_simulator() -> None:
     report = await _until_slowed("turning", slow_replans, marks, late_replans=True)
     slowed = [e for e in report["events"] if "simulator slowed" in e]
     late = re.search(r"re-plans flown ([\d.]+) mission s past their tick", slowed[0])
-    assert late is not None and float(late[1]) > 0.15, slowed  # (the bar, _SLOW_REPLANS_S)
+    # (past the bar, _SLOW_REPLANS_S: 0.15 s, which the event rounds to two digits)
+    assert late is not None and float(late[1]) >= 0.15, slowed
 
 
 async def test_setpoint_rounds_a_second_apart_slow_the_simulator_before_the_look_ends() -> None:
