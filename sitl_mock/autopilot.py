@@ -474,29 +474,49 @@ class SimVehicle:
         return [_R.MAVLink_mission_request_int_message(src, comp, 0, kind)]
 
     def _on_mission_item_int(self, msg: Message, now: float) -> list[Message]:
-        """One fence vertex: store it, ask for the next, accept when all are in."""
+        """One fence vertex, in order: store it, ask for the next, accept when all are in.
+
+        An item out of turn is answered as the firmware does. ArduPilot: MAV_MISSION_ERROR
+        with no upload open, MAV_MISSION_INVALID_SEQUENCE during one
+        (``GCS_MAVLINK::handle_mission_item``, ``MissionItemProtocol``). PX4: the last item
+        sent again after the upload closed is ACCEPTED again (its ACK was lost), any other
+        is refused with MAV_MISSION_ERROR and "IGN MISSION_ITEM: No transfer"; during an
+        upload an item out of turn is ignored (``MavlinkMissionManager``).
+        """
         src, comp = msg.get_srcSystem(), msg.get_srcComponent()
         upload = self._fence_upload
         kind = msg.mission_type
-        if upload is None or kind != _R.MAV_MISSION_TYPE_FENCE:
-            return [_R.MAVLink_mission_ack_message(src, comp, _R.MAV_MISSION_DENIED, kind)]
-        if not 0 <= msg.seq < len(upload):
-            bad = _R.MAV_MISSION_INVALID_SEQUENCE
-            return [_R.MAVLink_mission_ack_message(src, comp, bad, kind)]
+
+        def ack(result: int) -> Message:
+            return _R.MAVLink_mission_ack_message(src, comp, result, kind)
+
+        ardupilot = self.firmware.is_ardupilot
+        if kind != _R.MAV_MISSION_TYPE_FENCE:
+            return [ack(_R.MAV_MISSION_UNSUPPORTED)]
+        if upload is None:
+            if not ardupilot and self.fence and msg.seq == len(self.fence) - 1:
+                return [ack(_R.MAV_MISSION_ACCEPTED)]
+            if ardupilot:
+                return [ack(_R.MAV_MISSION_ERROR)]
+            text = statustext(_R.MAV_SEVERITY_CRITICAL, "IGN MISSION_ITEM: No transfer")
+            return [text, ack(_R.MAV_MISSION_ERROR)]
+        expected = upload.index(None)
+        if msg.seq != expected:
+            return [ack(_R.MAV_MISSION_INVALID_SEQUENCE)] if ardupilot else []
         vertex = (
             _R.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION,
             _R.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION,
         )
         if msg.command not in vertex:
-            return [_R.MAVLink_mission_ack_message(src, comp, _R.MAV_MISSION_UNSUPPORTED, kind)]
+            self._fence_upload = None
+            return [ack(_R.MAV_MISSION_UNSUPPORTED)]
         upload[msg.seq] = msg
-        missing = [i for i, item in enumerate(upload) if item is None]
-        if missing:
-            return [_R.MAVLink_mission_request_int_message(src, comp, missing[0], kind)]
+        if msg.seq + 1 < len(upload):
+            return [_R.MAVLink_mission_request_int_message(src, comp, msg.seq + 1, kind)]
         self.fence = [item for item in upload if item is not None]
         self._fence_upload = None
         self.counters["fence_uploads"] += 1
-        return [_R.MAVLink_mission_ack_message(src, comp, _R.MAV_MISSION_ACCEPTED, kind)]
+        return [ack(_R.MAV_MISSION_ACCEPTED)]
 
     def _on_request_data_stream(self, msg: Message, now: float) -> list[Message]:
         if not self.firmware.is_ardupilot:  # PX4 has no stream groups

@@ -48,7 +48,7 @@ import contextlib
 import functools
 import logging
 import math
-from collections import Counter
+from collections import Counter, deque
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from enum import StrEnum
@@ -113,6 +113,8 @@ _STREAM_GAP_S = 1.0  # mission s without a setpoint an autopilot may take for a 
 _JUMP_SLACK_M = 50.0  # m a fix may land past max_speed x the time since the last (GPS glitches)
 _JUMP_CONFIRM = 5  # agreeing fixes in a row that make a jump the vehicle's own (an estimator reset)
 _REJECT_WARN_EVERY = 10.0  # mission s between two warnings of rejected frames of one kind
+_FENCE_TRIES = 3  # sends of one fence message that got no answer before the upload gives up
+_FENCE_ANSWERS_PER_ITEM = 6  # answers read per fence item at most (duplicates included)
 _LOST_MARGIN = 1e-3  # mission s past lost_after the watchdog looks (silence must exceed it)
 
 
@@ -305,7 +307,11 @@ class Vehicle:
             "HOME_POSITION": self.handle_HOME_POSITION,
             "PARAM_VALUE": self.handle_PARAM_VALUE,
             "POSITION_TARGET_GLOBAL_INT": self.handle_POSITION_TARGET_GLOBAL_INT,
+            "MISSION_ACK": self._on_mission_reply,
+            "MISSION_REQUEST_INT": self._on_mission_reply,
+            "MISSION_REQUEST": self._on_mission_reply,
         }
+        self._fence_replies: deque[Message] | None = None  # while a fence upload runs
 
     def __repr__(self) -> str:
         return f"<Vehicle {self.sysid} {self.firmware or '?'} {self.status}>"
@@ -1101,45 +1107,61 @@ class Vehicle:
     ) -> str:
         """Upload a geofence (mission protocol, MAV_MISSION_TYPE_FENCE); the outcome in words.
 
+        The autopilot's answers are read in the order they came, not only the latest:
+        a copy sent again after a timeout is answered twice, and on a lagging link the
+        second answer (ArduPilot's MAV_MISSION_ERROR to an item after the upload closed,
+        MAV_MISSION_INVALID_SEQUENCE to an item already stored) can arrive in the same
+        burst as the first, which is the one that says how the upload went.
+
         Args:
             items: (command, vertex count, lat, lon) per vertex, in order
                 (``fence.fence_items``).
-            timeout: Mission s to wait for each answer before asking again (3 tries).
+            timeout: Mission s to wait for each answer before sending again (3 tries).
         """
         fw = self.firmware
         target = (self.sysid, fw.compid if fw is not None else _M.MAV_COMP_ID_AUTOPILOT1)
         fence = _M.MAV_MISSION_TYPE_FENCE
-        start = self.clock.now()
-        seen = {"t": start}
-
-        def answer() -> Message | None:
-            for kind in ("MISSION_ACK", "MISSION_REQUEST_INT", "MISSION_REQUEST"):
-                t = self.last_t.get(kind, -math.inf)
-                msg = self.last.get(kind)
-                if t > seen["t"] and msg is not None and msg.mission_type == fence:
-                    return msg
-            return None
-
+        replies: deque[Message] = deque()
+        self._fence_replies = replies
         message: Message = _M.MAVLink_mission_count_message(*target, len(items), fence)
-        for _ in range(3 * (len(items) + 1)):
-            self._send(message)
-            if not await self._wait_until(lambda: answer() is not None, timeout):
-                continue
-            reply = answer()
-            assert reply is not None
-            seen["t"] = self.last_t[reply.get_type()]
-            if reply.get_type() == "MISSION_ACK":
-                if reply.type == _M.MAV_MISSION_ACCEPTED:
-                    return f"geofence of {len(items)} vertices uploaded"
-                return f"geofence refused ({_M.enums['MAV_MISSION_RESULT'][reply.type].name})"
-            if not 0 <= reply.seq < len(items):
-                return f"geofence upload asked for item {reply.seq} of {len(items)}"
-            command, count, lat, lon = items[reply.seq]
-            message = _M.MAVLink_mission_item_int_message(
-                *target, reply.seq, _M.MAV_FRAME_GLOBAL, command, 0, 1, float(count),
-                0.0, 0.0, 0.0, round(lat * 1e7), round(lon * 1e7), 0.0, fence,
-            )  # fmt: skip
-        return "geofence upload got no answer"
+        try:
+            tries, send = 0, True
+            for _ in range(_FENCE_ANSWERS_PER_ITEM * (len(items) + 1)):
+                if send:
+                    if tries == _FENCE_TRIES:
+                        break
+                    self._send(message)
+                    tries += 1
+                if not await self._wait_until(lambda: bool(replies), timeout):
+                    send = True
+                    continue
+                reply = replies.popleft()
+                send = True
+                if reply.get_type() == "MISSION_ACK":
+                    if reply.type == _M.MAV_MISSION_ACCEPTED:
+                        return f"geofence of {len(items)} vertices uploaded"
+                    if reply.type == _M.MAV_MISSION_INVALID_SEQUENCE:
+                        send = False  # (a copy of an item it had: wait for its next request)
+                        continue
+                    name = _M.enums["MAV_MISSION_RESULT"][reply.type].name
+                    return f"geofence refused ({name})"
+                if not 0 <= reply.seq < len(items):
+                    return f"geofence upload asked for item {reply.seq} of {len(items)}"
+                command, count, lat, lon = items[reply.seq]
+                message = _M.MAVLink_mission_item_int_message(
+                    *target, reply.seq, _M.MAV_FRAME_GLOBAL, command, 0, 1, float(count),
+                    0.0, 0.0, 0.0, round(lat * 1e7), round(lon * 1e7), 0.0, fence,
+                )  # fmt: skip
+                tries = 0
+            return "geofence upload got no answer"
+        finally:
+            self._fence_replies = None
+
+    def _on_mission_reply(self, msg: Message, now: float) -> None:
+        """Queue a fence upload's answer (MISSION_ACK or MISSION_REQUEST[_INT]) for it."""
+        replies = self._fence_replies
+        if replies is not None and msg.mission_type == _M.MAV_MISSION_TYPE_FENCE:
+            replies.append(msg)
 
     # ============================================================ hold, resume
     async def hold(self, timeout: float = 5.0) -> bool:

@@ -21,16 +21,21 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import pytest
+from pymavlink.dialects.v20 import common as mavlink
 
 from convoy_mav.clock import MissionClock
+from convoy_mav.config import SafetyConfig
+from convoy_mav.fence import fence_items
 from convoy_mav.geo import LocalFrame
 from convoy_mav.mavlink import MavLink
 from convoy_mav.mavlink.autopilots import FLIGHT_STREAM_RATES
 from convoy_mav.streaming import SetpointStreamer
 from convoy_mav.types import Setpoint, Telemetry, VehicleStatus
 from convoy_mav.vehicle import EventKind, Vehicle, VehicleEvent
+from sitl_mock.autopilot import Personality
 from sitl_mock.config import MockConfig
 from sitl_mock.server import MockFleet
+from tests.fakes import make_vehicle
 from tests.hostspeed import host_speedup
 
 if TYPE_CHECKING:
@@ -355,8 +360,6 @@ class ScriptedCopter:
     IN_PROGRESS before ACCEPTED, ACKs addressed to another ground station, DENIED."""
 
     def __init__(self, speedup: float) -> None:
-        from pymavlink.dialects.v20 import common as mavlink
-
         self.m = mavlink
         self.tx = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
         self.rx = mavlink.MAVLink(None)
@@ -497,3 +500,67 @@ async def test_an_arduplane_armed_on_the_runway_is_taken_off_not_counted(
     assert any("in TAKEOFF" in s for s in steps) and any("in GUIDED" in s for s in steps)
     assert row.airborne and row.mode == "GUIDED"
     assert -row.down == pytest.approx(ALTITUDE, abs=0.05 * ALTITUDE + 1.0)
+
+
+class LaggingFenceLink:
+    """The Vehicle's link to the mock's autopilot (no sockets; bytes both ways) on a loaded
+    link: its mission ACKs (``hold_all``: all its answers) are held back ``lag`` wall s,
+    then come in one burst, as queued UDP datagrams do when the host is busy."""
+
+    def __init__(self, personality: Personality, lag: float, hold_all: bool) -> None:
+        self.autopilot = make_vehicle(personality, "plane")
+        self.tx = mavlink.MAVLink(None, srcSystem=255, srcComponent=190)
+        self.rx = mavlink.MAVLink(None)
+        self.reply_tx = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
+        self.reply_rx = mavlink.MAVLink(None)
+        self.lag = lag
+        self.hold_all = hold_all
+        self.held: list[Any] = []
+        self.sent: list[str] = []
+        self.vehicle: Vehicle | None = None
+
+    def send(self, msg: Any) -> bool:
+        self.sent.append(msg.get_type())
+        loop = asyncio.get_running_loop()
+        for parsed in self.rx.parse_buffer(bytes(msg.pack(self.tx))) or []:
+            for reply in self.autopilot.handle(parsed, 10.0):
+                if reply.get_type() != "MISSION_ACK" and not self.hold_all:
+                    loop.call_soon(self._deliver, [reply])
+                    continue
+                if not self.held:
+                    loop.call_later(self.lag, self._flush)
+                self.held.append(reply)
+        return True
+
+    def _flush(self) -> None:
+        burst, self.held = self.held, []
+        self._deliver(burst)
+
+    def _deliver(self, replies: list[Any]) -> None:
+        assert self.vehicle is not None
+        for reply in replies:
+            for parsed in self.reply_rx.parse_buffer(bytes(reply.pack(self.reply_tx))) or []:
+                self.vehicle.handle(parsed)
+
+
+@pytest.mark.parametrize("hold_all", [False, True], ids=["acks-late", "all-late"])
+@pytest.mark.parametrize("personality", ["px4", "ardupilot"])
+async def test_a_fence_answered_late_is_read_in_order(personality: str, hold_all: bool) -> None:
+    """A message whose answer is late is sent again, and the copy is answered too: the last
+    item's copy with ArduPilot's ERROR or PX4's ACCEPTED again, in the same burst as the
+    first ACCEPTED; an item's copy mid-upload with ArduPilot's INVALID_SEQUENCE (PX4 ignores
+    it), the count's copy with the upload started over. Read in order, the upload succeeds."""
+    link = LaggingFenceLink(Personality(personality), lag=0.12, hold_all=hold_all)
+    clock = MissionClock(rate_hint=20.0, silence_cap=math.inf)  # (runs on at 20x once heard)
+    clock.observe(10_000, 1)
+    frame = LocalFrame(MockConfig.simple(1).origin)
+    vehicle = Vehicle(1, link, clock, frame, altitude=40.0)
+    link.vehicle = vehicle
+    ring = ((47.39, 8.54), (47.39, 8.55), (47.40, 8.55), (47.40, 8.54))
+    items = fence_items(SafetyConfig(fence=ring))
+    result = await vehicle.upload_fence(items, timeout=1.0)  # (0.05 wall s at 20x)
+    assert result == "geofence of 4 vertices uploaded"
+    assert link.sent.count("MISSION_ITEM_INT") > len(items)  # (the last one was sent again)
+    assert [(m.x, m.y) for m in link.autopilot.fence] == [
+        (round(lat * 1e7), round(lon * 1e7)) for lat, lon in ring
+    ]
