@@ -173,14 +173,20 @@ def _gaps() -> None:
 
 
 def _mock(
-    name: str, req: PlanRequest, known: bool, track: GeoTrack | None = None
+    name: str,
+    req: PlanRequest,
+    known: bool,
+    track: GeoTrack | None = None,
+    keep: Path | None = None,
 ) -> tuple[str, float]:
     """``convoy-mav replay`` of the road in a process of its own, as a user runs it.
 
     One process per mission: run after run in one process, every mission's
     leftovers (the mock's ground truth among them) sit in the heap the
     collector walks, and a late mission in the table stalled for seconds at 40x.
-    A ``track`` (an unseen road) is replayed from a CSV of its fixes.
+    A ``track`` (an unseen road) is replayed from a CSV of its fixes. ``keep``: a
+    folder that keeps each cell's report, tlog and mission recording (a cell whose
+    truth falls short of its prediction is then looked into, not flown again).
     """
     cmd = [sys.executable, "-m", "convoy_mav", "replay", "--speedup", "40", "-q"]
     if req == FAST:
@@ -200,6 +206,12 @@ def _mock(
         else:
             cmd += ["--road", name]
         out = Path(tmp) / "report.json"
+        if keep is not None:
+            keep.mkdir(parents=True, exist_ok=True)
+            stem = keep / f"{Path(name).stem}-{'known' if known else 'none'}"
+            out = stem.with_suffix(".json")
+            cmd += ["--tlog", str(stem.with_suffix(".tlog"))]
+            cmd += ["--record-mission", str(stem.with_suffix(".inputs"))]
         subprocess.run([*cmd, "--report", str(out)], check=False, capture_output=True)
         if not out.exists():
             return "never protected", 0.0
@@ -391,6 +403,12 @@ def main() -> None:
     parser.add_argument(
         "--fast-stops", action="store_true", help="the simulation of stops from speed"
     )
+    parser.add_argument(
+        "--keep",
+        type=Path,
+        metavar="DIR",
+        help="with --mock: keep each mock cell's report, tlog and mission recording in DIR",
+    )
     args = parser.parse_args()
     if args.fast_stops:
         _fast_stops()
@@ -418,7 +436,7 @@ def main() -> None:
             runs = [(False, k) for k in (True, False)] + [(True, k) for k in (True, False)]
             for mock, known in runs[: 4 if args.mock else 2]:
                 if mock:
-                    cell, coverage = _mock(name, req, known, track)
+                    cell, coverage = _mock(name, req, known, track, args.keep)
                 else:
                     cell, coverage = _simulate(track, req, truth, known)
                 means.setdefault((mock, known), []).append(coverage)
@@ -435,7 +453,7 @@ def main() -> None:
         uavs = road_fleet(req.turn_radius, req.sensor_radius)
         row = [name, str(uavs)] + [_simulate(track, req, truth, k)[0] for k in (True, False)]
         if args.mock:
-            row += [_mock(name, req, k)[0] for k in (True, False)]
+            row += [_mock(name, req, k, keep=args.keep)[0] for k in (True, False)]
         print("| " + " | ".join(row) + " |", flush=True)
 
 

@@ -92,7 +92,7 @@ _SETPOINTS_LATE_S = 0.5  # mission s between setpoint rounds: half PX4's COM_OF_
 _FAST_CLEARS = 0.9  # a convoy speed alarm clears below this fraction of its bound ...
 _FAST_CLEARS_AFTER_S = 30.0  # ... held this long (mission s)
 _REAL_TIME_ABOVE = 1.5  # a speedup up to this is real time (no speedup to lower)
-_SETPOINTS_CLEAR_S = 60.0  # mission s of on-time rounds before late ones are news again
+_ON_TIME_FOR_S = 60.0  # mission s on time (setpoint rounds, re-plans) before late is news again
 _SLOW_LOOK_S = 30.0  # mission s the host is judged over before (and after) a speedup change
 _SLOW_STALLED = 0.2  # ... a loop held up this fraction of them is behind the simulator
 _SLOW_GAP_S = 1.0  # ... or two setpoint rounds this far apart (PX4's COM_OF_LOSS_T)
@@ -315,7 +315,7 @@ class ConvoyService:
         self._stop_event: asyncio.Event | None = None
         self._stalled_s = 0.0  # mission s the control loop was held up (a loaded host)
         self._planner_behind = False
-        self._replans_late = False
+        self._replans_late_t: float | None = None  # last look that found re-plans late
         # convoy_fast, convoy_outruns in force: since when the convoy is slow (None: fast)
         self._speed_alarms: dict[str, float | None] = {}
         self._warned: set[str] = set()  # what ``_warn_once`` has warned of
@@ -676,7 +676,7 @@ class ConvoyService:
         ):
             vehicle.stranger(f"another ground station uses our ids {sysid}/{GCS_COMPONENT}")
 
-    def _check_planner(self) -> None:
+    def _check_planner(self, t: float) -> None:
         """Say when the road planner falls behind its re-plans, and when it catches up.
 
         Its re-plans run in the mission's worker thread; on a host short of CPU for
@@ -699,7 +699,7 @@ class ConvoyService:
         elif self._planner_behind and not behind:
             self._note(f"planner caught up: re-plans every {lag:.1f} mission s")
         self._planner_behind = behind
-        self._check_replan_lag()
+        self._check_replan_lag(t)
 
     def _check_convoy_speed(self, t: float) -> None:
         """Alarm while the convoy drives faster than the road pattern can follow it to a
@@ -748,43 +748,52 @@ class ConvoyService:
             "10-20 s while they turn round; aircraft of twice its speed would cover it"
         )
 
-    def _check_replan_lag(self) -> None:
-        """Say when re-plans reach the UAVs late in mission time, and when they no longer do.
+    def _check_replan_lag(self, t: float) -> None:
+        """Say when re-plans reach the UAVs late in mission time, and when they have stayed
+        on time a while again.
 
         The road mission lays a re-plan's legs that far ahead on the paths in force
         (``ReplanLag``), so the UAVs fly them correctly, but later: in simulation a
         lag of 0.1 mission s a UAV cost 0.7 points of coverage on 26 roads without a
         route, 0.2-0.4 s two points, and the urban grids four (the mock at 40x on two
         cores: 0.3-0.6 s). At real time it is a control tick: late is ``_REPLANS_LATE_S``
-        past it. Warned the first time, with the remedy (the speedup that would bring it
-        there); noted each time it comes back.
+        past it, and on time again under half that for ``_ON_TIME_FOR_S`` (the fit of a
+        host near the bar swings across it every 10-30 s: one event, not a dozen).
+        Warned the first time, with the remedy (the speedup that would bring it there);
+        noted each time it comes back.
         """
         past = self._replans_past()
         if past is None:
             return
         lag = past + self._control_dt
-        late = past > (_REPLANS_LATE_S / 2.0 if self._replans_late else _REPLANS_LATE_S)
-        if late and not self._replans_late:
-            rate = self.clock.rate
-            # The step's compute, in mission s, scales with the speedup; the tick does not.
-            fits = max(1.0, rate * _REPLANS_LATE_S / past)
-            remedy = (
-                "a faster host"
-                if rate <= _REAL_TIME_ABOVE
-                else f"slowing the simulator (towards about {fits:.2g}x, not below "
-                f"{self.config.sim_speedup_floor:g}x)"
-                if self._slowable(rate)
-                else f"lower the speedup (to about {fits:.2g}x on this host)"
-            )
-            text = (
-                f"re-plans late: a re-planned UAV flies its new legs {lag:.2f} mission s after "
-                f"the step that laid them, at {rate:.3g}x; coverage pays for it on winding "
-                f"roads: {remedy}"
-            )
-            self._warn_once("replans_late", text)
-        elif self._replans_late and not late:
-            self._note(f"re-plans on time again: {lag:.2f} mission s")
-        self._replans_late = late
+        late_since = self._replans_late_t
+        if past > (_REPLANS_LATE_S if late_since is None else _REPLANS_LATE_S / 2.0):
+            if late_since is None:
+                self._warn_once("replans_late", self._replans_late_text(past, lag))
+            self._replans_late_t = t
+        elif late_since is not None and t - late_since >= _ON_TIME_FOR_S:
+            self._note(f"re-plans on time again: {lag:.2f} mission s for {t - late_since:.0f} s")
+            self._replans_late_t = None
+
+    def _replans_late_text(self, past: float, lag: float) -> str:
+        """The late re-plans' warning, with the remedy: the speedup that would bring them
+        on time (the step's compute, in mission s, scales with the speedup; the tick does
+        not)."""
+        rate = self.clock.rate
+        fits = max(1.0, rate * _REPLANS_LATE_S / past)
+        remedy = (
+            "a faster host"
+            if rate <= _REAL_TIME_ABOVE
+            else f"slowing the simulator (towards about {fits:.2g}x, not below "
+            f"{self.config.sim_speedup_floor:g}x)"
+            if self._slowable(rate)
+            else f"lower the speedup (to about {fits:.2g}x on this host)"
+        )
+        return (
+            f"re-plans late: a re-planned UAV flies its new legs {lag:.2f} mission s after "
+            f"the step that laid them, at {rate:.3g}x; coverage pays for it on winding "
+            f"roads: {remedy}"
+        )
 
     def _replans_past(self) -> float | None:
         """Mission s past its control tick a one-UAV re-plan is flown (the lag fit's means,
@@ -812,7 +821,7 @@ class ConvoyService:
         PX4 leaves OFFBOARD after ``COM_OF_LOSS_T`` (1 s by default), and coverage
         pays while the service takes it back. Said at half that, with the remedy,
         before the autopilots' failsafes say it their way: warned the first time, noted
-        (the report's events) each time it comes back after ``_SETPOINTS_CLEAR_S`` on time.
+        (the report's events) each time it comes back after ``_ON_TIME_FOR_S`` on time.
         """
         streamer = self.streamer
         if streamer is None:
@@ -832,9 +841,7 @@ class ConvoyService:
                 )
                 self._warn_once("setpoints_late", text)
             self._setpoints_late_t = t
-        elif (
-            self._setpoints_late_t is not None and t - self._setpoints_late_t >= _SETPOINTS_CLEAR_S
-        ):
+        elif self._setpoints_late_t is not None and t - self._setpoints_late_t >= _ON_TIME_FOR_S:
             self._note(
                 f"setpoints on time again: rounds at most {_SETPOINTS_LATE_S:g} mission s apart "
                 f"for {t - self._setpoints_late_t:.0f} s"
@@ -1224,7 +1231,7 @@ class ConvoyService:
                 next_progress = t + self._progress_every
                 self._progress(t)
                 self._check_links(t)
-                self._check_planner()
+                self._check_planner(t)
                 self._check_setpoints(t)
                 self._check_speedup(t)
             await self.clock.sleep_until(t + self._control_dt)

@@ -57,9 +57,9 @@ def test_a_planner_falling_behind_is_said_once_and_its_catching_up_too(
     mission = service.mission
     assert isinstance(mission, RoadMission)
     every = mission.settings.replan_every_s
-    for lag in (every, 2.5 * every, 2.6 * every, every):
+    for k, lag in enumerate((every, 2.5 * every, 2.6 * every, every)):
         mission.replan_interval_s = lag
-        service._check_planner()
+        service._check_planner(10.0 * k)
     warned = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
     assert warned == [
         f"planner behind: each UAV re-planned every {2.5 * every:.1f} mission s instead of "
@@ -77,22 +77,30 @@ def test_re_plans_flown_late_are_warned_once_with_the_remedy_and_noted_after(
     service = ConvoyService(_road_config(), rate_hint=40.0)
     fit = service._replan_lag
     fit.base, fit.per_uav = 0.14, 0.45  # (too few steps yet to say)
-    service._check_planner()
+    service._check_planner(0.0)
     assert not service._warned
     fit.planned = 15
-    # (base, per UAV): on time, late (40x on two cores), a little better but still late
-    # (above half the bar), on time again, late again.
-    for base, per_uav in ((0.1, 0.01), (0.14, 0.45), (0.1, 0.1), (0.1, 0.0), (0.14, 0.3)):
+    # One look every 10 mission s, (base, per UAV): on time; late (40x on two cores); a
+    # little better but still late (above half the bar); on time for 30 s; late; on time
+    # for 60 s; late again.
+    looks = [(0.1, 0.01), (0.14, 0.45), (0.1, 0.1), (0.1, 0.0), (0.1, 0.0), (0.1, 0.0)]
+    looks += [(0.14, 0.3)] + [(0.1, 0.0)] * 6 + [(0.14, 0.3)]
+    for k, (base, per_uav) in enumerate(looks):
         fit.base, fit.per_uav = base, per_uav
-        service._check_planner()
+        service._check_planner(10.0 * k)
     warned = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
     assert warned == [
         "re-plans late: a re-planned UAV flies its new legs 0.59 mission s after the step "
         "that laid them, at 40x; coverage pays for it on winding roads: lower the speedup "
         "(to about 8.2x on this host)"  # (0.1 s past the tick, of the 0.49 s at 40x)
     ]
-    said = [e.split(" ", 1)[1].split(":")[0] for e in service.events if "re-plans" in e]
-    assert said == ["re-plans late", "re-plans on time again", "re-plans late"]
+    said = [e.split(" ", 1)[1] for e in service.events if "re-plans" in e]
+    assert [e.split(":")[0] for e in said] == [
+        "re-plans late",  # t=10
+        "re-plans on time again",  # t=120: 60 s after the last late look (t=60)
+        "re-plans late",  # t=130: news again, in the events only
+    ]
+    assert said[1] == "re-plans on time again: 0.10 mission s for 60 s"
 
 
 def test_re_plans_flown_late_under_a_speedup_governor_say_the_simulator_is_slowed(
@@ -104,7 +112,7 @@ def test_re_plans_flown_late_under_a_speedup_governor_say_the_simulator_is_slowe
     service = ConvoyService(config, rate_hint=40.0)
     fit = service._replan_lag
     fit.base, fit.per_uav, fit.planned = 0.14, 0.45, 15
-    service._check_planner()
+    service._check_planner(0.0)
     assert service._replans_past() == pytest.approx(0.49)
     warned = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
     assert warned == [
