@@ -516,6 +516,9 @@ class SimVehicle:
         self.fence = [item for item in upload if item is not None]
         self._fence_upload = None
         self.counters["fence_uploads"] += 1
+        if ardupilot:  # (SITL's debug text once the fence is stored, after the ACK on the wire)
+            indexed = statustext(_R.MAV_SEVERITY_DEBUG, "Fence Indexed OK")
+            return [ack(_R.MAV_MISSION_ACCEPTED), indexed]
         return [ack(_R.MAV_MISSION_ACCEPTED)]
 
     def _on_request_data_stream(self, msg: Message, now: float) -> list[Message]:

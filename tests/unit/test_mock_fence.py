@@ -52,11 +52,16 @@ def fence_answer(replies: list[Msg]) -> tuple[str, int] | None:
 
 
 def uploaded(gcs: Gcs) -> Gcs:
+    """The upload in turn, checked answer by answer (as ArduPlane SITL answered it,
+    ``checks/fence_protocol.py``)."""
     assert fence_answer(gcs.send(count(len(SQUARE)))) == ("REQUEST", 0)
     for seq in range(len(SQUARE)):
-        reply = fence_answer(gcs.send(item(seq)))
+        replies = gcs.send(item(seq))
         last = seq == len(SQUARE) - 1
-        assert reply == (("ACK", mavlink.MAV_MISSION_ACCEPTED) if last else ("REQUEST", seq + 1))
+        want = ("ACK", mavlink.MAV_MISSION_ACCEPTED) if last else ("REQUEST", seq + 1)
+        assert fence_answer(replies) == want
+        ardupilot = gcs.vehicle.firmware.is_ardupilot
+        assert texts(replies) == (["Fence Indexed OK"] if last and ardupilot else [])
     return gcs
 
 
