@@ -494,10 +494,10 @@ class SimVehicle:
         if kind != _R.MAV_MISSION_TYPE_FENCE:
             return [ack(_R.MAV_MISSION_UNSUPPORTED)]
         if upload is None:
-            if not ardupilot and self.fence and msg.seq == len(self.fence) - 1:
-                return [ack(_R.MAV_MISSION_ACCEPTED)]
             if ardupilot:
                 return [ack(_R.MAV_MISSION_ERROR)]
+            if self.fence and msg.seq == len(self.fence) - 1:
+                return [ack(_R.MAV_MISSION_ACCEPTED)]
             text = statustext(_R.MAV_SEVERITY_CRITICAL, "IGN MISSION_ITEM: No transfer")
             return [text, ack(_R.MAV_MISSION_ERROR)]
         expected = upload.index(None)

@@ -1132,11 +1132,10 @@ class Vehicle:
                         break
                     self._send(message)
                     tries += 1
+                send = True
                 if not await self._wait_until(lambda: bool(replies), timeout):
-                    send = True
                     continue
                 reply = replies.popleft()
-                send = True
                 if reply.get_type() == "MISSION_ACK":
                     if reply.type == _M.MAV_MISSION_ACCEPTED:
                         return f"geofence of {len(items)} vertices uploaded"
