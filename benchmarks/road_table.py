@@ -89,7 +89,7 @@ def _paths(track: GeoTrack, truth: Truth) -> Paths:
 
 def _fly(paths: Paths, req: PlanRequest, known: bool, foresight_s: float | None = None) -> RoadRun:
     times, north, east, tn, te = paths
-    uavs = road_fleet(req.turn_radius, req.sensor_radius)
+    uavs = road_fleet(req.turn_radius, req.sensor_radius, route=known)
     return fly_road(
         times, north, east, req, uavs, true_north=tn, true_east=te, route_known=known,
         foresight_s=foresight_s,
@@ -259,7 +259,7 @@ def _corners() -> None:
         cells = []
         for at in CORNER_AT_S:
             t, north, east = corner(angle, at)
-            uavs = road_fleet(DEFAULT.turn_radius, DEFAULT.sensor_radius)
+            uavs = road_fleet(DEFAULT.turn_radius, DEFAULT.sensor_radius, route=False)
             run = fly_road(t, north, east, DEFAULT, uavs)
             coverages.append(run.coverage)
             gaps.append(run.longest_gap_s)
@@ -283,7 +283,6 @@ def _junctions() -> None:
     print("| stop, then turn | " + " | ".join(f"at {m:.0f} m" for m in JUNCTION_AT_M) + " |")
     print("|" + "---|" * (len(JUNCTION_AT_M) + 1))
     coverages: dict[bool, list[float]] = {True: [], False: []}
-    uavs = road_fleet(DEFAULT.turn_radius, DEFAULT.sensor_radius)
     for angle in (90.0, -90.0):
         for stop in JUNCTION_STOPS_S:
             cells = []
@@ -291,6 +290,7 @@ def _junctions() -> None:
                 rt = junction(stop, angle, at)
                 pair = []
                 for known in (True, False):
+                    uavs = road_fleet(DEFAULT.turn_radius, DEFAULT.sensor_radius, route=known)
                     run = fly_road(
                         rt.t, rt.north, rt.east, DEFAULT, uavs, true_north=rt.true_north,
                         true_east=rt.true_east, route_known=known,
@@ -444,14 +444,16 @@ def main() -> None:
             print(f"| {name} | " + " | ".join(cells) + " |", flush=True)
         print("| mean | " + " | ".join(f"{100 * np.mean(v):.1f} %" for v in means.values()) + " |")
         return
-    head = "| road | UAVs | route known: coverage / longest gap / protected from | no route |"
+    head = "| road | UAVs (route / none) | route known: coverage / longest gap / protected from |"
+    head += " no route |"
     if args.mock:
         head += " mock, route known: truth (predicted) / gap | mock, no route |"
     print(head)
     print("|" + "---|" * (head.count("|") - 1))
     for name, track, req, truth in _roads():
-        uavs = road_fleet(req.turn_radius, req.sensor_radius)
-        row = [name, str(uavs)] + [_simulate(track, req, truth, k)[0] for k in (True, False)]
+        uavs = [road_fleet(req.turn_radius, req.sensor_radius, route=k) for k in (True, False)]
+        row = [name, " / ".join(map(str, uavs))]
+        row += [_simulate(track, req, truth, k)[0] for k in (True, False)]
         if args.mock:
             row += [_mock(name, req, k, keep=args.keep)[0] for k in (True, False)]
         print("| " + " | ".join(row) + " |", flush=True)

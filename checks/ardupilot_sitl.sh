@@ -21,8 +21,9 @@
 # With ROAD=KIND (a generated road of src/convoy_mav/tracks/roads.py: bends, hairpins,
 # urban...), the convoy is two sitl-mock rovers driving that road (300 m north of home,
 # setting off 30 sim s in) at the same speedup, and the service sees only their
-# telemetry (no route), with the road's count of aircraft: four (the stationary
-# minimum + 1). The score is the rovers' own positions in the tlog.
+# telemetry (no route), with four aircraft: the stationary minimum + 1, the road's
+# count with a route (without one the service's is five now: the README's SITL rows
+# were flown with four). The score is the rovers' own positions in the tlog.
 #
 # SITL_DIR is an ArduPilot tree with build/sitl/bin/arducopter and arduplane built
 # (see the project's notes on building SITL; it is not part of `make test`).

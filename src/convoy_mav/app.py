@@ -357,7 +357,11 @@ class ConvoyService:
         request = config.plan_request()
         uav_ids = [u.sysid for u in config.uav_list]
         self.planner, why = choose_planner(
-            config.planner, len(uav_ids), request.turn_radius, request.sensor_radius
+            config.planner,
+            len(uav_ids),
+            request.turn_radius,
+            request.sensor_radius,
+            route=route is not None or config.convoy.route_file is not None,
         )
         self.mission: Mission | RoadMission
         if self.planner == "road":

@@ -151,7 +151,8 @@ def _build_parser() -> argparse.ArgumentParser:
         help="fly the mock with the convoy replaying a recorded track",
         description="Start sitl_mock with the convoy's ground vehicles driving a recorded "
         "track (CSV time,lat,lon; GPX; or the ground vehicles of a .tlog) and the aircraft "
-        "it needs (the road's count: the stationary minimum + 1), fly the mission, "
+        "it needs (the road's count: the stationary minimum + 1 with --route-known, + 2 "
+        "without), fly the mission, "
         "score it from the mock's ground truth.",
     )
     replay.add_argument("track", metavar="TRACK", nargs="?", help="the track: .csv, .gpx or .tlog")
@@ -618,7 +619,7 @@ async def _cmd_replay(args: argparse.Namespace) -> int:
             "--duration", args.duration, f"{args.track} spans 0 s: give the seconds to fly"
         )
     if not args.quiet:
-        uavs = args.uavs or scenario.fleet()
+        uavs = args.uavs or scenario.fleet(route_known=args.route_known)
         known = ", route known" if args.route_known else ""
         print(
             f"replaying {args.track}: {len(track.times)} fixes over {track.duration:.1f} s, "

@@ -24,7 +24,8 @@ times <= a day)::
     planner = "auto"              # "road": the paper's pattern laid along the road, flyable
                                   #   legs; "paper": the paper's plans, re-planned on changes;
                                   #   "auto": road when the fleet has the road's count
-                                  #   (the stationary minimum + 1), else paper
+                                  #   (the stationary minimum + 1), else paper;
+                                  #   with no route, + 2 is the road's count (logged)
     sim_speedup_floor = 5.0       # optional, simulators only: when the host falls behind
                                   #   the speedup (setpoint rounds late, planner behind),
                                   #   halve it by SIM_SPEEDUP (ArduPilot SITL, sitl_mock)

@@ -80,12 +80,13 @@ class Scenario:
     track: GeoTrack | None = None  # replay: the convoy's recorded route, t = 0 at its start
     origin: GeoPoint | None = None  # rehearsal: the mission's (its altitude: the air's density)
 
-    def fleet(self) -> int:
+    def fleet(self, *, route_known: bool = False) -> int:
         """Aircraft a scenario flies by default: the paper's minimum for a parked or
-        straight-line convoy, the road's count (``road_fleet``) for a road."""
+        straight-line convoy, the road's count (``road_fleet``) for a road, with its
+        route known to the service or not."""
         if self.name in ("stationary", "moving"):
             return make_plan(self.plan_request()).min_uavs
-        return road_fleet(self.turn_radius_m, self.sensor_radius_m)
+        return road_fleet(self.turn_radius_m, self.sensor_radius_m, route=route_known)
 
     def route(self) -> Road | None:
         """The replayed track's path (not its timing) in the mission frame, if replaying."""
@@ -357,7 +358,7 @@ async def run_demo(
     """
     if mock_process and during is not None:
         raise ValueError("a fault script (during) needs the mock in-process")
-    count = uavs or scenario.fleet()
+    count = uavs or scenario.fleet(route_known=route_known)
     faults = dict(faults or {})
     if kill:
         faults["kill"] = [*faults.get("kill", []), f"{kill[0]}@{kill[1]}"]

@@ -65,7 +65,8 @@ def test_replay_gpx_end_to_end_and_the_tlog_round_trip(
     assert report["track_format"] == "gpx"
     assert report["track_duration_s"] == pytest.approx(DURATION)
     assert report["track_planning_speed_mps"] == pytest.approx(SPEED, rel=1e-3)
-    assert report["uav_count"] == 6  # a road: the stationary minimum + 1 (the road planner)
+    # a road with no route: the stationary minimum + 2 (the road planner, ``road_fleet``)
+    assert report["uav_count"] == 7
     # The service's own estimate: the convoy's speed while it drove, and at the end
     # (which may fall a moment after the track's last fix, where the convoy stops).
     assert report["planner"]["convoy_speed_range_mps"][1] == pytest.approx(SPEED, rel=0.05)

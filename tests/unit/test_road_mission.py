@@ -503,6 +503,18 @@ def test_planner_choice() -> None:
     assert choose_planner("paper", 9, R, r)[0] == "paper"
 
 
+def test_without_a_route_the_road_asks_for_one_uav_more() -> None:
+    """The corners nobody foresees: the stationary minimum + 2 with no route. Six still
+    fly the road planner (they cover any stop), and the operator is told."""
+    assert road_fleet(R, r, route=False) == 7
+    plan, why = choose_planner("auto", 6, R, r, route=False)
+    assert plan == "road" and "with no route, 7 UAVs" in why
+    assert "no route" not in choose_planner("auto", 7, R, r, route=False)[1]
+    assert "no route" not in choose_planner("auto", 6, R, r, route=True)[1]
+    assert choose_planner("road", 6, R, r, route=False)[1].startswith("asked for; with no route")
+    assert choose_planner("auto", 5, R, r, route=False)[0] == "paper"
+
+
 def test_commanded_arcs_are_the_papers_on_a_straight_road() -> None:
     """With the paper's count for a straight road there is no spare turn: the legs are
     Section IV's arcs of radius R themselves."""
