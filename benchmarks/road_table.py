@@ -10,6 +10,7 @@
     .venv/bin/python benchmarks/road_table.py --gaps  # unseen seconds by convoy state (~3 min)
     .venv/bin/python benchmarks/road_table.py --foresight  # given the true future (~5 min)
     .venv/bin/python benchmarks/road_table.py --fast-stops  # stops from speed (~2 min)
+    .venv/bin/python benchmarks/road_table.py --no-route-count  # 6 or 7 UAVs, no route (~8 min)
 
 Simulation: the service's ``RoadMission`` fed the convoy's fixes through its own
 ``ConvoyTracker``, UAVs flying exactly what they are sent (``fly_road``), coverage
@@ -379,6 +380,48 @@ def _fast_stops() -> None:
         print(f"| {ratio:.2f} | " + " | ".join(cells) + " |", flush=True)
 
 
+COUNT_OFFSETS_S = (0.0, 11.0, 23.0)  # the track's first seconds dropped: another phase
+
+
+def _count_roads() -> list[tuple[str, GeoTrack, PlanRequest, Truth]]:
+    """The table's roads, two more urban grids and three random roads."""
+    others = {"urban seed 1", "urban seed 2", "random seed 1", "random seed 3", "random seed 5"}
+    return _roads() + [road for road in _unseen() if road[0] in others]
+
+
+def _counted(job: tuple[int, float, int]) -> float:
+    i, offset, extra = job
+    _, track, req, truth = _count_roads()[i]
+    times, north, east, tn, te = _paths(track, truth)
+    keep = times >= times[0] + offset
+    uavs = road_fleet(req.turn_radius, req.sensor_radius) + extra
+    run = fly_road(
+        times[keep] - times[keep][0], north[keep], east[keep], req, uavs,
+        true_north=tn[keep], true_east=te[keep],
+    )  # fmt: skip
+    return run.coverage
+
+
+def _no_route_count() -> None:
+    """Without a route, the stationary minimum + 1 against + 2 UAVs, side by side: each
+    road flown from ``COUNT_OFFSETS_S`` (every corner then meets the formation at another
+    phase, the run-to-run noise of a chaotic road), and the paired difference."""
+    names = [name for name, _, _, _ in _count_roads()]
+    jobs = [(i, o, extra) for i in range(len(names)) for o in COUNT_OFFSETS_S for extra in (0, 1)]
+    with ProcessPoolExecutor(os.cpu_count()) as pool:
+        coverage = np.reshape(list(pool.map(_counted, jobs)), (len(names), len(COUNT_OFFSETS_S), 2))
+    print("| road | + 1 | + 2 |\n|---|---|---|")
+    for name, row in zip(names, coverage, strict=True):
+        cells = [" · ".join(f"{100 * c:.2f}" for c in row[:, k]) + " %" for k in (0, 1)]
+        print(f"| {name} | " + " | ".join(cells) + " |")
+    diff = (coverage[:, :, 1] - coverage[:, :, 0]).ravel()
+    print(
+        f"mean {100 * coverage[:, :, 0].mean():.2f} -> {100 * coverage[:, :, 1].mean():.2f} %, "
+        f"paired {100 * diff.mean():+.2f} +- {100 * diff.std(ddof=1) / math.sqrt(len(diff)):.2f} "
+        f"points (standard error, {len(diff)} pairs)"
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--mock", action="store_true", help="also fly them against sitl_mock")
@@ -404,12 +447,20 @@ def main() -> None:
         "--fast-stops", action="store_true", help="the simulation of stops from speed"
     )
     parser.add_argument(
+        "--no-route-count",
+        action="store_true",
+        help="the simulation without a route, stationary minimum + 1 against + 2 UAVs",
+    )
+    parser.add_argument(
         "--keep",
         type=Path,
         metavar="DIR",
         help="with --mock: keep each mock cell's report, tlog and mission recording in DIR",
     )
     args = parser.parse_args()
+    if args.no_route_count:
+        _no_route_count()
+        return
     if args.fast_stops:
         _fast_stops()
         return
