@@ -29,8 +29,9 @@ def road_fleet(turn_radius: float, sensor_radius: float, *, route: bool = True) 
 
     Without a route the fleet learns of a corner as the convoy takes it, with
     the pattern laid along the old course; a UAV more covers what that costs.
-    Simulation (``fly_road``, 14 roads of ``tracks.roads`` and the recorded
-    drives, each from three start offsets, demo aircraft, 2026-11-28): 94.14 %
+    Simulation (``benchmarks/road_table.py --no-route-count``: 14 roads of
+    ``tracks.roads`` and the recorded drives, each from three start offsets,
+    demo aircraft, 2026-11-28): 94.14 %
     with the stationary minimum + 1, 96.56 % with + 2 (paired, +2.42 +- 0.47
     points; hairpins 87 -> 94 %, the recorded drive 90 -> 94 %); + 3 gave 0.25
     points more on twelve of them. A one-corner road at 60 deg, sixteen phases
