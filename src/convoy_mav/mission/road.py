@@ -913,59 +913,62 @@ class RoadMission(Roster):
     ) -> tuple[list[Leg], bool]:
         """A joining UAV's legs, or, when the first of them would meet the pattern more
         than ``join_heading_deg`` off its heading, legs that meet it on its heading at
-        the same meeting (up to 8 s late: ``plan_leg_to_pose``), aimed at the same point
-        at every re-plan until there; the legs as they are when none fits. True when
-        the first leg is the one on its heading: the UAV protects from its end.
+        that meeting or the next (up to 8 s late: ``plan_leg_to_pose``), aimed at the
+        same point at every re-plan until there; the legs as they are when none fits.
+        True when the first leg is the one on its heading: the UAV protects from its
+        end.
 
         ``plan_leg``'s arcs meet the pattern with whatever heading they come in on,
         and keep it: a UAV that joins 20-90 deg off may meet the convoy going the
         mirror image of its pattern's way from its second meeting on, for good. Going
-        back to its side once protecting skips a meeting (``_side_switch``), and a
-        straight road at 8 m/s on the mock lost 1-4 s of its 168 protected seconds
-        in a fifth of the runs. Before it protects, the way to its side costs
-        nothing. The meeting its legs aim for, or, when they would meet it mirrored
-        (more than a right angle off) and no leg fits there, the next one: protecting
-        mirrored, it goes back to its side later at a skipped meeting's cost (a
-        straight road on the mock: two such switches in most of ten runs, the convoy
-        unseen 1-1.5 s each, 2.5 s once; none now). Every join trying the next
-        meeting lost 0.7 points of coverage without a route in simulation.
+        back to its side once protecting skips a meeting (``_side_switch``): 1-3 s
+        unseen on a straight road. Before it protects, the way to its side costs
+        nothing.
 
         It protects from the end of that leg, wherever it comes from, and the leg is
         re-planned to the same pose at every re-plan (its arrival set or not) until
         there. Waiting instead for a later leg within r of the pattern on average
         put protection on an urban grid with a route (stops at the start) at 232 s;
-        now 124 s. A forecast that moves the pose out of reach drops the aim and
-        leaves the arrival where it was: the UAV flies to the pattern's next
-        meetings as a protecting one. Aiming afresh instead, the arrival moving
-        with it, kept UAVs joining longer and lost 1.4 points of coverage without
-        a route (hairpins, grids: 5-7 points).
+        now 124 s. The pose moves with the pattern, which each UAV that joins or
+        leaves re-spreads: when it moves out of reach, the UAV is aimed afresh, as a
+        join, and keeps the arrival it was given (moving the arrival with the aim
+        kept UAVs joining longer and lost 1.4 points of coverage without a route).
+        Dropping the aim instead, its legs met the pattern as they came, and 90 s
+        into protection it switched sides: seven UAVs joining a straight road at
+        8 m/s one a second apart on the mock lost 0.7-1.7 s in 5 of 8 runs (none
+        in 14 now), and 3 of the 12 courses of
+        ``test_uavs_joining_one_at_a_time_never_protect_mirrored`` in simulation.
+        Aiming at the next meeting too when the first is out of reach left the road
+        table unchanged (14 roads x 3 start offsets, paired: +0.03 +- 0.10 points
+        with a route, +0.22 +- 0.25 without).
         """
         min_lead = self.settings.min_lead_s
+        limit = math.radians(self.settings.join_heading_deg)
         aim = self._join_aims.get(uav)
-        leg = None
-        if aim is None:
-            ahead = [m for m in meetings if m >= t + min_lead]
-            first = legs[0]
-            limit = math.radians(self.settings.join_heading_deg)
-            off = _heading_error(first.end, pattern, first.t_end)
-            if not ahead or off <= limit:
+        if aim is not None:
+            if t >= aim - min_lead:
+                # There: ``plan_leg``'s legs keep it on its heading.
+                self._join_aims.pop(uav)
                 return legs, False
-            mirrored = off > 0.5 * math.pi
-            for meet, lag in itertools.product(ahead[: 2 if mirrored else 1], _JOIN_LAGS_S):
-                leg = plan_leg_to_pose(pose, t, pattern, meet + lag, limits)
-                if leg is not None:
-                    aim = self._join_aims[uav] = meet + lag
-                    break
-            else:
-                return legs, False
-        elif t < aim - min_lead:
             leg = plan_leg_to_pose(pose, t, pattern, aim, limits)
-        if leg is None or t >= aim - min_lead:
-            # There (``plan_leg``'s legs keep it on its heading), or out of reach.
-            self._join_aims.pop(uav, None)
+            if leg is not None:
+                leg = replace(leg, t_end=aim)  # (its durations sum to it, to the last bits)
+                return self._legs_after(leg, pattern, meetings, limits), True
+            # Out of reach (the pattern moved: a UAV joined or left, the convoy turned):
+            # aimed afresh, as a join.
+            self._join_aims.pop(uav)
+        ahead = [m for m in meetings if m >= t + min_lead]
+        first = legs[0]
+        off = _heading_error(first.end, pattern, first.t_end)
+        if not ahead or off <= limit:
             return legs, False
-        leg = replace(leg, t_end=aim)  # (its durations sum to it, to the last bits)
-        return self._legs_after(leg, pattern, meetings, limits), True
+        for meet, lag in itertools.product(ahead[:2], _JOIN_LAGS_S):
+            leg = plan_leg_to_pose(pose, t, pattern, meet + lag, limits)
+            if leg is not None:
+                aim = self._join_aims[uav] = meet + lag
+                leg = replace(leg, t_end=aim)
+                return self._legs_after(leg, pattern, meetings, limits), True
+        return legs, False
 
     def _side_switch(
         self, uav: int, start: _Start, forecast: Forecast, pattern: Where, meetings: Sequence[float]
