@@ -21,9 +21,10 @@
 # With ROAD=KIND (a generated road of src/convoy_mav/tracks/roads.py: bends, hairpins,
 # urban...), the convoy is two sitl-mock rovers driving that road (300 m north of home,
 # setting off 30 sim s in) at the same speedup, and the service sees only their
-# telemetry (no route), with four aircraft: the stationary minimum + 1, the road's
-# count with a route (without one the service's is five now: the README's SITL rows
-# were flown with four). The score is the rovers' own positions in the tlog.
+# telemetry (no route), with the service's count for a road without one (``road_fleet``:
+# the stationary minimum + 2, five ArduPlanes; UAVS=N flies N instead, e.g. UAVS=4, the
+# count with a route, as the README's first SITL road rows were). The score is the
+# rovers' own positions in the tlog.
 #
 # SITL_DIR is an ArduPilot tree with build/sitl/bin/arducopter and arduplane built
 # (see the project's notes on building SITL; it is not part of `make test`).
@@ -55,15 +56,20 @@ lat=-35.363262 lon=149.165237 alt=584
 config=checks/sitl_$frame.toml
 uavs=3
 if [ -n "${ROAD:-}" ]; then
-  uavs=4
   config=$out/road.toml
-  # The road as the mock's CSV track, and the config: a fourth aircraft, the rovers'
-  # links. The mock's own aircraft (five, idle) keep the rovers' ids at 6 and 7.
-  "$py" - "$ROAD" "$out" "checks/sitl_$frame.toml" $lat $lon $alt <<'PY'
+  # The road as the mock's CSV track, and the config: the aircraft past the base
+  # config's three, the rovers' links. The mock's own aircraft (idle) keep the rovers'
+  # ids past the service's UAVs. Prints the fleet's size.
+  uavs=$("$py" - "$ROAD" "$out" "checks/sitl_$frame.toml" "${UAVS:-0}" $lat $lon $alt <<'PY'
 import sys
+from convoy_mav.config import load_config
 from convoy_mav.geo import GeoPoint, LocalFrame
+from convoy_mav.mission.choose import road_fleet
 from convoy_mav.tracks.roads import road_kind
-kind, out, base, lat, lon, alt = sys.argv[1:4] + [float(x) for x in sys.argv[4:]]
+kind, out, base = sys.argv[1:4]
+asked, (lat, lon, alt) = int(sys.argv[4]), (float(x) for x in sys.argv[5:])
+mission = load_config(base)
+fleet = asked or road_fleet(mission.aircraft.turn_radius_m, mission.sensor_radius_m, route=False)
 road, frame = road_kind(kind), LocalFrame(GeoPoint(lat, lon, alt))
 with open(f"{out}/road.csv", "w") as fh:
     fh.write("time,lat,lon\n")
@@ -74,13 +80,18 @@ text = open(base).read()
 head = text[: text.index("[convoy]")]
 links = "".join(
     f'[[convoy.vehicle]]\nconnection = "udpout:127.0.0.1:{14640 + s - 1}"\nsysid = {s}\n\n'
-    for s in (6, 7)
+    for s in (fleet + 2, fleet + 3)
+)
+more = "".join(
+    f'[[uav]]\nconnection = "udpin:127.0.0.1:{14560 + k - 1}"\nsysid = {k}\n\n'
+    for k in range(4, fleet + 1)
 )
 with open(f"{out}/road.toml", "w") as fh:
-    fh.write(head + '[[uav]]\nconnection = "udpin:127.0.0.1:14563"\nsysid = 4\n\n')
-    fh.write('[convoy]\nsource = "mavlink"\n\n' + links)
+    fh.write(head + more + '[convoy]\nsource = "mavlink"\n\n' + links)
+print(fleet)
 PY
-  .venv/bin/sitl-mock --aircraft 5 --ground 2 --personality ardupilot --frame "$frame" \
+)
+  .venv/bin/sitl-mock --aircraft $((uavs + 1)) --ground 2 --personality ardupilot --frame "$frame" \
     --speedup "$speedup" --base-port 14640 --origin="$lat,$lon,$alt" \
     --ground-route csv --ground-csv "$out/road.csv" >"$out/mock.log" 2>&1 &
   pids+=($!)
