@@ -68,8 +68,8 @@ from convoy_mav.mission.choose import road_fleet
 from convoy_mav.tracks.roads import road_kind
 kind, out, base = sys.argv[1:4]
 asked, (lat, lon, alt) = int(sys.argv[4]), (float(x) for x in sys.argv[5:])
-mission = load_config(base)
-fleet = asked or road_fleet(mission.aircraft.turn_radius_m, mission.sensor_radius_m, route=False)
+plan = load_config(base).plan_request()
+fleet = asked or road_fleet(plan.turn_radius, plan.sensor_radius, route=False)
 road, frame = road_kind(kind), LocalFrame(GeoPoint(lat, lon, alt))
 with open(f"{out}/road.csv", "w") as fh:
     fh.write("time,lat,lon\n")

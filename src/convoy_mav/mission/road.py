@@ -938,8 +938,8 @@ class RoadMission(Roster):
         8 m/s one a second apart on the mock lost 0.7-1.7 s in 5 of 8 runs (none
         in 14 now), and 3 of the 12 courses of
         ``test_uavs_joining_one_at_a_time_never_protect_mirrored`` in simulation.
-        Aiming at the next meeting too when the first is out of reach left the road
-        table unchanged (14 roads x 3 start offsets, paired: +0.03 +- 0.10 points
+        Aiming afresh so, and at the next meeting too when no leg fits the first,
+        left the road table unchanged (14 roads x 3 start offsets, paired: +0.03 +- 0.10 points
         with a route, +0.22 +- 0.25 without).
         """
         min_lead = self.settings.min_lead_s
