@@ -148,10 +148,16 @@ def gap_classes(
 
 def _gaps() -> None:
     """The table's roads in simulation, both modes: the unseen seconds by what the
-    convoy was doing (``gap_classes``)."""
-    head = "| road | route | coverage | unseen s | " + " | ".join(GAP_CLASSES) + " |"
+    convoy was doing (``gap_classes``), and how many of them the pattern as laid then
+    covered (the UAVs off it: ``RoadRun.unseen_off_pattern_s``)."""
+    head = (
+        "| road | route | coverage | unseen s | UAVs off the pattern | "
+        + " | ".join(GAP_CLASSES)
+        + " |"
+    )
     print(head + "\n|" + "---|" * (head.count("|") - 1))
     totals: dict[bool, dict[str, float]] = {}
+    off: dict[bool, float] = {}
     for name, track, req, truth in _roads():
         paths = _paths(track, truth)
         times, _, _, north, east = paths
@@ -161,16 +167,20 @@ def _gaps() -> None:
             total = totals.setdefault(known, dict.fromkeys(GAP_CLASSES, 0.0))
             for what, seconds in by.items():
                 total[what] += seconds
+            off[known] = off.get(known, 0.0) + run.unseen_off_pattern_s
             cells = [f"{by[w]:.1f}" for w in GAP_CLASSES]
             print(
                 f"| {name} | {'known' if known else 'none'} | {100 * run.coverage:.1f} % | "
-                f"{sum(by.values()):.1f} | " + " | ".join(cells) + " |",
+                f"{sum(by.values()):.1f} | {run.unseen_off_pattern_s:.1f} | "
+                + " | ".join(cells)
+                + " |",
                 flush=True,
             )
     for known, total in totals.items():
         whole = sum(total.values()) or 1.0
         shares = " | ".join(f"{100 * total[w] / whole:.0f} %" for w in GAP_CLASSES)
-        print(f"| all | {'known' if known else 'none'} | | {whole:.1f} | {shares} |")
+        away = f"{100 * off[known] / whole:.0f} %"
+        print(f"| all | {'known' if known else 'none'} | | {whole:.1f} | {away} | {shares} |")
 
 
 def _mock(

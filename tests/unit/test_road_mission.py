@@ -5,6 +5,7 @@ from __future__ import annotations
 import itertools
 import math
 import statistics
+from collections.abc import Callable
 
 import numpy as np
 import numpy.typing as npt
@@ -53,10 +54,11 @@ def _fly(
     starts: dict[int, tuple[float, float, float]] | None = None,
     road_settings: RoadSettings | None = None,
     join_at: dict[int, float] | None = None,
+    each: Callable[[RoadMission, float], None] | None = None,
 ) -> tuple[RoadMission, Streams]:
     """Drive a RoadMission like the service does; every setpoint it would stream, per UAV
     (joining from ``starts``, default: round the convoy's first fix; as soon as the convoy
-    is located, or at ``join_at``)."""
+    is located, or at ``join_at``); ``each`` is called after every step."""
     ids = list(range(1, uavs + 1))
     mission = RoadMission(REQUEST, ids, down=lambda _u: -100.0, route=route, settings=road_settings)
     tracker = ConvoyTracker(window=4.0)
@@ -83,6 +85,8 @@ def _fly(
             sp = mission.setpoint(u, now)
             if sp is not None:
                 streams[u].append(sp)
+        if each is not None:
+            each(mission, now)
     return mission, streams
 
 
@@ -401,6 +405,32 @@ def test_a_convoy_faster_than_half_the_airspeed_is_told_with_how_long(speed: flo
     assert mission.speed_ratio is not None and mission.speed_ratio < 0.05  # (standing)
 
 
+def test_on_a_straight_road_every_uav_flies_its_place_in_the_pattern() -> None:
+    """``pattern_positions``: where the pattern as laid puts each UAV. On a straight road
+    at constant speed the legs are the pattern's arcs, so once protecting a UAV flies its
+    own place in it (and nothing is asked of a mission with no convoy yet)."""
+    t = np.arange(0.0, 700.0, 1.0)
+    n = road_fleet(R, r)
+    idle = RoadMission(REQUEST, list(range(1, n + 1)), down=lambda _u: -100.0)
+    assert idle.pattern_positions(0.0) == {}
+    apart: list[float] = []
+
+    def probe(mission: RoadMission, now: float) -> None:
+        start = mission.protect_start
+        if start is None or now < start + 60.0 or round(now * 10) % 20:
+            return
+        places = mission.pattern_positions(now)
+        assert sorted(places) == list(range(1, n + 1))
+        for u, (north, east) in places.items():
+            sp = mission.setpoint(u, now)
+            assert sp is not None
+            apart.append(math.hypot(sp.north - north, sp.east - east))
+
+    _fly(t, 8.0 * t, 0.0 * t, n, until=600.0, each=probe)
+    assert len(apart) > 100 * n
+    assert statistics.median(apart) < 2.0 and max(apart) < 10.0  # (measured: 0.9, 4.4 m)
+
+
 def test_a_run_lists_its_unseen_stretches() -> None:
     """``RoadRun.gaps``: apart, in order, on the scoring grid, the longest the run's
     longest gap, and together the coverage's complement."""
@@ -415,6 +445,9 @@ def test_a_run_lists_its_unseen_stretches() -> None:
     scored = np.count_nonzero(np.arange(float(t[0]), float(t[-1]), 0.5) >= run.protect_start)
     unseen = sum(end - start for start, end in run.gaps)
     assert unseen == pytest.approx((1.0 - run.coverage) * scored * 0.5)
+    # The sudden corner: the pattern, its meetings on the convoy, still covered it; the
+    # UAVs' legs, laid for the old course, did not.
+    assert 0.0 < run.unseen_off_pattern_s <= unseen + 1e-9
 
 
 @pytest.mark.parametrize("angle", [90.0, -90.0])

@@ -448,6 +448,25 @@ class RoadMission(Roster):
         """Where ``uav`` is at mission time ``t``."""
         return phase_at(uav in self._lost, self.arrival(uav), t)
 
+    def pattern_positions(self, t: float) -> dict[int, tuple[float, float]]:
+        """Where the pattern, laid as it is at ``t``, puts each slotted UAV then (north,
+        east, mission frame): what its legs aim for; empty before the convoy is located.
+
+        Set beside the setpoints, it tells an unseen convoy the pattern left
+        uncovered from one the UAVs flew away from: off their pattern, late for a
+        meeting (``fly_road``'s ``unseen_off_pattern_s``).
+        """
+        if self._clock is None:
+            return {}
+        forecast = self._forecast(t, FORECAST_STEP, hedged=True)
+        n = len(self._live)
+        at = np.array([t])
+        out: dict[int, tuple[float, float]] = {}
+        for uav, slot in self._slots.items():
+            x, y = forecast.pattern(self._offset(slot, n))(at)
+            out[uav] = (float(y[0]), float(x[0]))
+        return out
+
     def setpoint(self, uav: int, t: float) -> Setpoint | None:
         """What ``uav`` should fly at mission time ``t``; None if it has no path."""
         traj = self._trajectories.get(uav)

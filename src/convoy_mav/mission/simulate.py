@@ -49,6 +49,10 @@ class RoadRun:
     legs_late: int
     recording: MissionRecording | None = None  # the mission's inputs, when asked for
     gaps: tuple[tuple[float, float], ...] = ()  # (start, end) of every unseen stretch, s
+    # Unseen seconds at which the pattern as laid then had some UAV's place within r of
+    # the convoy: the UAVs were off their pattern (late for a meeting), not the pattern
+    # leaving a hole (``RoadMission.pattern_positions``).
+    unseen_off_pattern_s: float = 0.0
 
 
 def fly_road(
@@ -106,6 +110,7 @@ def fly_road(
     joined = False
     end = float(ts[-1])
     samples: list[tuple[float, bool]] = []
+    off_pattern: list[float] = []  # (unseen samples the pattern covered)
     k = 0
     busy_until = -math.inf  # (the step in progress, with a lag)
     step_times = np.arange(float(ts[0]), end, dt)
@@ -114,7 +119,7 @@ def fly_road(
             tracker.update(float(ts[k]), float(fn[k]), float(fe[k]))
             k += 1
         if now < busy_until:
-            _score(samples, mission, ids, now, ts, tn, te, request.sensor_radius)
+            _score(samples, off_pattern, mission, ids, now, ts, tn, te, request.sensor_radius)
             continue
         plans = mission.uav_plans
         est = tracker.estimate(now)
@@ -133,7 +138,7 @@ def fly_road(
             joined = True
         mission.tick(now)
         busy_until = now + replan_lag[0] + replan_lag[1] * (mission.uav_plans - plans)
-        _score(samples, mission, ids, now, ts, tn, te, request.sensor_radius)
+        _score(samples, off_pattern, mission, ids, now, ts, tn, te, request.sensor_radius)
     covered = np.array([s for _, s in samples], dtype=bool)
     gaps: list[tuple[float, float]] = []
     for when, ok in samples:
@@ -156,11 +161,13 @@ def fly_road(
         mission.legs_late,
         mission.recording,
         tuple(gaps),
+        dt * len(off_pattern),
     )
 
 
 def _score(
     samples: list[tuple[float, bool]],
+    off_pattern: list[float],
     mission: RoadMission,
     ids: Sequence[int],
     now: float,
@@ -169,7 +176,8 @@ def _score(
     te: FloatArray,
     r: float,
 ) -> None:
-    """Whether some UAV's setpoint sees the true convoy at ``now`` (in the protect phase)."""
+    """Whether some UAV's setpoint sees the true convoy at ``now`` (in the protect phase);
+    if none does, ``now`` goes in ``off_pattern`` when the pattern as laid would have."""
     start = mission.protect_start
     if start is None or now < start:
         return
@@ -182,3 +190,7 @@ def _score(
             seen = True
             break
     samples.append((now, seen))
+    if not seen and any(
+        math.hypot(pn - cn, pe - ce) <= r for pn, pe in mission.pattern_positions(now).values()
+    ):
+        off_pattern.append(now)
