@@ -7,7 +7,7 @@
     .venv/bin/python benchmarks/road_table.py --variants  # the kinds with other numbers (~2 min)
     .venv/bin/python benchmarks/road_table.py --corners  # sudden corners, no route (~1 min)
     .venv/bin/python benchmarks/road_table.py --junctions  # a stop, then a turn (~2 min)
-    .venv/bin/python benchmarks/road_table.py --gaps  # unseen seconds by convoy state (~3 min)
+    .venv/bin/python benchmarks/road_table.py --gaps  # where the loss is, why (~3 min)
     .venv/bin/python benchmarks/road_table.py --foresight  # given the true future (~5 min)
     .venv/bin/python benchmarks/road_table.py --fast-stops  # stops from speed (~2 min)
     .venv/bin/python benchmarks/road_table.py --no-route-count  # 6 or 7 UAVs, no route (~8 min)
