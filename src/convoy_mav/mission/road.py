@@ -451,6 +451,8 @@ class RoadMission(Roster):
     def pattern_positions(self, t: float) -> dict[int, tuple[float, float]]:
         """Where the pattern, laid as it is at ``t``, puts each slotted UAV then (north,
         east, mission frame): what its legs aim for; empty before the convoy is located.
+        ``t`` is now (no earlier than the latest estimate): it is forecast from the
+        mission's present state.
 
         Set beside the setpoints, it tells an unseen convoy the pattern left
         uncovered from one the UAVs flew away from: off their pattern, late for a
