@@ -22,8 +22,12 @@ demo: $(STAMP)
 	$(BIN)/convoy-mav demo --scenario moving --duration 1200 --speedup 40 \
 	  --report out/report.json --plot out/mission.png --tlog out/mission.tlog
 
+# One pytest-xdist worker per core; an idle worker takes tests queued for a busy one
+# (worksteal), so neither waits alone on the long flights at the end. The one test that
+# loads the whole host on purpose runs after them, alone.
 test: $(STAMP) broker lint typecheck
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -n auto --dist worksteal -m "not alone"
+	$(BIN)/python -m pytest -m alone
 
 # The MQTT tests run against a real mosquitto broker (Debian package); install it
 # once if the machine does not have it (as root, or through sudo).
@@ -41,7 +45,7 @@ typecheck: $(STAMP)
 	$(BIN)/mypy
 
 unit: $(STAMP)
-	$(BIN)/python -m pytest tests/unit
+	$(BIN)/python -m pytest -n auto --dist worksteal tests/unit
 
 bench: $(STAMP)
 	$(BIN)/python -m pytest benchmarks --benchmark-only --benchmark-columns=median,iqr,ops,rounds

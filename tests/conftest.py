@@ -9,11 +9,15 @@
         row = fleet.truth(1)
 
 The fleet is closed when the test ends (sockets released, truth flushed).
+
+Under pytest-xdist (``make test`` runs ``-n auto``) the controller measures the host's
+speed once, before the workers start, and they inherit it (``tests/hostspeed.py``).
 """
 
 from __future__ import annotations
 
 import contextlib
+import os
 from collections.abc import AsyncIterator, Awaitable, Callable, Iterator
 from typing import TYPE_CHECKING, Any
 
@@ -22,6 +26,16 @@ import pytest
 from tests.mavclient import MavClient, free_udp_ports
 
 pytest_plugins = ["tests.broker"]
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """In an xdist controller, measure the host for the workers it is about to start."""
+    if hasattr(config, "workerinput") or not config.getoption("numprocesses", None):
+        return
+    from tests.hostspeed import SLOWDOWN_ENV, measure_slowdown
+
+    os.environ.setdefault(SLOWDOWN_ENV, f"{measure_slowdown():.3f}")
+
 
 if TYPE_CHECKING:
     from sitl_mock.server import MockFleet

@@ -41,7 +41,7 @@ from sitl_mock.config import DEFAULT_ORIGIN
 from sitl_mock.server import Endpoint
 from tests.hostspeed import host_speedup
 
-pytestmark = [pytest.mark.integration, pytest.mark.timeout(240)]
+pytestmark = [pytest.mark.integration, pytest.mark.alone, pytest.mark.timeout(240)]
 
 SPEEDUP = host_speedup(40.0)
 DURATION = 300.0
