@@ -10,8 +10,9 @@
 
 The fleet is closed when the test ends (sockets released, truth flushed).
 
-Under pytest-xdist (``make test`` runs ``-n auto``) the controller measures the host's
-speed once, before the workers start, and they inherit it (``tests/hostspeed.py``).
+The host's speed is measured once, before any test (under pytest-xdist, which
+``make test`` runs, by the controller before its workers start: they inherit it), and
+printed in the header (``tests/hostspeed.py``).
 """
 
 from __future__ import annotations
@@ -29,12 +30,19 @@ pytest_plugins = ["tests.broker"]
 
 
 def pytest_configure(config: pytest.Config) -> None:
-    """In an xdist controller, measure the host for the workers it is about to start."""
-    if hasattr(config, "workerinput") or not config.getoption("numprocesses", None):
-        return
+    """Measure the host once, before any test (and any xdist worker) starts."""
+    if hasattr(config, "workerinput"):
+        return  # (an xdist worker: it inherited the controller's figure)
     from tests.hostspeed import SLOWDOWN_ENV, measure_slowdown
 
     os.environ.setdefault(SLOWDOWN_ENV, f"{measure_slowdown():.3f}")
+
+
+def pytest_report_header(config: pytest.Config) -> str:
+    """The host's speed, which sets every in-process flight's speedup (and so its time)."""
+    from tests.hostspeed import slowdown
+
+    return f"host: {slowdown():.2f}x slower than the reference; flight speedups divided by it"
 
 
 if TYPE_CHECKING:

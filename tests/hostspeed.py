@@ -12,11 +12,12 @@ the CLI, the mock in a process of its own, covered 100 %). So the in-process
 end-to-end tests divide their speedups by how much slower than that host this one is
 (never raise them): unchanged on a host as fast, and at least 20x there.
 
-With pytest-xdist the controller measures the host once, before its workers start,
-and hands them the figure (``SLOWDOWN_ENV``, ``tests/conftest.py``). Measured in each
-worker, it was read while the workers collected the suite beside one another: in one
-run every flight then took 1.7 times as long as in a serial run, and the two workers
-finished in 11:40 against the serial 12:18.
+The session measures the host once, before any test starts, and hands the figure down
+(``SLOWDOWN_ENV``, ``tests/conftest.py``; the header prints it): under pytest-xdist the
+controller, before its workers start. Measured in each worker, it was read while the
+workers collected the suite beside one another: in one run every flight then took 1.7
+times as long as in a serial run, and the two workers finished in 11:40 against the
+serial 12:18.
 """
 
 from __future__ import annotations
@@ -30,7 +31,7 @@ from convoy_mav.convoy import ConvoyTracker
 
 __all__ = ["SLOWDOWN_ENV", "host_speedup", "measure_slowdown", "slowdown"]
 
-SLOWDOWN_ENV = "CONVOY_MAV_TEST_SLOWDOWN"  # set by the controller of a pytest-xdist run
+SLOWDOWN_ENV = "CONVOY_MAV_TEST_SLOWDOWN"  # set by ``pytest_configure`` (or by hand)
 
 REFERENCE_FIX_S = 9.4e-6  # a convoy fix on the host the suite's speedups were chosen on
 _FIXES = 200
@@ -39,8 +40,8 @@ _ROUNDS = 41
 
 @functools.cache
 def slowdown() -> float:
-    """How many times slower than the reference host this one is (>= 1): the figure a
-    pytest-xdist controller handed down, else measured here."""
+    """How many times slower than the reference host this one is (>= 1): the figure the
+    session measured at its start, else measured here."""
     handed = os.environ.get(SLOWDOWN_ENV)
     return max(1.0, float(handed)) if handed else measure_slowdown()
 
