@@ -33,9 +33,13 @@ def pytest_configure(config: pytest.Config) -> None:
     """Measure the host once, before any test (and any xdist worker) starts."""
     if hasattr(config, "workerinput"):
         return  # (an xdist worker: it inherited the controller's figure)
-    from tests.hostspeed import SLOWDOWN_ENV, measure_slowdown
+    from tests.hostspeed import SLOWDOWN_ENV, measure_slowdown, slowdown
 
     os.environ.setdefault(SLOWDOWN_ENV, f"{measure_slowdown():.3f}")
+    try:
+        slowdown()  # (a figure set by hand is checked here, before any test runs)
+    except ValueError as exc:
+        raise pytest.UsageError(str(exc)) from None
 
 
 def pytest_report_header(config: pytest.Config) -> str:

@@ -23,6 +23,7 @@ serial 12:18.
 from __future__ import annotations
 
 import functools
+import math
 import os
 import statistics
 import time
@@ -43,7 +44,15 @@ def slowdown() -> float:
     """How many times slower than the reference host this one is (>= 1): the figure the
     session measured at its start, else measured here."""
     handed = os.environ.get(SLOWDOWN_ENV)
-    return max(1.0, float(handed)) if handed else measure_slowdown()
+    if not handed:
+        return measure_slowdown()
+    try:
+        value = float(handed)
+    except ValueError:
+        value = math.nan
+    if not math.isfinite(value):
+        raise ValueError(f"{SLOWDOWN_ENV}={handed!r}: not a finite number (try 1.5)")
+    return max(1.0, value)
 
 
 def measure_slowdown() -> float:
