@@ -41,6 +41,7 @@ from convoy_mav.fence import Fence, fence_from, fence_items, join_orbit, orbit_s
 from convoy_mav.gcpolicy import collect_on_schedule, flight_gc
 from convoy_mav.geo import GeoPoint, LocalFrame, no_position_yet
 from convoy_mav.history import History
+from convoy_mav.launch import Craft, LaunchSequence
 from convoy_mav.mavlink import MavLink
 from convoy_mav.mavlink.autopilots.base import set_message_interval
 from convoy_mav.mavlink.codec import GCS_COMPONENT, GCS_SYSTEM, MavCodec
@@ -98,6 +99,9 @@ _SLOW_STALLED = 0.2  # ... a loop held up this fraction of them is behind the si
 _SLOW_GAP_S = 1.0  # ... or two setpoint rounds this far apart (PX4's COM_OF_LOSS_T)
 _SLOW_GAP_SETTLE_S = 10.0  # ... which acts once this long has passed, not the whole look
 _SLOW_TAKEN = 1.25  # a speedup still above the one asked times this was not taken
+_LAUNCH_CLEARANCE = 1.5  # a pad is clear of UAVs this many horizontal minima away ...
+_LAUNCH_HEADROOM = 2.0  # ... or this many vertical minima above it, bound higher
+_SETTING_UP = frozenset({VehicleStatus.WAITING_FIX, VehicleStatus.SETTING_UP})
 _FINISH_WALL_S = 15.0  # wall s the end-of-mission commands are waited for at most
 _JOINABLE = frozenset({"pending", "protect"})
 """Phases a join starts from: a UAV without a slot, or one far off its slot (``_off_slot``)."""
@@ -1031,6 +1035,7 @@ class ConvoyService:
                         tls_context=secure.tls_context,
                     )
                 )
+            launch = self._launch_sequence()
             for uav in cfg.uav_list:
                 signing = _signing(uav)
                 if signing is not None:
@@ -1056,6 +1061,7 @@ class ConvoyService:
                     lost_after=cfg.lost_after_s,
                     altitude=self._altitudes[uav.sysid],
                     max_speed=max(_MAX_SPEED_FACTOR * uav.aircraft.airspeed_mps, _MAX_SPEED_FLOOR),
+                    launch=launch,
                 )
             ground_links = [
                 await stack.enter_async_context(
@@ -1092,6 +1098,30 @@ class ConvoyService:
                 pass
         self._save_recording()
         return self._report()
+
+    def _launch_sequence(self) -> LaunchSequence | None:
+        """Take-offs near another UAV's pad in turn, clear of the separation minima by a
+        half again horizontally and twice vertically (``launch.py``); None if off."""
+        safety = self.config.safety
+        if not safety.launch_sequence:
+            return None
+        return LaunchSequence(
+            self._launch_fleet,
+            _LAUNCH_CLEARANCE * safety.min_separation_m,
+            _LAUNCH_HEADROOM * safety.min_vertical_separation_m,
+        )
+
+    def _launch_fleet(self) -> dict[int, Craft]:
+        """The UAVs with a position, for the launch sequence."""
+        out: dict[int, Craft] = {}
+        for s, v in self.vehicles.items():
+            tel = v.telemetry
+            if tel is not None:
+                moving = v.armed or v.airborne
+                setting_up = not moving and v.status in _SETTING_UP
+                layer = self._altitudes[s]
+                out[s] = Craft(s, tel.north, tel.east, tel.down, layer, moving, setting_up)
+        return out
 
     def _save_recording(self) -> None:
         """Write the road planner's inputs where the config asks (``[record] mission``)."""

@@ -87,6 +87,8 @@ times <= a day)::
     fence_margin_m = 20.0         # clamped setpoints go this far inside the edges
     min_separation_m = 30.0       # a pair closer horizontally ...
     min_vertical_separation_m = 3.0   # ... and vertically is a separation alarm
+    launch_sequence = true        # UAVs near each other's pads take off one by one,
+                                  #   the highest layer first (false: all at once)
 """
 
 from __future__ import annotations
@@ -221,6 +223,7 @@ class SafetyConfig:
     fence_margin_m: float = 20.0
     min_separation_m: float = 30.0  # horizontal ...
     min_vertical_separation_m: float = 3.0  # ... and vertical: closer in both is a conflict
+    launch_sequence: bool = True  # take-offs near another's pad wait their turn (launch.py)
 
 
 @dataclass(frozen=True, slots=True)
@@ -551,7 +554,7 @@ def _safety(data: Mapping[str, Any]) -> SafetyConfig:
     table = _table(
         data, "safety",
         {"fence", "fence_file", "exclusions", "min_alt_m", "max_alt_m", "fence_margin_m",
-         "min_separation_m", "min_vertical_separation_m"},
+         "min_separation_m", "min_vertical_separation_m", "launch_sequence"},
     )  # fmt: skip
     if "fence" in table and "fence_file" in table:
         raise ConfigError("safety.fence_file", table["fence_file"], "or safety.fence, not both")
@@ -571,6 +574,9 @@ def _safety(data: Mapping[str, Any]) -> SafetyConfig:
     max_alt = None if hi is None else _altitude(table, "max_alt_m")
     if min_alt is not None and max_alt is not None and min_alt >= max_alt:
         raise ConfigError("safety.min_alt_m", min_alt, f"must be below max_alt_m ({max_alt:g})")
+    sequence = table.get("launch_sequence", True)
+    if not isinstance(sequence, bool):
+        raise ConfigError("safety.launch_sequence", sequence, "must be true or false")
     return SafetyConfig(
         fence=fence,
         exclusions=exclusions,
@@ -585,6 +591,7 @@ def _safety(data: Mapping[str, Any]) -> SafetyConfig:
         min_vertical_separation_m=_number(
             table, "safety", "min_vertical_separation_m", 3.0, positive=True, at_most=1000.0
         ),
+        launch_sequence=sequence,
     )
 
 

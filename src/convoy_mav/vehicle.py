@@ -61,6 +61,7 @@ from convoy_mav.contest import ControlWatch
 from convoy_mav.errors import AutopilotError
 from convoy_mav.eventloop import wait_set
 from convoy_mav.geo import GeoPoint, LocalFrame, no_position_yet
+from convoy_mav.launch import LaunchSequence
 from convoy_mav.mavlink.autopilots import (
     DEFAULT_STREAM_RATES,
     FLIGHT_STREAM_RATES,
@@ -115,6 +116,7 @@ _JUMP_CONFIRM = 5  # agreeing fixes in a row that make a jump the vehicle's own 
 _REJECT_WARN_EVERY = 10.0  # mission s between two warnings of rejected frames of one kind
 _FENCE_TRIES = 3  # sends of one fence message that got no answer before the upload gives up
 _FENCE_ANSWERS_PER_ITEM = 6  # answers read per fence item at most (duplicates included)
+_LAUNCH_NOTE_S = 30.0  # mission s between two notes of a UAV still waiting to launch
 _LOST_MARGIN = 1e-3  # mission s past lost_after the watchdog looks (silence must exceed it)
 
 
@@ -201,6 +203,8 @@ class Vehicle:
             has at most 255), as long as uids do not.
         max_speed: Fastest the UAV can move, m/s: a fix farther from the last than
             this allows is dropped (``plausible.JumpGate``), counted and warned of.
+        launch: The fleet's launch sequence, asked before arming a UAV on the
+            ground (None: it arms when its set-up gets there).
 
     Attributes:
         status, firmware, telemetry, mode, armed, last_statustext: As named.
@@ -233,6 +237,7 @@ class Vehicle:
         heartbeat: bool = True,
         uid: int | None = None,
         max_speed: float = 150.0,
+        launch: LaunchSequence | None = None,
     ) -> None:
         self.sysid = sysid
         self.uid = sysid if uid is None else uid
@@ -254,6 +259,7 @@ class Vehicle:
         self.gcs_sysid = gcs_sysid
         self._heartbeat = heartbeat
         self.max_speed = max_speed
+        self.launch = launch
 
         self.status: VehicleStatus = _S.CONNECTING
         self.firmware: Autopilot | None = None
@@ -293,6 +299,7 @@ class Vehicle:
         self._own_sp_t = -math.inf  # when the keepalive last sent one of its own
         self._setup_sent = 0  # setpoints sent since set-up began
         self._airborne_already = False  # set-up found it flying: no take-off
+        self._pad: tuple[float, float, float] | None = None  # climbing out straight up from it
         self._hold_requested = False
         self._unsupported = False
         self._compid = _M.MAV_COMP_ID_AUTOPILOT1  # the autopilot's, once its HEARTBEAT says
@@ -644,6 +651,8 @@ class Vehicle:
         if ap is None or not (st is _S.FLYING or (st is _S.SETTING_UP and ap.streams_during_setup)):
             self.counters["setpoints_dropped"] += 1
             return
+        if self._pad is not None:
+            sp = self._climb_out(sp)
         now = self.clock.now()
         if math.isfinite(self._last_sp_t) and now - self._last_sp_t > _STREAM_GAP_S:
             self.stream_resumed_t = now  # (a gap: the autopilot may have failed safe meanwhile)
@@ -652,6 +661,20 @@ class Vehicle:
         self._last_sp, self._last_sp_t = sp, now
         self._setup_sent += 1
         self.counters["setpoints"] += 1
+
+    def _climb_out(self, sp: Setpoint) -> Setpoint:
+        """``sp``'s altitude straight above the pad until the UAV is up (an autopilot that
+        takes off on setpoints alone would climb towards ``sp`` on a slant, through its
+        neighbours' climb-outs); ``sp`` itself from then on."""
+        pad = self._pad
+        tel = self.telemetry
+        assert pad is not None
+        north, east, down = pad
+        if tel is not None and tel.down <= sp.down + max(1.0, 0.05 * (down - sp.down)):
+            self._pad = None
+            self._emit(EventKind.SETUP, f"climbed out to {-tel.down:.0f} m")
+            return sp
+        return Setpoint(sp.t, north, east, sp.down, 0.0, 0.0, 0.0, sp.yaw, 0.0)
 
     def _own_setpoint(self) -> Setpoint | None:
         """Hold where the last setpoint was, or where the UAV is at flight altitude."""
@@ -853,6 +876,8 @@ class Vehicle:
         while True:
             for step in ap.setup_steps:
                 if not self._step_done(step):
+                    if step is SetupStep.ARM:  # (arming launches it: its turn first)
+                        deadline += await self._clear_to_launch()
                     await self._achieve(step, deadline)
                     if self._step_done(step):
                         self._emit(EventKind.SETUP, self._step_report(step))
@@ -864,9 +889,35 @@ class Vehicle:
         self._set_status(_S.FLYING)
         self._request_streams()  # the flight rates
 
+    async def _clear_to_launch(self) -> float:
+        """Wait until the fleet's launch sequence clears this UAV to arm; the mission
+        seconds waited (they do not count against the set-up's timeout)."""
+        seq = self.launch
+        if seq is None or self.airborne:
+            return 0.0
+        why: str | None = None
+
+        def cleared() -> bool:
+            nonlocal why
+            why = seq.ask(self.uid, self.clock.now())
+            return why is None
+
+        start = self.clock.now()
+        try:
+            if cleared():
+                return 0.0
+            self._emit(EventKind.SETUP, f"waiting to launch: {why}")
+            while not await self._wait_until(cleared, _LAUNCH_NOTE_S):
+                self._emit(EventKind.SETUP, f"still waiting to launch: {why}")
+        finally:
+            seq.withdraw(self.uid)
+        waited = self.clock.now() - start
+        self._emit(EventKind.SETUP, f"cleared to launch after {waited:.1f} s")
+        return waited
+
     def _step_report(self, step: SetupStep) -> str:
         """What a set-up step achieved, for the operator."""
-        if step is SetupStep.TAKEOFF:
+        if step in (SetupStep.TAKEOFF, SetupStep.CLIMB):
             rel = self.relative_alt
             return f"airborne at {rel:.0f} m above home" if rel is not None else "airborne"
         if step in (SetupStep.MODE, SetupStep.TAKEOFF_MODE):
@@ -963,8 +1014,16 @@ class Vehicle:
             await self._command(ap.mode_command(climb), f"mode {climb}", deadline, climbing)
             await self._wait_until(climbing, _CONFIRM_WAIT)
         elif step is SetupStep.ARM:
+            tel = self.telemetry
+            if SetupStep.CLIMB in ap.setup_steps and tel is not None and not self.airborne:
+                self._pad = (tel.north, tel.east, tel.down)  # (climb straight up from here)
             await self._command(ap.arm_command(), "arm", deadline, self._is_armed)
             await self._wait_until(self._is_armed, _CONFIRM_WAIT)
+        elif step is SetupStep.CLIMB:  # (the setpoints climb it: ``_climb_out``)
+            in_mode = functools.partial(self._in_mode, ap.external_mode)
+            await self._reach_altitude(step, deadline, in_mode)
+            if self._step_done(step):
+                self._pad = None
         else:
             rel, amsl = self._target_relative_alt()
             takeoff = ap.takeoff_command(rel, amsl)
@@ -974,11 +1033,19 @@ class Vehicle:
             ):  # already flying (a re-set-up after a link outage): setpoints will climb
                 self._airborne_already = True
                 return
-            reached = await self._wait_until(
-                lambda: self._step_done(step) or not self.armed, deadline - self.clock.now()
-            )
-            if not reached:
-                raise _SetupFailed(self._gave_up(str(step), 1, None))
+            await self._reach_altitude(step, deadline)
+
+    async def _reach_altitude(
+        self, step: SetupStep, deadline: float, holds: Callable[[], bool] = lambda: True
+    ) -> None:
+        """Wait for the climb to the flight altitude; on a disarm, or once ``holds()`` is
+        false (the autopilot left the mode that climbs it), set-up goes round again."""
+        reached = await self._wait_until(
+            lambda: self._step_done(step) or not self.armed or not holds(),
+            deadline - self.clock.now(),
+        )
+        if not reached:
+            raise _SetupFailed(self._gave_up(str(step), 1, None))
 
     def _in_mode(self, mode: str) -> bool:
         return self.mode == mode

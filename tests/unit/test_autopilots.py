@@ -117,7 +117,7 @@ def test_unsupported_vehicles_get_no_strategy(autopilot: int, mav_type: int) -> 
 
 def test_setup_steps_per_firmware() -> None:
     px4 = strategy(M.MAV_AUTOPILOT_PX4, QUAD)
-    assert px4.setup_steps == (SetupStep.SETPOINTS, SetupStep.MODE, SetupStep.ARM)
+    assert px4.setup_steps == (SetupStep.SETPOINTS, SetupStep.MODE, SetupStep.ARM, SetupStep.CLIMB)
     assert px4.streams_during_setup
     # a fixed-wing PX4 takes off in AUTO.TAKEOFF before OFFBOARD, never from the ground
     px4_plane = strategy(M.MAV_AUTOPILOT_PX4, FW)

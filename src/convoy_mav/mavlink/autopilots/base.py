@@ -157,6 +157,7 @@ class SetupStep(StrEnum):
     MODE = "set mode"  # to the strategy's external (offboard/guided) mode
     ARM = "arm"
     TAKEOFF = "take off"  # climb to the flight altitude (NAV_TAKEOFF, or the mode's climb)
+    CLIMB = "climb out"  # PX4 multicopter: armed in OFFBOARD, straight up on setpoints
 
 
 @dataclass(frozen=True, slots=True)

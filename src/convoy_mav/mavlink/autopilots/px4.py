@@ -99,7 +99,7 @@ class PX4(Autopilot):
                 SetupStep.MODE,
             )
         else:
-            self.setup_steps = (SetupStep.SETPOINTS, SetupStep.MODE, SetupStep.ARM)
+            self.setup_steps = (SetupStep.SETPOINTS, SetupStep.MODE, SetupStep.ARM, SetupStep.CLIMB)
 
     def stream_requests(self, rates: Mapping[int, float]) -> list[Message]:
         """``rates``, and the profile's high-rate streams the service never reads stopped."""
