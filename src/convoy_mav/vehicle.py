@@ -671,8 +671,7 @@ class Vehicle:
         assert pad is not None
         north, east, down = pad
         if tel is not None and tel.down <= sp.down + max(1.0, 0.05 * (down - sp.down)):
-            self._pad = None
-            self._emit(EventKind.SETUP, f"climbed out to {-tel.down:.0f} m")
+            self._pad = None  # (the ``climb out`` step reports it)
             return sp
         return Setpoint(sp.t, north, east, sp.down, 0.0, 0.0, 0.0, sp.yaw, 0.0)
 
