@@ -345,6 +345,7 @@ class ConvoyService:
         self._started_wall = time.time()
         self.vehicles: dict[int, Vehicle] = {}
         self._ground_ids = {v.sysid for v in config.convoy.vehicles}
+        self._ground_links: list[MavLink] = []  # (one per convoy vehicle, in order)
         self._ground_heard: dict[int, float] = {}
         self._ground_rejected = 0  # ground fixes dropped: a clock ahead of its own
         self._fixes_rejected = 0  # external fixes dropped: stamped far from mission time
@@ -436,6 +437,9 @@ class ConvoyService:
         vehicle = self.vehicles.get(sysid)
         if vehicle is not None:
             vehicle.handle(msg)
+        elif sysid in self._ground_ids and msg.get_type() == "PARAM_VALUE":
+            if msg.param_id == "SIM_SPEEDUP":  # (a simulated convoy slowed with the UAVs)
+                self.clock.rate_set(float(msg.param_value), sysid)
         elif sysid in self._ground_ids and msg.get_type() == "GLOBAL_POSITION_INT":
             if no_position_yet(msg.lat, msg.lon):
                 return
@@ -915,6 +919,15 @@ class ConvoyService:
         asked_any = [v.request_param("SIM_SPEEDUP", target) for v in self.vehicles.values()]
         if not any(asked_any):
             return
+        # The convoy's simulator too, if it is one: the world slows as a whole, and the
+        # mission clock's reference may be a ground vehicle (the first heard), whose
+        # word on its new rate is then the one the clock takes (``rate_set``).
+        for link, g in zip(self._ground_links, self.config.convoy.vehicles, strict=True):
+            link.send(
+                mavlink.MAVLink_param_set_message(
+                    g.sysid, 1, b"SIM_SPEEDUP", target, mavlink.MAV_PARAM_TYPE_REAL32
+                )
+            )
         self._speedup_asked = target
         self._slowed_at_plans = self._replan_lag.planned
         why = (
@@ -1075,6 +1088,7 @@ class ConvoyService:
                 )
                 for g in cfg.convoy.vehicles
             ]
+            self._ground_links = ground_links
             streamer = SetpointStreamer(
                 list(self.vehicles.values()), self._setpoint, self.clock, cfg.setpoint_rate_hz
             )

@@ -184,6 +184,7 @@ async def _until_slowed(
     then: Script | None = None,
     *,
     late_replans: bool = False,
+    personality: str = "px4",
 ) -> dict[str, Any]:
     """Fly ``scenario`` with the mock's speedup allowed down to half: once protecting,
     ``fault`` makes the host fall behind; the run stops once the service has halved the
@@ -193,11 +194,15 @@ async def _until_slowed(
     with pytest.MonkeyPatch.context() as patch:
         if not late_replans:
             patch.setattr(app, "_SLOW_REPLANS_S", math.inf)
-        return await _slowed(scenario, fault, marks, then)
+        return await _slowed(scenario, fault, marks, then, personality)
 
 
 async def _slowed(
-    scenario: str, fault: Script, marks: dict[str, float], then: Script | None
+    scenario: str,
+    fault: Script,
+    marks: dict[str, float],
+    then: Script | None,
+    personality: str = "px4",
 ) -> dict[str, Any]:
     stop = asyncio.Event()
 
@@ -217,6 +222,7 @@ async def _slowed(
         during=script,
         speedup_floor=SPEEDUP / 2,
         stop=stop,
+        personality=personality,
     )
     assert "asked" in marks and marks["asked"] < DURATION - 60.0, marks
     report = result.report.to_dict()
@@ -232,13 +238,22 @@ async def _slowed(
 _SLOWED = re.compile(r"simulator slowed from [\d.]+x to ([\d.]+)x")
 
 
-async def test_a_planner_behind_the_simulator_slows_it_by_sim_speedup() -> None:
+@pytest.mark.parametrize("personality", ["px4", "ardupilot"])
+async def test_a_planner_behind_the_simulator_slows_it_by_sim_speedup(personality: str) -> None:
     """A host short of CPU for the speedup: every re-plan takes 0.25 wall s more (the
     planner's thread sleeps; the loop and the mock run on). Once each UAV is re-planned
     less than every 6 mission s instead of 4, the service asks the mock for half the
     speedup by ``SIM_SPEEDUP`` over MAVLink; the mock's clock takes it and mission time
-    follows at once (a change of rate), not after the fit's whole window."""
+    follows at once (a change of rate), not after the fit's whole window.
+
+    Under ArduPilot, silent until asked for streams, the convoy's ground vehicle is heard
+    first and is the clock's reference: it is slowed too, and its word on the new rate
+    is the one the clock takes. Told nothing, the clock ran on at the old rate for the
+    fit's window, and the convoy's fixes looked stale (``convoy_stale``, and once for
+    100 mission s: the UAVs orbited where the convoy had been)."""
     marks: dict[str, float] = {}
+    reference: list[bool] = []
+    taken: list[int] = []  # who the clock took a new rate from (``rate_set``)
     errors: list[float] = []
     undo: list[Callable[[], None]] = []
 
@@ -254,15 +269,32 @@ async def test_a_planner_behind_the_simulator_slows_it_by_sim_speedup() -> None:
 
         mission._plan_paths = slow  # type: ignore[method-assign]
         marks["slowed_planner"] = fleet.now
+        clock = service.clock
+        rate_set = clock.rate_set
+
+        def said(rate: float, sysid: int) -> bool:
+            took = rate_set(rate, sysid)
+            if took:
+                taken.append(sysid)
+            return took
+
+        clock.rate_set = said  # type: ignore[method-assign]
 
     async def clock_after(fleet: MockFleet, service: ConvoyService) -> None:
+        reference.append(service.clock.reference in service._ground_ids)
         undo[0]()  # (the host has room again)
         await fleet.wait_until(fleet.now + 20.0)
         await _clock_errors(fleet, service, fleet.now + 60.0, errors)
 
-    report = await _until_slowed("turning", slow_planner, marks, then=clock_after)
+    report = await _until_slowed(
+        "turning", slow_planner, marks, then=clock_after, personality=personality
+    )
     clock = report["mission_clock"]
     assert clock["rate_changes"] == 1, clock
+    assert reference == [personality == "ardupilot"]  # (who is heard first)
+    assert len(taken) == 1, taken  # (the simulator's word, not the fit's turn)
+    stale = [a for a in report["alarms"] if a["kind"] == "convoy_stale" and a["active"]]
+    assert not [a for a in stale if a["t"] >= report["protect_start_s"]], stale
     assert any("simulator slowed" in e and "planner behind" in e for e in report["events"])
     assert _median_abs(errors) < 0.2  # mission time on the mock's
     print(
