@@ -84,7 +84,7 @@ def hold_reason(
         above = pad.down - other.down
         if other.layer_m > pad.layer_m and above >= vertical_m:
             continue
-        how = "climbing out" if other.layer_m > pad.layer_m else "bound lower"
+        how = "climbing out" if other.layer_m > pad.layer_m else "bound no higher"
         return f"UAV {other.sysid} {how} {apart:.0f} m from its pad, {above:.0f} m above it"
     for other in waiting:
         if other.sysid == pad.sysid or other.layer_m <= pad.layer_m:
