@@ -43,7 +43,7 @@ from convoy_mav.geo import GeoPoint, LocalFrame, no_position_yet
 from convoy_mav.history import History
 from convoy_mav.launch import Craft, LaunchSequence
 from convoy_mav.mavlink import MavLink
-from convoy_mav.mavlink.autopilots.base import set_message_interval
+from convoy_mav.mavlink.autopilots.base import param_set_message, set_message_interval
 from convoy_mav.mavlink.codec import GCS_COMPONENT, GCS_SYSTEM, MavCodec
 from convoy_mav.mavlink.signing import Signing, load_key
 from convoy_mav.mission import (
@@ -923,11 +923,7 @@ class ConvoyService:
         # mission clock's reference may be a ground vehicle (the first heard), whose
         # word on its new rate is then the one the clock takes (``rate_set``).
         for link, g in zip(self._ground_links, self.config.convoy.vehicles, strict=True):
-            link.send(
-                mavlink.MAVLink_param_set_message(
-                    g.sysid, 1, b"SIM_SPEEDUP", target, mavlink.MAV_PARAM_TYPE_REAL32
-                )
-            )
+            link.send(param_set_message(g.sysid, 1, "SIM_SPEEDUP", target))
         self._speedup_asked = target
         self._slowed_at_plans = self._replan_lag.planned
         why = (

@@ -72,6 +72,7 @@ from convoy_mav.mavlink.autopilots import (
     autopilot_for,
     firmware_name,
 )
+from convoy_mav.mavlink.autopilots.base import param_set_message
 from convoy_mav.plausible import JumpGate
 from convoy_mav.types import Setpoint, Telemetry, VehicleStatus
 
@@ -633,11 +634,7 @@ class Vehicle:
         ap = self.firmware
         if ap is None:
             return False
-        self._send(
-            _M.MAVLink_param_set_message(
-                self.sysid, ap.compid, name.encode(), value, _M.MAV_PARAM_TYPE_REAL32
-            )
-        )
+        self._send(param_set_message(self.sysid, ap.compid, name, value))
         self.counters["param_set"] += 1
         return True
 

@@ -49,6 +49,7 @@ __all__ = [
     "VehicleClass",
     "along_track_error",
     "global_setpoint",
+    "param_set_message",
     "phase_corrected_speed",
     "set_message_interval",
     "vehicle_class",
@@ -332,6 +333,14 @@ def global_setpoint(
         round(geo.lat * 1e7), round(geo.lon * 1e7), geo.alt,
         vn, ve, vd, 0.0, 0.0, 0.0, _wrap_pi(sp.yaw), 0.0,
     )  # fmt: skip
+
+
+def param_set_message(system: int, component: int, name: str, value: float) -> Message:
+    """PARAM_SET of ``name`` to ``value`` for ``system``/``component`` (a float
+    parameter; its PARAM_VALUE answers)."""
+    return _M.MAVLink_param_set_message(
+        system, component, name.encode(), value, _M.MAV_PARAM_TYPE_REAL32
+    )
 
 
 def set_message_interval(rate_hz: float, msg_id: int) -> CommandSpec:
