@@ -300,7 +300,7 @@ class Vehicle:
         self._own_sp_t = -math.inf  # when the keepalive last sent one of its own
         self._setup_sent = 0  # setpoints sent since set-up began
         self._airborne_already = False  # set-up found it flying: no take-off
-        self._pad: tuple[float, float, float] | None = None  # climbing out straight up from it
+        self._pad: tuple[float, float] | None = None  # climbing out straight up from it
         self._hold_requested = False
         self._unsupported = False
         self._compid = _M.MAV_COMP_ID_AUTOPILOT1  # the autopilot's, once its HEARTBEAT says
@@ -660,17 +660,12 @@ class Vehicle:
         self.counters["setpoints"] += 1
 
     def _climb_out(self, sp: Setpoint) -> Setpoint:
-        """``sp``'s altitude straight above the pad until the UAV is up (an autopilot that
-        takes off on setpoints alone would climb towards ``sp`` on a slant, through its
-        neighbours' climb-outs); ``sp`` itself from then on."""
-        pad = self._pad
-        tel = self.telemetry
-        assert pad is not None
-        north, east, down = pad
-        if tel is not None and tel.down <= sp.down + max(1.0, 0.05 * (down - sp.down)):
-            self._pad = None  # (the ``climb out`` step reports it)
-            return sp
-        return Setpoint(sp.t, north, east, sp.down, 0.0, 0.0, 0.0, sp.yaw, 0.0)
+        """The flight altitude straight above the pad, instead of ``sp``, until set-up is
+        done (an autopilot that takes off on setpoints alone would climb towards ``sp``
+        on a slant, through its neighbours' climb-outs)."""
+        assert self._pad is not None
+        north, east = self._pad
+        return Setpoint(sp.t, north, east, -self.altitude, 0.0, 0.0, 0.0, sp.yaw, 0.0)
 
     def _own_setpoint(self) -> Setpoint | None:
         """Hold where the last setpoint was, or where the UAV is at flight altitude."""
@@ -882,6 +877,7 @@ class Vehicle:
             if self.clock.now() >= deadline:
                 raise _SetupFailed(self._gave_up("final check", 0, None))
             await self.clock.sleep_until(self.clock.now() + self.command_retry)
+        self._pad = None  # (up: the plan's setpoints from now on)
         self._set_status(_S.FLYING)
         self._request_streams()  # the flight rates
 
@@ -1012,14 +1008,12 @@ class Vehicle:
         elif step is SetupStep.ARM:
             tel = self.telemetry
             if SetupStep.CLIMB in ap.setup_steps and tel is not None and not self.airborne:
-                self._pad = (tel.north, tel.east, tel.down)  # (climb straight up from here)
+                self._pad = (tel.north, tel.east)  # (climb straight up from here)
             await self._command(ap.arm_command(), "arm", deadline, self._is_armed)
             await self._wait_until(self._is_armed, _CONFIRM_WAIT)
         elif step is SetupStep.CLIMB:  # (the setpoints climb it: ``_climb_out``)
             in_mode = functools.partial(self._in_mode, ap.external_mode)
             await self._reach_altitude(step, deadline, in_mode)
-            if self._step_done(step):
-                self._pad = None
         else:
             rel, amsl = self._target_relative_alt()
             takeoff = ap.takeoff_command(rel, amsl)
