@@ -19,6 +19,7 @@ from pathlib import Path
 import pytest
 
 from convoy_mav import cli
+from tests.hostspeed import slowdown
 
 pytestmark = pytest.mark.integration
 
@@ -133,13 +134,18 @@ def test_a_run_that_cannot_bind_leaves_the_tlog_alone(
 
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
 def test_a_run_nobody_answers_ends_on_a_signal(tmp_path: Path, sig: signal.Signals) -> None:
-    """The sync wait (no autopilot has spoken) ends on SIGINT and SIGTERM, at once."""
+    """The sync wait (no autopilot has spoken) ends on SIGINT and SIGTERM, at once.
+
+    The signal is sent once the process has had time to start and take its handlers
+    (2 s on the reference host, longer on a slower one: at 3.6x slower, a fixed 2 s
+    signalled it while it still imported matplotlib, and the signal's default action
+    ended it)."""
     proc = subprocess.Popen(
         [sys.executable, "-m", "convoy_mav", "run", "--config", _config(tmp_path),
          "--duration", "60", "-q"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
-    time.sleep(2.0)
+    time.sleep(2.0 * slowdown())
     sent = time.monotonic()
     proc.send_signal(sig)
     out, err = proc.communicate(timeout=10)
