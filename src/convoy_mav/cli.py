@@ -46,7 +46,6 @@ from convoy_mav.mission.road import FAST_CONVOY_RATIO, RoadMission, RoadSettings
 from convoy_mav.oplog import operator_log
 from convoy_mav.planning import Plan, Pose, make_plan, optimal_path_from_entry
 from convoy_mav.planning.export import entry_to_dict, plan_to_dict
-from convoy_mav.plot import plot_mission
 from convoy_mav.provision import provision_signing
 from convoy_mav.schedule import setpoint_at
 from convoy_mav.tracks import FORMATS, load_track, track_speeds
@@ -463,6 +462,10 @@ def _write_outputs(
 
 
 def _plot(args: argparse.Namespace, report: dict[str, Any], service: ConvoyService) -> None:
+    # Imported here: matplotlib takes a third of a second, which every run would
+    # otherwise spend before its signal handlers are in place.
+    from convoy_mav.plot import plot_mission  # noqa: PLC0415 - lazy on purpose
+
     route = service.route
     coverage = report["coverage_fraction"]
     track = report.get("track")

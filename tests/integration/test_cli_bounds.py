@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from convoy_mav import cli
+from convoy_mav import cli, plot
 from tests.hostspeed import slowdown
 
 pytestmark = pytest.mark.integration
@@ -103,7 +103,7 @@ def test_a_failed_plot_keeps_the_report_and_an_old_tlog(
     def broken_plot(*args: object, **kwargs: object) -> None:
         raise RuntimeError("no display, no fonts, no luck")
 
-    monkeypatch.setattr(cli, "plot_mission", broken_plot)
+    monkeypatch.setattr(plot, "plot_mission", broken_plot)
     report, tlog = tmp_path / "report.json", tmp_path / "mission.tlog"
     tlog.write_bytes(b"an earlier flight")
     argv = ["demo", "--scenario", "stationary", "--duration", "40", "--speedup", "40", "-q"]
