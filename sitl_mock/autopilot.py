@@ -303,10 +303,14 @@ class SimVehicle:
 
     def _update_warm(self, now: float) -> None:
         fl = self.flight
-        if fl.warm or now - self._boot_t < self._warmup:
+        if fl.warm:
             return
-        fl.warm = True
-        if not fl.home_set:  # home is set at the first GPS fix, wherever that is
+        since = now - self._boot_t
+        if since >= self._warmup:
+            fl.warm = True
+        elif not (self.firmware.home_at_fix and since >= _GPS_FIX_SHARE * self._warmup):
+            return
+        if not fl.home_set:  # home is set where the vehicle is then
             fl.set_home(self._geo(now))
 
     # =================================================================== physics

@@ -407,7 +407,7 @@ class FlightController:
             self.failsafe = False
             return _R.MAV_RESULT_ACCEPTED, []
         reason = None
-        if mode.needs_position and not self.warm:
+        if mode.needs_position and not (self.warm or (fw.home_at_fix and self.home_set)):
             reason = "requires position"
         elif mode.behaviour is Behaviour.MISSION:
             reason = "no mission"

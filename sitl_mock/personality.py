@@ -220,6 +220,16 @@ class Firmware:
         """True for the ArduPilot personality."""
         return self.personality is Personality.ARDUPILOT
 
+    @property
+    def home_at_fix(self) -> bool:
+        """Home (the estimator's origin) is set at the receiver's 3D fix, and modes
+        that need a position are entered from then, while arming is refused until
+        the estimator uses the GPS: ArduPilot (ArduCopter SITL set its origin and
+        took GUIDED some 20 sim s before "EKF3 IMU0 is using GPS", refusing ARM with
+        "Need Position Estimate" in between). PX4 sets home as its estimate turns
+        valid, when it may also arm."""
+        return self.is_ardupilot
+
     def arm_denied_text(self, reason: str) -> str:
         """STATUSTEXT of a refused arming, in the firmware's words."""
         if self.is_ardupilot:  # ArduPilot >= 4.5: "Arm:" when refusing, "PreArm:" periodically

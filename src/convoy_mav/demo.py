@@ -22,7 +22,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import math
-from collections.abc import Callable, Coroutine
+from collections.abc import Callable, Coroutine, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any, Literal
 
@@ -250,11 +250,13 @@ def mock_mapping(
     ground: int = 2,
     faults: dict[str, Any] | None = None,
     signing_key: str | None = None,
+    aircraft: Sequence[Mapping[str, Any]] = (),
 ) -> dict[str, Any]:
     """The sitl_mock configuration (as a mapping) for a scenario.
 
     ``signing_key`` (hex or a passphrase): every aircraft signs with it and accepts
-    only frames signed with it.
+    only frames signed with it. ``aircraft``: per-aircraft overrides, the mock's
+    ``[[aircraft.vehicle]]`` tables (e.g. ``{"sysid": 5, "warmup": 40.0}``).
     """
     mapping: dict[str, Any] = {
         "speedup": speedup,
@@ -271,6 +273,8 @@ def mock_mapping(
     }
     if signing_key is not None:
         mapping["aircraft"]["signing_key"] = signing_key
+    if aircraft:
+        mapping["aircraft"]["vehicle"] = [dict(v) for v in aircraft]
     origin = scenario.origin
     if scenario.track is not None:  # the world (and mission) origin at the first fix,
         # at the rehearsed mission's elevation (ArduPlane flies wider loiters up high)
@@ -327,6 +331,7 @@ async def run_demo(
     faults: dict[str, Any] | None = None,
     mock_process: bool = False,
     speedup_floor: float | None = None,
+    aircraft: Sequence[Mapping[str, Any]] = (),
 ) -> DemoResult:
     """Start the mock, fly ``duration`` mission seconds, score from ground truth.
 
@@ -355,6 +360,7 @@ async def run_demo(
             autopilot. ``during`` needs the mock in-process.
         speedup_floor: The service halves the mock's speedup (``SIM_SPEEDUP``) when the
             host falls behind it, down to this (``sim_speedup_floor``); None: never.
+        aircraft: Per-aircraft overrides of the mock (``mock_mapping``).
     """
     if mock_process and during is not None:
         raise ValueError("a fault script (during) needs the mock in-process")
@@ -370,6 +376,7 @@ async def run_demo(
         personality=personality,
         frame=frame,
         faults=faults or None,
+        aircraft=aircraft,
         # (the mock takes the key as 64 hex digits: the very key the service reads)
         signing_key=None
         if signing_key_file is None

@@ -18,6 +18,10 @@ Design rules:
 - Climb-outs do not converge: straight up (a copter: ArduCopter's NAV_TAKEOFF, a PX4
   multicopter's ``climb out`` set-up step) or straight ahead (planes in a row share one
   heading), so a pad clear now stays clear while its UAV climbs.
+- A UAV cleared to launch moves until its autopilot says so: while it is still
+  arming (an autopilot may refuse ARM for a while: ArduCopter's "Need Position
+  Estimate" for half a minute), and :data:`CLEARED_S` after its arming ended, armed
+  or given up. Otherwise a neighbour cleared in the meantime would take off beside it.
 - A UAV on the ground and disarmed is not moving and holds nobody.
 - Pure: a snapshot of the fleet in, the reason to hold (or None) out.
   :class:`LaunchSequence` keeps the only state, who waits and who was just cleared.
@@ -32,7 +36,8 @@ from dataclasses import dataclass
 __all__ = ["CLEARED_S", "YIELD_S", "Craft", "LaunchSequence", "hold_reason"]
 
 CLEARED_S = 10.0
-"""Mission s a cleared UAV counts as moving before its autopilot says it armed."""
+"""Mission s a UAV counts as moving after its arming ended, before its autopilot says
+it is armed."""
 YIELD_S = 20.0
 """Mission s a waiting UAV yields to a neighbour bound higher whose set-up is behind."""
 
@@ -84,7 +89,9 @@ def hold_reason(
         above = pad.down - other.down
         if other.layer_m > pad.layer_m and above >= vertical_m:
             continue
-        how = "climbing out" if other.layer_m > pad.layer_m else "bound no higher"
+        how = "bound no higher"
+        if other.layer_m > pad.layer_m:
+            how = "climbing out" if other.moving else "arming"
         return f"UAV {other.sysid} {how} {apart:.0f} m from its pad, {above:.0f} m above it"
     for other in waiting:
         if other.sysid == pad.sysid or other.layer_m <= pad.layer_m:
@@ -119,32 +126,42 @@ class LaunchSequence:
         self.horizontal_m = horizontal_m
         self.vertical_m = vertical_m
         self._waiting: dict[int, float] = {}  # id -> mission time it first asked
-        self._cleared: dict[int, float] = {}  # id -> mission time it was cleared
+        self._arming: set[int] = set()  # cleared, arming now
+        self._cleared: dict[int, float] = {}  # id -> mission time its arming ended
 
     def ask(self, sysid: int, t: float) -> str | None:
         """May UAV ``sysid`` launch at mission time ``t``? None clears it (it then
-        counts as moving for :data:`CLEARED_S`); else why it holds, and it waits."""
+        counts as moving until :data:`CLEARED_S` after :meth:`armed`); else why it
+        holds, and it waits."""
         since = self._waiting.setdefault(sysid, t)
         fleet = self._fleet()
         pad = fleet.get(sysid)
         if pad is None:
             return "no position yet"
         self._cleared = {s: c for s, c in self._cleared.items() if t - c < CLEARED_S}
-        moving = [c for s, c in fleet.items() if s != sysid and (c.moving or s in self._cleared)]
+        cleared = self._arming | self._cleared.keys()
+        moving = [c for s, c in fleet.items() if s != sysid and (c.moving or s in cleared)]
         yielding = t - since < YIELD_S
         waiting = [
             c
             for s, c in fleet.items()
             if s != sysid
             and not c.moving
-            and s not in self._cleared
+            and s not in cleared
             and (s in self._waiting or (yielding and c.setting_up))
         ]
         why = hold_reason(pad, moving, waiting, self.horizontal_m, self.vertical_m)
         if why is None:
             del self._waiting[sysid]
-            self._cleared[sysid] = t
+            self._arming.add(sysid)
         return why
+
+    def armed(self, sysid: int, t: float) -> None:
+        """UAV ``sysid``'s arming ended at mission time ``t`` (armed, or given up): it
+        counts as moving :data:`CLEARED_S` more, until its autopilot says so."""
+        if sysid in self._arming:
+            self._arming.discard(sysid)
+            self._cleared[sysid] = t
 
     def withdraw(self, sysid: int) -> None:
         """UAV ``sysid`` no longer waits (its set-up ended without launching)."""

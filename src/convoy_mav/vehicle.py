@@ -868,8 +868,9 @@ class Vehicle:
             for step in ap.setup_steps:
                 if not self._step_done(step):
                     if step is SetupStep.ARM:  # (arming launches it: its turn first)
-                        deadline += await self._clear_to_launch()
-                    await self._achieve(step, deadline)
+                        deadline = await self._arm_in_turn(deadline)
+                    else:
+                        await self._achieve(step, deadline)
                     if self._step_done(step):
                         self._emit(EventKind.SETUP, self._step_report(step))
             if all(self._step_done(step) for step in ap.setup_steps):
@@ -880,6 +881,18 @@ class Vehicle:
         self._pad = None  # (up: the plan's setpoints from now on)
         self._set_status(_S.FLYING)
         self._request_streams()  # the flight rates
+
+    async def _arm_in_turn(self, deadline: float) -> float:
+        """Arm once the fleet's launch sequence clears this UAV; the set-up's deadline,
+        put back by the wait. The sequence learns when the arming ended (armed,
+        refused to the end, or cancelled): until then its neighbours hold."""
+        deadline += await self._clear_to_launch()
+        try:
+            await self._achieve(SetupStep.ARM, deadline)
+        finally:
+            if self.launch is not None:
+                self.launch.armed(self.uid, self.clock.now())
+        return deadline
 
     async def _clear_to_launch(self) -> float:
         """Wait until the fleet's launch sequence clears this UAV to arm; the mission

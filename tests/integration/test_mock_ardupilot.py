@@ -48,7 +48,9 @@ async def until_accepted(client: MavClient, fleet: MockFleet, send: Callable[[],
 
 
 async def start_guided(client: MavClient, fleet: MockFleet, use_set_mode: bool, mode: int) -> None:
-    """Streams on, GUIDED (refused until warm), armed -- the usual ArduPilot preamble."""
+    """Streams on, GUIDED (refused until the origin is set at the fix, half-way through
+    the warm-up), armed (refused until the estimator uses the GPS, at its end) -- the
+    usual ArduPilot preamble."""
     client.hello()
     hb = await client.wait_for("HEARTBEAT", lambda m: m.get_srcSystem() == 1)
     assert hb.autopilot == mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA
@@ -63,10 +65,16 @@ async def start_guided(client: MavClient, fleet: MockFleet, use_set_mode: bool, 
         return await client.command(mavlink.MAV_CMD_DO_SET_MODE, 1, mode)
 
     acks = await until_accepted(client, fleet, set_mode)
-    assert acks[0].result == mavlink.MAV_RESULT_FAILED, "refused before the warm-up ends"
+    assert acks[0].result == mavlink.MAV_RESULT_FAILED, "refused before the fix"
     await client.wait_for("HEARTBEAT", lambda m: m.custom_mode == mode)
-    ack = await client.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)
-    assert ack.result == mavlink.MAV_RESULT_ACCEPTED
+
+    async def arm() -> Any:
+        return await client.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)
+
+    acks = await until_accepted(client, fleet, arm)
+    assert acks[0].result == mavlink.MAV_RESULT_FAILED, "refused before the warm-up ends"
+    texts = [m.text for m in client.of("STATUSTEXT")]
+    assert "Arm: Need Position Estimate" in texts, texts
 
 
 async def test_copter_guided_takeoff_then_setpoint_circle(

@@ -100,17 +100,34 @@ def test_a_row_launches_from_the_top_layer_down_each_once_the_last_is_above() ->
     assert not seq.waiting
 
 
-def test_a_cleared_uav_counts_as_moving_until_its_autopilot_says_so() -> None:
+def test_a_cleared_uav_counts_as_moving_while_it_arms_and_until_its_autopilot_says_so() -> None:
     fleet = Fleet(2)
     seq = LaunchSequence(fleet, H, V)
-    assert seq.ask(2, 0.0) is None  # cleared, not yet armed
-    why = seq.ask(1, 0.1)
+    assert seq.ask(2, 0.0) is None  # cleared; its autopilot refuses ARM for 40 s
+    for t in (0.1, CLEARED_S + 0.2, YIELD_S + 0.1, 39.9):
+        why = seq.ask(1, t)
+        assert why is not None and "UAV 2 arming 10 m from its pad" in why, t
+    seq.armed(2, 40.0)  # armed: moving until its autopilot says so, or CLEARED_S
+    assert seq.ask(1, 40.0 + CLEARED_S - 0.1) is not None
+    fleet.launch(2, 1.0)  # its autopilot says armed, 1 m up
+    why = seq.ask(1, 40.0 + CLEARED_S + 0.1)
     assert why is not None and "UAV 2 climbing out" in why
-    # It never armed: no longer moving, it is a neighbour bound higher behind in its
-    # set-up, waited for until YIELD_S from UAV 1's first ask.
-    why = seq.ask(1, CLEARED_S + 0.2)
+    fleet.launch(2, V)
+    assert seq.ask(1, 40.0 + CLEARED_S + 0.2) is None
+
+
+def test_a_uav_that_never_armed_holds_its_neighbours_cleared_s_more_then_a_while_only() -> None:
+    fleet = Fleet(2)
+    seq = LaunchSequence(fleet, H, V)
+    assert seq.ask(2, 0.0) is None
+    seq.armed(2, 1.0)  # its set-up gave up arming (refused to the end): not moving
+    seq.armed(1, 1.0)  # (a UAV never cleared: nothing to end)
+    assert seq.ask(1, 1.0 + CLEARED_S - 0.1) is not None
+    # No longer moving, it is a neighbour bound higher behind in its set-up, waited
+    # for until YIELD_S from UAV 1's first ask.
+    why = seq.ask(1, 1.0 + CLEARED_S + 0.1)
     assert why is not None and "UAV 2 launches first" in why
-    assert seq.ask(1, YIELD_S + 0.1) is None
+    assert seq.ask(1, 1.0 + CLEARED_S + YIELD_S) is None
 
 
 def test_a_neighbour_behind_in_its_set_up_is_waited_for_a_while_only() -> None:
@@ -145,17 +162,26 @@ def test_clearances_must_be_positive_and_finite(h: float, v: float) -> None:
     speed=st.floats(0.0, 25.0),
     step=st.sampled_from([0.0, 5.0, 10.0]),
     asks=st.permutations(range(1, 8)),
+    refusals=st.lists(st.sampled_from([0.0, 0.0, 3.0, 15.0, 40.0]), min_size=7, max_size=7),
 )
 def test_climb_outs_sequenced_so_never_lose_separation(
-    n: int, spacing: float, climb: float, speed: float, step: float, asks: list[int]
+    n: int,
+    spacing: float,
+    climb: float,
+    speed: float,
+    step: float,
+    asks: list[int],
+    refusals: list[float],
 ) -> None:
     """A row of pads (any spacing), each UAV climbing out straight ahead (planes, at
     ``speed``) or straight up (copters, speed 0) at one rate to its layer, asking in
-    any order: no pair ever closer than the minima (30 m, 3 m) in both. With every
-    layer the same (``altitude_step_m`` 0), a copter hovering over its pad holds its
-    neighbours' pads (in flight it would fly off to its slot; here it stays)."""
+    any order, its autopilot refusing ARM for 0-40 s once cleared: no pair ever
+    closer than the minima (30 m, 3 m) in both. With every layer the same
+    (``altitude_step_m`` 0), a copter hovering over its pad holds its neighbours'
+    pads (in flight it would fly off to its slot; here it stays)."""
     layers = {s: 90.0 + step * s for s in range(1, n + 1)}
-    launched: dict[int, float] = {}  # id -> mission time it was cleared
+    cleared: dict[int, float] = {}  # id -> mission time it was cleared
+    launched: dict[int, float] = {}  # id -> mission time it armed
     t, dt = 0.0, 0.25
 
     def position(s: int, now: float) -> tuple[float, float, float]:
@@ -172,11 +198,14 @@ def test_climb_outs_sequenced_so_never_lose_separation(
 
     seq = LaunchSequence(fleet, H, V)
     order = [s for s in asks if s <= n]
-    horizon = 400.0 if step else 120.0  # (one layer for all: some wait for good)
+    horizon = 800.0 if step else 200.0  # (one layer for all: some wait for good)
     while t < horizon and len(launched) < n:
         for s in order:
-            if s not in launched and seq.ask(s, t) is None:
-                launched[s] = t
+            if s not in cleared and seq.ask(s, t) is None:
+                cleared[s] = t
+            if s in cleared and s not in launched and t >= cleared[s] + refusals[s - 1]:
+                launched[s] = t  # its autopilot armed at last
+                seq.armed(s, t)
         t += dt
         airborne = {s: position(s, t) for s in launched if t > launched[s]}
         assert not conflicts(airborne, 30.0, 3.0), (t, launched)
