@@ -202,7 +202,9 @@ def _add_mock_flight_options(
                         help="keep --speedup however far behind the host falls")  # fmt: skip
     parser.add_argument(
         "--uavs", type=int, metavar="N",
-        help=f"aircraft, 1..{MAX_MOCK_UAVS} (default: the paper's minimum)",
+        help=f"aircraft, 1..{MAX_MOCK_UAVS} (default: the paper's minimum for a parked or "
+        "straight-line convoy; on a road or track the road's count, the stationary "
+        "minimum + 1 with its route known, + 2 without)",
     )  # fmt: skip
     parser.add_argument(
         "--personality", choices=["px4", "ardupilot"], default="px4",
