@@ -7,6 +7,7 @@
 #   SECOND_AFTER=60 SITL_DIR=... checks/ardupilot_sitl.sh plane 600 5
 #   SET_SPEEDUP=60:2 SITL_DIR=... checks/ardupilot_sitl.sh copter 600 5
 #   ROAD=bends SITL_DIR=... checks/ardupilot_sitl.sh plane 700 5
+#   UAVS=4 KILL=60:20 SITL_DIR=... checks/ardupilot_sitl.sh copter 700 5
 #
 # With SECOND_AFTER (wall s), a second `convoy-mav run` is started then on the same
 # aircraft through another of their MAVLink ports (serial1, TCP 5762+10K): it must
@@ -17,6 +18,14 @@
 # s in, by PARAM_SET from another MAVLink client (serial2, TCP 5763+10K), as a user would
 # from MAVProxy: the service's mission clock must follow the new rate at once (the
 # report's mission_clock: rate_changes, speedup) and the flight go on covered.
+#
+# With UAVS=N (more than 3), N aircraft fly the scripted convoy: spares beyond the
+# paper's minimum.
+#
+# With KILL=AFTER_S:DOWN_S, UAV 1's SITL process is killed AFTER_S wall s in (in flight:
+# a power loss) and started again DOWN_S wall s later, on its pad with its eeprom: the
+# service must declare it lost, fly on with the others, and set it up, launch it and
+# rejoin it once it is back (the report's alarms and events say when).
 #
 # With ROAD=KIND (a generated road of src/convoy_mav/tracks/roads.py: bends, hairpins,
 # urban...), the convoy is two sitl-mock rovers driving that road (300 m north of home,
@@ -55,6 +64,14 @@ trap cleanup EXIT INT TERM
 lat=-35.363262 lon=149.165237 alt=584
 config=checks/sitl_$frame.toml
 uavs=3
+if [ -z "${ROAD:-}" ] && [ "${UAVS:-3}" -gt 3 ]; then  # more than the paper's minimum: spares
+  uavs=$UAVS config=$out/fleet.toml
+  { sed -n '/^\[convoy\]/q;p' "checks/sitl_$frame.toml"
+    for k in $(seq 4 "$uavs"); do
+      printf '[[uav]]\nconnection = "udpin:127.0.0.1:%d"\nsysid = %d\n\n' $((14560 + k - 1)) "$k"
+    done
+    sed -n '/^\[convoy\]/,$p' "checks/sitl_$frame.toml"; } >"$config"
+fi
 if [ -n "${ROAD:-}" ]; then
   config=$out/road.toml
   # The road as the mock's CSV track, and the config: the aircraft past the base
@@ -96,17 +113,32 @@ PY
     --ground-route csv --ground-csv "$out/road.csv" >"$out/mock.log" 2>&1 &
   pids+=($!)
 fi
-for k in $(seq 0 $((uavs - 1))); do
-  mkdir -p "$out/$k"
+start_instance() {  # start_instance K: SITL instance K (UAV K+1) on its pad; sets $pid
+  local k=$1 home
   home=$("$py" -c "
 from convoy_mav.geo import GeoPoint, LocalFrame
 g = LocalFrame(GeoPoint($lat, $lon, $alt)).to_geo(0.0, 40.0 * $k)
 print(f'{g.lat:.7f},{g.lon:.7f},$alt,90')")
   (cd "$out/$k" && exec "$exe" --model "$model" --speedup "$speedup" \
       --defaults "$SITL_DIR/$defaults" -I "$k" --sysid $((k + 1)) --home "$home" \
-      --serial0 "udpclient:127.0.0.1:$((14560 + k))" >sitl.log 2>&1) &
-  pids+=($!)
+      --serial0 "udpclient:127.0.0.1:$((14560 + k))" >>sitl.log 2>&1) &
+  pid=$!
+}
+for k in $(seq 0 $((uavs - 1))); do
+  mkdir -p "$out/$k"
+  start_instance "$k"
+  pids+=("$pid")
 done
+if [ -n "${KILL:-}" ]; then
+  (sleep "${KILL%%:*}"
+   kill -9 "${pids[0]}"
+   echo "$(date +%T) UAV 1's SITL killed" >"$out/kill.log"
+   sleep "${KILL#*:}"
+   start_instance 0
+   echo "$(date +%T) UAV 1's SITL started again (pid $pid)" >>"$out/kill.log"
+   wait "$pid") &
+  pids+=($!)
+fi
 echo "SITL: $uavs x $bin (speedup $speedup), logs in $out/K/sitl.log${ROAD:+; road $ROAD by sitl-mock}"
 if [ -n "${SECOND_AFTER:-}" ]; then
   sed -e 's/udpin:127.0.0.1:14560/tcp:127.0.0.1:5762/' \
@@ -151,6 +183,19 @@ if [ -n "${SET_SPEEDUP:-}" ]; then
   "$py" -c "
 import json, sys
 print('mission clock:', json.load(open(sys.argv[1]))['mission_clock'])
+" "$out/report.json"
+fi
+if [ -n "${KILL:-}" ]; then
+  cat "$out/kill.log"
+  "$py" -c "
+import json, sys
+report = json.load(open(sys.argv[1]))
+for a in report['alarms']:
+    if a['kind'] in ('uav_lost', 'gap'):
+        print(f\"alarm {a['kind']} at {a['t']:.1f} s ({'raised' if a['active'] else 'cleared'}): {a['message'][:90]}\")
+for e in report['events']:
+    if 'UAV 1 ' in e and any(w in e for w in ('lost', 'back', 'rebooted', 'armed', 'airborne', 'flying', 'joined', 'cleared')):
+        print(e[:110])
 " "$out/report.json"
 fi
 if [ -n "${SECOND_AFTER:-}" ]; then

@@ -273,12 +273,20 @@ class SimVehicle:
         self._streams.restart(now, enabled=self.firmware.streams_on_boot if on is None else on)
         self._update_warm(now)
 
-    def reboot(self, now: float) -> None:
+    def reboot(self, now: float, *, on_pad: bool = False) -> None:
         """Reboot: time_boot_ms from 0, disarmed, boot mode, warm-up and streams anew.
 
         The airframe stays where it is (a reboot in the air leaves a disarmed
         aircraft gliding down); parameters keep their values, as on real hardware.
+        ``on_pad``: it boots at rest on its home pad instead (a SITL process
+        started again, an aircraft relaunched with a fresh battery).
         """
+        old = self.flight.aircraft
+        if on_pad and old is not None:
+            n, e, d = self.world.to_ned(self.spec.home)
+            self.flight.aircraft = Aircraft(
+                old.params, AircraftState(n, e, d, 0.0, 0.0), ground_down=d
+            )
         self._boot(now)
         self.counters["reboot"] += 1
 

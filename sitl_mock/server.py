@@ -340,9 +340,9 @@ class VehicleLink(asyncio.DatagramProtocol):
         self.inbound.clear()
         self.outbound.clear()
 
-    def reboot(self, now: float) -> None:
+    def reboot(self, now: float, *, on_pad: bool = False) -> None:
         """Reboot the autopilot; sequence numbers restart as on real hardware."""
-        self.vehicle.reboot(now)
+        self.vehicle.reboot(now, on_pad=on_pad)
         self.outbox.frames.clear()
         self.encoder = self._new_encoder()
         self.alive = True
@@ -500,10 +500,12 @@ class MockFleet:
         self._links[sysid].kill()
         log.warning("sysid %d: killed at t=%.2f s", sysid, self.now)
 
-    def reboot(self, sysid: int) -> None:
-        """Reboot vehicle ``sysid`` now (``time_boot_ms`` restarts from 0)."""
-        self._links[sysid].reboot(self.now)
-        log.warning("sysid %d: rebooted at t=%.2f s", sysid, self.now)
+    def reboot(self, sysid: int, *, on_pad: bool = False) -> None:
+        """Reboot vehicle ``sysid`` now (``time_boot_ms`` restarts from 0); ``on_pad``:
+        at rest on its home pad (relaunched), not where it was."""
+        self._links[sysid].reboot(self.now, on_pad=on_pad)
+        where = " on its pad" if on_pad else ""
+        log.warning("sysid %d: rebooted%s at t=%.2f s", sysid, where, self.now)
 
     async def pause(
         self, wall_seconds: float, *, first: Sequence[int] = (), stagger: float = 0.1

@@ -53,6 +53,7 @@ from convoy_mav.mission import (
     PhaseChanged,
     Replanned,
     ReplanThresholds,
+    Returning,
 )
 from convoy_mav.mission.choose import choose_planner
 from convoy_mav.mission.lag import ReplanLag
@@ -1437,7 +1438,7 @@ class ConvoyService:
         if est is not None:
             events += mission.on_convoy(est)
         for sysid in lost:
-            if sysid in mission.live_uavs:
+            if sysid in mission.live_uavs or sysid in mission.returning_uavs:
                 events += mission.on_lost(sysid, t)
         for sysid in returned:
             events += mission.on_returned(sysid, t)
@@ -1544,6 +1545,11 @@ class ConvoyService:
             )
         elif isinstance(ev, PhaseChanged):
             self._note(f"uav{ev.uav}: {ev.phase}")
+        elif isinstance(ev, Returning):
+            self._note(
+                f"uav{ev.uav}: flying back to the fleet beside slot {ev.slot + 1}, there at "
+                f"t={ev.arrival:.0f} s; the others keep their plan until then"
+            )
         elif isinstance(ev, MissionAlarm):
             self._alarm(Alarm(ev.t, "mission", True, ev.message))
 

@@ -54,6 +54,18 @@ async def _clock_errors(
         errors.append(service.clock.now() - fleet.clock.now())
 
 
+async def _kill_then_reboot(
+    fleet: MockFleet, sysid: int, down_s: float, marks: dict[str, float], *, on_pad: bool = False
+) -> None:
+    """Kill aircraft ``sysid`` now and reboot it ``down_s`` sim s later (``on_pad``: at
+    rest on its home pad, relaunched), marking ``killed`` and ``restarted``."""
+    fleet.kill(sysid)
+    marks["killed"] = fleet.now
+    await fleet.wait_until(fleet.now + down_s)
+    fleet.reboot(sysid, on_pad=on_pad)
+    marks["restarted"] = fleet.now
+
+
 def _median_abs(errors: list[float]) -> float:
     """The median size of the errors (inf with none: nothing was compared)."""
     settled = sorted(abs(e) for e in errors)
@@ -367,11 +379,7 @@ async def test_a_killed_and_restarted_uav_rejoins_and_the_rest_rephase_back() ->
     async def script(fleet: MockFleet, service: ConvoyService) -> None:
         fleets.append(fleet)
         await _protecting(fleet, service)
-        fleet.kill(2)
-        marks["killed"] = fleet.now
-        await fleet.wait_until(fleet.now + 30.0)
-        fleet.reboot(2)  # power back: it boots where it glided to, disarmed
-        marks["restarted"] = fleet.now
+        await _kill_then_reboot(fleet, 2, 30.0, marks)  # boots where it glided to, disarmed
         while True:
             await asyncio.sleep(0.02)
             if fleet.now < DURATION - 10.0 and all(
@@ -396,6 +404,47 @@ async def test_a_killed_and_restarted_uav_rejoins_and_the_rest_rephase_back() ->
         f"on {100 * after.fraction:.2f} %"
     )
     assert after.fraction >= 0.99
+
+
+async def test_a_uav_relaunched_far_behind_flies_to_the_fleet_before_the_others_rephase() -> None:
+    """A spare (five planes where four cover a convoy at 8 m/s) is lost and relaunched
+    from its pad, kilometres behind the convoy. The others keep the plan for four, which
+    covers fully, while it flies to them on a slot of it; they re-phase for five only
+    once it is there, and it protects again. (Re-planned for five at once, they had
+    left its slot empty for the four minutes it took: 83.6 % from the relaunch on.)"""
+    scenario = SCENARIOS["moving"]
+    count = make_plan(scenario.plan_request()).min_uavs + 1
+    marks: dict[str, float] = {}
+    fleets: list[MockFleet] = []
+
+    async def script(fleet: MockFleet, service: ConvoyService) -> None:
+        fleets.append(fleet)
+        await _protecting(fleet, service)
+        await _kill_then_reboot(fleet, 1, 100.0, marks, on_pad=True)
+        while True:
+            await asyncio.sleep(0.02)
+            rephased = [r["t"] for r in service.replans if r["reason"] == "uav_returned"]
+            if rephased and service.why_not_counted.get(1, "?") is None:
+                marks.setdefault("back", fleet.now)  # (on its own slot, not beside another's)
+
+    result = await run_demo(
+        scenario, duration=700.0, speedup=SPEEDUP, uavs=count, personality="px4", during=script
+    )
+    report = result.report.to_dict()
+    flying_back = [e for e in report["events"] if "uav1: flying back to the fleet" in e]
+    assert len(flying_back) == 1, report["events"]
+    there = float(re.search(r"there at t=(\d+) s", flying_back[0]).group(1))  # type: ignore[union-attr]
+    returned = [r for r in report["replans"] if r["reason"] == "uav_returned"]
+    assert len(returned) == 1 and returned[0]["t"] >= there - 1.0, (there, returned)
+    assert returned[0]["uav_count"] == count
+    assert "back" in marks, "UAV 1 never counted again"
+    while_away = score_fleet(fleets[0], result.report.config, marks["restarted"], there)
+    print(
+        f"\nrelaunched at {marks['restarted']:.0f} s, at the fleet at {there:.0f} s, "
+        f"counting again at {marks['back']:.0f} s; truth while it flew there "
+        f"{100 * while_away.fraction:.2f} % (longest gap {while_away.longest_gap_s:.1f} s)"
+    )
+    assert while_away.fraction >= 0.99
 
 
 async def test_duplicated_and_reordered_datagrams_change_nothing_flown() -> None:

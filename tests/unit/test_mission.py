@@ -11,9 +11,11 @@ from convoy_mav.mission import (
     Mission,
     MissionAlarm,
     MissionEvent,
+    MissionView,
     PhaseChanged,
     Replanned,
     ReplanThresholds,
+    Returning,
 )
 from convoy_mav.planning import PlanRequest
 from convoy_mav.schedule import setpoint_at
@@ -39,10 +41,10 @@ def _feed(
     return events
 
 
-def _joined_mission() -> tuple[Mission, list[MissionEvent]]:
-    mission = Mission(REQUEST, IDS, down=_down)
+def _joined_mission(ids: tuple[int, ...] = IDS) -> tuple[Mission, list[MissionEvent]]:
+    mission = Mission(REQUEST, ids, down=_down)
     events = _feed(mission, 0.0, 3.0)
-    for k, uav in enumerate(IDS):
+    for k, uav in enumerate(ids):
         events += mission.join(uav, -400.0 + 50 * k, 300.0, 0.5 * k, 3.0)
     return mission, events
 
@@ -178,24 +180,112 @@ def test_losing_a_uav_rephases_the_rest() -> None:
     assert mission.plan is None and not mission.live_uavs
 
 
-def test_a_returned_uav_is_planned_back_in_and_rejoins() -> None:
+def test_a_returned_uav_near_the_fleet_is_planned_back_in_at_once_and_rejoins() -> None:
     mission, _ = _joined_mission()
     _feed(mission, 3.0, 200.0)
     mission.on_lost(13, 200.0)
     assert mission.on_returned(11, 250.0) == []  # not lost: nothing to do
-    events = mission.on_returned(13, 250.0)
+    assert not [e for e in mission.on_returned(13, 250.0) if isinstance(e, Replanned)]
+    # flying again, it waits for its join, which decides how it is taken back
+    assert set(mission.returning_uavs) == {13} and mission.lost_uavs == ()
+    assert mission.phase(13, 250.0) == "pending" and mission.setpoint(13, 250.0) is None
+    events = mission.join(13, 600.0, -100.0, 0.3, 250.0)  # beside the convoy
     replans = [e for e in events if isinstance(e, Replanned)]
     assert [(r.reason, r.uav_count) for r in replans] == [("uav_returned", 5)]
+    assert not [e for e in events if isinstance(e, Returning)]
     assert mission.predicted_coverage == pytest.approx(1.0)
-    assert mission.live_uavs == (11, 12, 14, 15, 13) and mission.lost_uavs == ()
-    # the others re-phase at once; the returned UAV waits for its join, on the free slot
-    assert mission.phase(13, 250.0) == "pending" and mission.awaiting_join == (13,)
-    taken = sorted(mission.assignment(u) for u in (11, 12, 14, 15))  # type: ignore[type-var]
-    mission.join(13, 900.0, -100.0, 0.3, 250.0)
-    assert sorted([*taken, mission.assignment(13)]) == [0, 1, 2, 3, 4]  # type: ignore[type-var]
+    assert mission.live_uavs == (11, 12, 14, 15, 13) and not mission.returning_uavs
+    # the others re-phase at once; the returned UAV joins the free slot
+    assert sorted(mission.assignment(u) for u in IDS) == [0, 1, 2, 3, 4]  # type: ignore[type-var]
     assert mission.phase(13, 250.0) == "join"
     arrival = mission.arrival(13)
-    assert arrival is not None and mission.phase(13, arrival + 1.0) == "protect"
+    assert arrival is not None and arrival - 250.0 <= mission.shadow_after_s
+    assert mission.phase(13, arrival + 1.0) == "protect"
+
+
+def test_a_returned_uav_far_behind_flies_to_the_fleet_before_the_others_rephase() -> None:
+    """Relaunched from its pad 6 km behind a parked convoy, the returned UAV would take
+    minutes to join: re-phased for it at once, the others would leave its slot empty
+    all that while. The five others cover the convoy fully (the paper's minimum), so
+    it flies to the fleet on a slot of the plan in force; the others keep their plan,
+    and re-phase for six only once it is there."""
+    ids = (11, 12, 13, 14, 15, 16)
+    mission, _ = _joined_mission(ids)
+    _feed(mission, 3.0, 200.0)
+    mission.on_lost(13, 200.0)
+    five = mission.predicted_coverage
+    assert five == pytest.approx(1.0)
+    others = (11, 12, 14, 15, 16)
+    before = {u: mission.setpoint(u, 300.0) for u in others}
+    mission.on_returned(13, 250.0)
+    events = mission.join(13, 500.0 - 6000.0, -200.0, 0.0, 250.0)
+    returning = [e for e in events if isinstance(e, Returning)]
+    assert len(returning) == 1 and not [e for e in events if isinstance(e, Replanned)]
+    there = returning[0].arrival
+    assert there - 250.0 > mission.shadow_after_s
+    assert set(mission.returning_uavs) == {13} and mission.live_uavs == others
+    assert mission.phase(13, 250.0) == "join" and mission.arrival(13) == there
+    assert mission.predicted_coverage == five  # the plan for five stays in force
+    assert mission.plan is not None and len(mission.plan.vehicles) == 5
+    assert {u: mission.setpoint(u, 300.0) for u in others} == before
+    view = MissionView.of(mission, _down)  # what the service streams from
+    assert view.phase(13, 250.0) == "join" and view.setpoint(13, 250.0) is not None
+    assert 13 not in view.lost
+    # on its way it flies its own layer, on the slot it shares
+    sp = mission.setpoint(13, there)
+    shared = next(u for u in others if mission.assignment(u) == returning[0].slot)
+    mate = mission.setpoint(shared, there)
+    assert sp is not None and mate is not None and sp.down == _down(13)
+    assert math.hypot(sp.north - mate.north, sp.east - mate.east) < 1.0
+    # there: taken back, and every UAV re-phased for six from where it flies
+    events = mission.tick(there + 0.05)
+    replans = [e for e in events if isinstance(e, Replanned)]
+    assert [(r.reason, r.uav_count) for r in replans] == [("uav_returned", 6)]
+    assert list(mission.live_uavs) == [*others, 13] and not mission.returning_uavs
+    assert mission.predicted_coverage == pytest.approx(1.0)
+    assert sorted(mission.assignment(u) for u in ids) == [0, 1, 2, 3, 4, 5]  # type: ignore[type-var]
+    after = mission.setpoint(13, there + 0.05)
+    assert after is not None and math.hypot(after.north - sp.north, after.east - sp.east) < 5.0
+    arrival = mission.arrival(13)
+    assert arrival is not None and arrival - there < mission.shadow_after_s
+
+
+def test_a_returned_uav_far_behind_is_planned_back_in_at_once_when_it_is_needed() -> None:
+    """Four of five do not cover the convoy fully: the plan has holes with the returned
+    UAV's slot empty or without it, and the fleet is re-planned for five at once."""
+    mission, _ = _joined_mission()
+    _feed(mission, 3.0, 200.0)
+    mission.on_lost(13, 200.0)
+    assert mission.predicted_coverage is not None and mission.predicted_coverage < 1.0
+    mission.on_returned(13, 250.0)
+    events = mission.join(13, 500.0 - 6000.0, -200.0, 0.0, 250.0)
+    replans = [e for e in events if isinstance(e, Replanned)]
+    assert [(r.reason, r.uav_count) for r in replans] == [("uav_returned", 5)]
+    assert not [e for e in events if isinstance(e, Returning)]
+    arrival = mission.arrival(13)
+    assert arrival is not None and arrival - 250.0 > mission.shadow_after_s
+
+
+def test_a_returning_uav_lost_again_or_alone_is_handled() -> None:
+    mission, _ = _joined_mission((11, 12, 13, 14, 15, 16))
+    _feed(mission, 3.0, 200.0)
+    mission.on_lost(13, 200.0)
+    mission.on_returned(13, 250.0)
+    mission.join(13, -5500.0, -200.0, 0.0, 250.0)
+    assert set(mission.returning_uavs) == {13}
+    assert mission.on_lost(13, 260.0) == []  # lost again on its way
+    assert not mission.returning_uavs and mission.lost_uavs == (13,)
+    assert mission.phase(13, 260.0) == "lost" and mission.setpoint(13, 260.0) is None
+    mission.on_returned(13, 270.0)
+    mission.join(13, -5500.0, -200.0, 0.0, 270.0)
+    # a re-plan on the way (the convoy drives off) sends it to the new plan's fleet
+    _feed(mission, 270.0, 300.0, vn=5.0)
+    assert set(mission.returning_uavs) == {13} and mission.phase(13, 300.0) == "join"
+    # the whole fleet lost: the returning UAV is the fleet, planned for at once
+    for uav in (11, 12, 14, 15, 16):
+        mission.on_lost(uav, 301.0)
+    assert mission.live_uavs == (13,) and not mission.returning_uavs
+    assert mission.plan is not None and mission.phase(13, 301.0) == "join"
 
 
 def test_lost_before_the_plan_shrinks_the_first_plan() -> None:

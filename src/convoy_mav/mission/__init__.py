@@ -3,7 +3,8 @@
 - ``join.py``: timed constant-speed Dubins joins onto a moving plan slot.
 - ``replan.py``: when the convoy's motion departs from the plan's (with hysteresis).
 - ``mission.py``: the ``Mission`` state machine the service drives.
-- ``events.py``: what it reports (``Replanned``, ``PhaseChanged``, ``MissionAlarm``).
+- ``events.py``: what it reports (``Replanned``, ``PhaseChanged``, ``Returning``,
+  ``MissionAlarm``).
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from convoy_mav.mission.events import (
     Phase,
     PhaseChanged,
     Replanned,
+    Returning,
 )
 from convoy_mav.mission.join import Join, earliest_arrival, plan_join, rotated_cycle, slot_pose
 from convoy_mav.mission.mission import Mission
@@ -40,6 +42,7 @@ __all__ = [
     "ReplanDecision",
     "ReplanThresholds",
     "Replanned",
+    "Returning",
     "SlotView",
     "earliest_arrival",
     "plan_join",

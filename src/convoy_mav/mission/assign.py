@@ -63,6 +63,11 @@ class Roster:
         return tuple(self._lost)
 
     @property
+    def returning_uavs(self) -> tuple[int, ...]:
+        """Lost UAVs flying back to the fleet, not yet in the plan (none by default)."""
+        return ()
+
+    @property
     def protect_start(self) -> float | None:
         """First mission time at which every live UAV was protecting."""
         return self._protect_start

@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
-__all__ = ["MissionAlarm", "MissionEvent", "Phase", "PhaseChanged", "Replanned"]
+__all__ = ["MissionAlarm", "MissionEvent", "Phase", "PhaseChanged", "Replanned", "Returning"]
 
 #: Where one UAV is in the mission.  ``pending``: live but not yet given a
 #: join (no plan yet, or ``Mission.join`` not called); ``join``: flying its
@@ -54,6 +54,18 @@ class PhaseChanged:
 
 
 @dataclass(frozen=True, slots=True)
+class Returning:
+    """A UAV back from a loss, far from the fleet, flies to it on slot ``slot`` of the
+    plan in force (on its own altitude layer, beside the UAV that flies it) until
+    mission time ``arrival``; the fleet re-phases for it only then."""
+
+    uav: int
+    t: float
+    slot: int
+    arrival: float
+
+
+@dataclass(frozen=True, slots=True)
 class MissionAlarm:
     """Something the operator must know; the mission carries on with its last plan."""
 
@@ -61,4 +73,4 @@ class MissionAlarm:
     message: str
 
 
-MissionEvent = Replanned | PhaseChanged | MissionAlarm
+MissionEvent = Replanned | PhaseChanged | Returning | MissionAlarm

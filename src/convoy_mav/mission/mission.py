@@ -14,6 +14,16 @@ Design rules:
   at that instant, so every setpoint stream stays continuous.  Slots are
   assigned to minimise the last arrival (then the sum), by exhaustive search
   for small fleets and greedily beyond.
+- A UAV back from a loss (``on_returned``) whose join would take longer than
+  ``shadow_after_s`` (it was relaunched from its pad, far behind the convoy),
+  while the others cover the convoy fully without it (a spare), is not planned
+  for at once: re-planned for it, the others would leave its slot empty all the
+  while it flies there. It first joins a slot of the plan in force
+  (``Returning``), on its own altitude layer beside the UAV that flies it; once
+  there, it is taken back and the fleet re-phases round it from there. (Without
+  a spare the fleet's plan has holes either way, and is re-planned at once: on
+  the mock, a copter relaunched 1.2 km behind, 80.3 % against 78.1 %; with a
+  spare, a plane 3.7 km behind, 93.0 % against 83.6 %, from the relaunch on.)
 - Pure and synchronous: every method takes the mission time; events are
   returned, never emitted.  Costs: a join is about 0.3-2 ms; a replan of N
   UAVs computes N x N joins (about 10-50 ms for N = 5).
@@ -33,6 +43,7 @@ from convoy_mav.mission.events import (
     Phase,
     PhaseChanged,
     Replanned,
+    Returning,
     phase_at,
 )
 from convoy_mav.mission.join import Join, earliest_arrival, plan_join
@@ -65,6 +76,8 @@ class Mission(Roster):
         down: Altitude setpoint (metres down, negative above the origin) of
             each UAV, by id.
         thresholds: Replan rules; ``position_tol`` None means ``r / 4``.
+        shadow_after_s: A returned UAV whose join would take longer than this
+            (mission s) flies to the fleet on a slot of the plan in force first.
 
     Driving it (the service's loop):
 
@@ -89,8 +102,12 @@ class Mission(Roster):
         *,
         down: Callable[[int], float],
         thresholds: ReplanThresholds | None = None,
+        shadow_after_s: float = 60.0,
     ) -> None:
         super().__init__(uav_ids)
+        if not shadow_after_s >= 0.0:
+            raise ValueError(f"shadow_after_s must be >= 0, got {shadow_after_s!r}")
+        self.shadow_after_s = shadow_after_s
         self.request = replace(request, convoy_speed=0.0, convoy_heading=0.0, uavs=None)
         self.thresholds = thresholds or ReplanThresholds()
         tol = self.thresholds.position_tol
@@ -102,6 +119,8 @@ class Mission(Roster):
         self._motion: ConvoyMotion | None = None
         self._assigned: dict[int, _Assignment] = {}
         self._announced: set[int] = set()
+        self._returning: set[int] = set()  # lost, flying again, not yet taken back
+        self._shadows: dict[int, _Assignment] = {}  # returning: the slot flown to the fleet
         self.replans = 0
 
     # ------------------------------------------------------------------ state
@@ -133,6 +152,16 @@ class Mission(Roster):
         return None if self._plan is None else self._plan.predicted_coverage
 
     @property
+    def lost_uavs(self) -> tuple[int, ...]:
+        """UAVs taken out by ``on_lost`` and not flying back."""
+        return tuple(u for u in self._lost if u not in self._returning)
+
+    @property
+    def returning_uavs(self) -> tuple[int, ...]:
+        """UAVs back from a loss and flying to the fleet, not yet in the plan."""
+        return tuple(u for u in self._lost if u in self._returning)
+
+    @property
     def awaiting_join(self) -> tuple[int, ...]:
         """Live UAVs with no join yet (call ``join`` for them once a plan exists)."""
         return tuple(u for u in self._live if u not in self._assigned)
@@ -147,28 +176,36 @@ class Mission(Roster):
             return None
         return max(self._assigned[u].arrival(self.plan_t0) for u in self._live)
 
+    def _of(self, uav: int) -> _Assignment | None:
+        """The UAV's slot and join: its own, or the one it flies back to the fleet on."""
+        return self._assigned.get(uav) or self._shadows.get(uav)
+
     def assignment(self, uav: int) -> int | None:
         """Plan vehicle index the UAV flies, None if it has none."""
-        a = self._assigned.get(uav)
+        a = self._of(uav)
         return None if a is None else a.index
 
     def arrival(self, uav: int) -> float | None:
-        """Mission time the UAV reaches (reached) its slot, None if it has no join."""
-        a = self._assigned.get(uav)
+        """Mission time the UAV reaches (reached) its slot, None if it has no join.
+        For a UAV flying back to the fleet, when it reaches the slot it flies there on
+        (it is then taken back and joins anew)."""
+        a = self._of(uav)
         return None if a is None else a.arrival(self.plan_t0)
 
     def join_info(self, uav: int) -> Join | None:
         """The UAV's current join (planner frame and time), for reports and plots."""
-        a = self._assigned.get(uav)
+        a = self._of(uav)
         return None if a is None else a.join
 
     def trajectory(self, uav: int) -> Trajectory | None:
         """The UAV's trajectory (join lead-in + slot cycle), planner frame and time."""
-        a = self._assigned.get(uav)
+        a = self._of(uav)
         return None if a is None else a.join.trajectory
 
     def phase(self, uav: int, t: float) -> Phase:
-        """Where ``uav`` is at mission time ``t``."""
+        """Where ``uav`` is at mission time ``t`` (flying back to the fleet: ``join``)."""
+        if uav in self._returning:
+            return "pending" if uav not in self._shadows else "join"
         return phase_at(uav in self._lost, self.arrival(uav), t)
 
     def convoy_position(self, t: float) -> tuple[float, float] | None:
@@ -177,7 +214,7 @@ class Mission(Roster):
 
     def setpoint(self, uav: int, t: float) -> Setpoint | None:
         """What ``uav`` should fly at mission time ``t``; None if pending or lost."""
-        a = self._assigned.get(uav)
+        a = self._of(uav)
         if a is None:
             return None
         return setpoint_on(
@@ -197,6 +234,12 @@ class Mission(Roster):
         (it may be slightly before ``t``).  Called by every other input too.
         """
         events: list[MissionEvent] = []
+        back = [u for u, a in self._shadows.items() if a.arrival(self.plan_t0) <= t]
+        if back and self._motion is not None:  # at the fleet: take them back, re-phase
+            for uav in back:
+                self._returning.discard(uav)
+                self._take_back(uav)
+            events += self._replan(self._motion.advanced(t), "uav_returned", t)
         due = [
             (a.arrival(self.plan_t0), u)
             for u, a in self._assigned.items()
@@ -257,13 +300,21 @@ class Mission(Roster):
             ValueError: If a UAV is not live, or a pose is not finite.
         """
         for uav, pose in poses.items():
-            if uav not in self._live:
+            if uav not in self._live and uav not in self._returning:
                 raise ValueError(f"UAV {uav} is not live in this mission")
             if len(pose) != 3 or not all(map(math.isfinite, (*pose, t))):
                 raise ValueError(f"UAV {uav}: join pose must be 3 finite numbers, got {pose}")
         plan = self._plan
         if plan is None:
             raise PlanningError("no plan yet: the convoy has not been located")
+        events: list[MissionEvent] = []
+        returning = {u: p for u, p in poses.items() if u in self._returning}
+        if returning:
+            events += self._welcome(returning, t)
+            poses = {u: p for u, p in poses.items() if u in self._live}
+            plan = self._plan
+            if not poses or plan is None:
+                return events + self.tick(t)
         taken = {a.index for u, a in self._assigned.items() if u not in poses}
         free = [i for i in range(len(plan.vehicles)) if i not in taken]
         origin = self.plan_origin
@@ -272,7 +323,7 @@ class Mission(Roster):
         tau0 = t - self.plan_t0
         for uav, index in zip(order, self._best_slots(order, starts, tau0, free), strict=True):
             self._assign(uav, index, starts[uav], tau0)
-        return [*(PhaseChanged(u, "join", t) for u in order), *self.tick(t)]
+        return [*events, *(PhaseChanged(u, "join", t) for u in order), *self.tick(t)]
 
     def on_lost(self, uav: int, t: float) -> list[MissionEvent]:
         """Remove ``uav``; re-plan for the rest and re-join them to the new even spacing.
@@ -281,6 +332,10 @@ class Mission(Roster):
         ``t``); its ``Replanned.predicted_coverage`` is what the remaining
         UAVs can still give.
         """
+        if uav in self._returning:  # lost again on its way back
+            self._returning.discard(uav)
+            self._shadows.pop(uav, None)
+            return []
         if not self._take_out(uav):
             return []
         self._assigned.pop(uav, None)
@@ -290,16 +345,58 @@ class Mission(Roster):
         return self.tick(t) + self._replan(self._motion.advanced(t), "uav_lost", t)
 
     def on_returned(self, uav: int, t: float) -> list[MissionEvent]:
-        """Take a lost ``uav`` back: re-plan for one more and leave it a free slot.
+        """A lost ``uav`` flies again: it is pending until joined (``join``/``join_many``
+        from its actual pose), which decides how it is taken back.
 
-        The others re-phase to the new even spacing at once; the returned UAV is
-        pending until it is joined (``join``/``join_many`` from its actual pose).
+        Near enough (its join within ``shadow_after_s``), or needed at once (the
+        others do not cover the convoy fully), the fleet is re-planned for one more
+        at once, the others re-phasing to the new even spacing while it joins its
+        free slot. Farther, with the others covering fully, it flies to the fleet on
+        a slot of the plan in force first (``Returning``), and is taken back once
+        there. With no UAV left in the mission, or no plan yet, it is taken back at
+        once.
         """
-        if not self._take_back(uav):
+        if uav not in self._lost or uav in self._returning:
             return []
-        if self._motion is None:
-            return []
-        return self.tick(t) + self._replan(self._motion.advanced(t), "uav_returned", t)
+        if not self._live or self._motion is None or self._plan is None:
+            self._take_back(uav)
+            if self._motion is None:
+                return []
+            return self.tick(t) + self._replan(self._motion.advanced(t), "uav_returned", t)
+        self._returning.add(uav)
+        return self.tick(t)
+
+    def _welcome(
+        self, poses: Mapping[int, tuple[float, float, float]], t: float
+    ) -> list[MissionEvent]:
+        """Join returning UAVs: taken back at once if their join onto the plan in
+        force is short or the plan does not cover fully, else sent to the fleet on its
+        nearest slot (``Returning``)."""
+        plan = self._plan
+        assert plan is not None
+        spare = plan.predicted_coverage >= 1.0 - 1e-9
+        origin = self.plan_origin
+        tau0 = t - self.plan_t0
+        near: list[int] = []
+        events: list[MissionEvent] = []
+        for uav, (n, e, y) in poses.items():
+            start = mission_to_planner(n, e, y, origin)
+            costs = {i: self._cost(start, i, tau0) for i in range(len(plan.vehicles))}
+            index = min(costs, key=costs.__getitem__)
+            if not spare or costs[index] - tau0 <= self.shadow_after_s:
+                near.append(uav)
+                continue
+            slot = plan.vehicles[index].trajectory
+            r = self.request
+            join = plan_join(start, slot, tau0, radius=r.turn_radius, speed=r.uav_speed)
+            self._shadows[uav] = _Assignment(index, join)
+            events.append(Returning(uav, t, index, join.arrival + self.plan_t0))
+        if near and self._motion is not None:
+            for uav in near:
+                self._returning.discard(uav)
+                self._take_back(uav)
+            events += self._replan(self._motion.advanced(t), "uav_returned", t)
+        return events
 
     # ------------------------------------------------------------- internals
 
@@ -318,6 +415,10 @@ class Mission(Roster):
         self._announced.discard(uav)
 
     def _replan(self, motion: ConvoyMotion, reason: str, t: float) -> list[MissionEvent]:
+        if not self._live:  # nobody left to fly to: the returning are the fleet now
+            for uav in sorted(self._returning):
+                self._take_back(uav)
+            self._returning.clear()
         count = len(self._live)
         self.detector.set_reference(motion)
         if count == 0:
@@ -334,22 +435,31 @@ class Mission(Roster):
             return [MissionAlarm(t, f"replan ({reason}) failed, keeping the last plan: {exc}")]
         # Where every joined UAV is planned to be now: the start of its new join.
         poses = {}
-        for uav in self._live:
+        for uav in [*self._live, *self._shadows]:
             sp = self.setpoint(uav, t)
             if sp is not None:
                 poses[uav] = (sp.north, sp.east, sp.yaw)
         self._plan, self._motion = plan, motion
         self._assigned.clear()
         self._announced.clear()
+        self._shadows.clear()
         self.replans += 1
         tau0 = t - motion.t0
         starts = {
             u: mission_to_planner(n, e, y, self.plan_origin) for u, (n, e, y) in poses.items()
         }
-        order = list(starts)
+        order = [u for u in starts if u in self._live]
         slots = range(len(plan.vehicles))
         for uav, index in zip(order, self._best_slots(order, starts, tau0, slots), strict=True):
             self._assign(uav, index, starts[uav], tau0)
+        r = self.request
+        for uav in self._returning & starts.keys():  # on their way: to the new plan's fleet
+            index = min(slots, key=lambda i: self._cost(starts[uav], i, tau0))
+            join = plan_join(
+                starts[uav], plan.vehicles[index].trajectory, tau0,
+                radius=r.turn_radius, speed=r.uav_speed,
+            )  # fmt: skip
+            self._shadows[uav] = _Assignment(index, join)
         events: list[MissionEvent] = [
             Replanned(t, reason, plan.predicted_coverage, count, plan.min_uavs, plan.case)
         ]

@@ -35,6 +35,8 @@ class MissionLike(Protocol):
     @property
     def lost_uavs(self) -> tuple[int, ...]: ...
     @property
+    def returning_uavs(self) -> tuple[int, ...]: ...
+    @property
     def plan_origin(self) -> tuple[float, float]: ...
     @property
     def plan_t0(self) -> float: ...
@@ -73,7 +75,7 @@ class MissionView:
     def of(cls, mission: MissionLike, down: Callable[[int], float]) -> MissionView:
         """Snapshot a ``Mission`` (call from the thread that owns it)."""
         slots = {}
-        for uav in mission.live_uavs:
+        for uav in (*mission.live_uavs, *mission.returning_uavs):
             traj = mission.trajectory(uav)
             arrival = mission.arrival(uav)
             if traj is not None and arrival is not None:
