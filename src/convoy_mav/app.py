@@ -1546,9 +1546,10 @@ class ConvoyService:
         elif isinstance(ev, PhaseChanged):
             self._note(f"uav{ev.uav}: {ev.phase}")
         elif isinstance(ev, Returning):
+            there = f"t={ev.arrival:.0f} s" if math.isfinite(ev.arrival) else "its first meeting"
             self._note(
                 f"uav{ev.uav}: flying back to the fleet beside slot {ev.slot + 1}, there at "
-                f"t={ev.arrival:.0f} s; the others keep their plan until then"
+                f"{there}; the others keep their plan until then"
             )
         elif isinstance(ev, MissionAlarm):
             self._alarm(Alarm(ev.t, "mission", True, ev.message))

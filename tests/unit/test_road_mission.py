@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 from convoy_mav.convoy import ConvoyTracker
 from convoy_mav.errors import PlanningError
 from convoy_mav.mission.choose import choose_planner, road_fleet
-from convoy_mav.mission.events import PhaseChanged, Replanned
+from convoy_mav.mission.events import PhaseChanged, Replanned, Returning
 from convoy_mav.mission.forecast import Watch
 from convoy_mav.mission.road import (
     _JOIN_LAGS_S,
@@ -25,6 +25,7 @@ from convoy_mav.mission.road import (
     RoadSettings,
 )
 from convoy_mav.mission.simulate import RoadRun, fly_road
+from convoy_mav.mission.view import MissionView
 from convoy_mav.planning import PlanRequest
 from convoy_mav.planning.dubins import Pose, Segment, Turn, wrap_angle
 from convoy_mav.planning.meets import pattern_pose
@@ -550,13 +551,58 @@ def test_joins_lost_and_returned_uavs() -> None:
     assert sum(kept) >= 3
     events = mission.on_returned(3, 210.0)
     assert mission.phase(3, 210.0) == "pending"
-    events = mission.join(3, 0.0, 1500.0, 0.0, 210.0)
+    events = mission.join(3, 1700.0, 300.0, 0.0, 210.0)  # beside the convoy: at once
     assert PhaseChanged(3, "join", 210.0) in events
+    assert not mission.returning_uavs and sorted(mission._slots.values()) == [0, 1, 2, 3, 4, 5]
     assert mission.setpoint(3, 211.0) is not None
     with pytest.raises(ValueError, match="not live"):
         mission.join(99, 0.0, 0.0, 0.0, 210.0)
     with pytest.raises(ValueError, match="finite"):
         mission.join(3, float("nan"), 0.0, 0.0, 210.0)
+
+
+def test_a_uav_relaunched_far_behind_flies_to_the_fleet_before_the_others_respread() -> None:
+    """Lost, and relaunched 2.5 km behind the convoy: the five others (as many as a stop
+    needs, bar one) keep their spread while it flies to them beside a slot, on its own
+    layer and out of their reckoning; at its first meeting there it is taken back and
+    the fleet re-spread for six."""
+    mission, tracker, now = _joined({u: (-200.0, 50.0 * u, 0.0) for u in range(1, 7)})
+    while now < 200.0:
+        _feed(mission, tracker, now)
+        now += 1.0
+    assert mission.protect_start is not None
+    mission.on_lost(3, now)
+    five = dict(mission._slots)
+    assert sorted(five.values()) == [0, 1, 2, 3, 4]
+    mission.on_returned(3, now)
+    assert mission.phase(3, now) == "pending" and not mission.lost_uavs
+    events = mission.join(3, 8.0 * now - 2500.0, 0.0, 0.0, now)
+    returning = [e for e in events if isinstance(e, Returning)]
+    assert len(returning) == 1 and returning[0].slot in five.values()
+    assert not [e for e in events if isinstance(e, Replanned)]
+    assert set(mission.returning_uavs) == {3} and 3 not in mission.live_uavs
+    assert mission.phase(3, now) == "join" and mission.setpoint(3, now + 1.0) is not None
+    view = MissionView.of(mission, lambda u: -100.0 - 10.0 * u)
+    assert 3 not in view.lost and view.setpoint(3, now + 1.0) is not None
+    assert {u: sl for u, sl in mission._slots.items() if u != 3} == five  # kept
+    # Out of the others' reckoning: what they see of the convoy is theirs alone.
+    watch = Watch(mission._forecast(now, 60.0), 40.0, r)
+    expected = np.zeros(len(watch.times), dtype=bool)
+    for u in mission.live_uavs:
+        traj = mission.trajectory(u)
+        if u != 1 and traj is not None:
+            expected |= watch.sees(traj)
+    assert (mission._others_see(1, now, watch, joining=True) == expected).all()
+    back = None
+    while now < 700.0 and back is None:
+        _feed(mission, tracker, now)
+        if 3 in mission.live_uavs:
+            back = now
+        now += 1.0
+    assert back is not None, "never taken back"
+    assert sorted(mission._slots.values()) == [0, 1, 2, 3, 4, 5]
+    arrival = mission.arrival(3)
+    assert arrival is not None and arrival <= back and mission.phase(3, back) == "protect"
 
 
 def test_no_join_before_the_convoy_is_located() -> None:

@@ -57,7 +57,8 @@ class PhaseChanged:
 class Returning:
     """A UAV back from a loss, far from the fleet, flies to it on slot ``slot`` of the
     plan in force (on its own altitude layer, beside the UAV that flies it) until
-    mission time ``arrival``; the fleet re-phases for it only then."""
+    mission time ``arrival`` (inf: its first meeting is not in reach yet); the fleet
+    re-phases for it only then."""
 
     uav: int
     t: float

@@ -79,7 +79,14 @@ import numpy.typing as npt
 from convoy_mav.errors import PlanningError
 from convoy_mav.mission.assign import Roster, best_assignment
 from convoy_mav.mission.convoy_model import ConvoyModel, RoadMotion
-from convoy_mav.mission.events import MissionEvent, Phase, PhaseChanged, Replanned, phase_at
+from convoy_mav.mission.events import (
+    MissionEvent,
+    Phase,
+    PhaseChanged,
+    Replanned,
+    Returning,
+    phase_at,
+)
 from convoy_mav.mission.forecast import FORECAST_STEP, Forecast, Hedge, Watch
 from convoy_mav.mission.join import slot_pose
 from convoy_mav.mission.recording import MissionRecording
@@ -163,6 +170,9 @@ class RoadSettings:
             0: never).
         hold_after_s: Seconds without a fresh convoy estimate after which the convoy
             is planned for as stopped where last seen (``tick``).
+        shadow_after_s: A UAV back from a loss, farther from the fleet than this many
+            seconds of closing, flies to it beside a slot before the fleet re-spreads
+            for it (``on_returned``).
         corner_curvature: With a route, keeps and fills are also weighed against the
             convoy stopped short of the next corner sharper than this, 1/m (a
             junction; ``Watch``; 0: never).
@@ -221,6 +231,7 @@ class RoadSettings:
     join_heading_deg: float = 15.0
     replan_on_change_mps: float = 1.5
     replan_budget_s: float = 1.0
+    shadow_after_s: float = 60.0
 
     def __setstate__(self, state: Sequence[Any]) -> None:
         """Unpickled (a recording, ``mission.recording``) from an older build, which had
@@ -313,6 +324,7 @@ class RoadMission(Roster):
         self._starts: dict[int, Pose] = {}  # joined, not yet planned: where it was
         self._arrival: dict[int, float] = {}
         self._announced: set[int] = set()
+        self._returning: set[int] = set()  # lost, flying again, not yet taken back
         self._clock: PatternClock | None = None
         self._planned_at: dict[int, float] = {}
         self._planned_v: dict[int, tuple[float, float]] = {}  # convoy velocity planned on
@@ -430,6 +442,16 @@ class RoadMission(Roster):
         )
 
     @property
+    def lost_uavs(self) -> tuple[int, ...]:
+        """UAVs taken out by ``on_lost`` and not flying back."""
+        return tuple(u for u in self._lost if u not in self._returning)
+
+    @property
+    def returning_uavs(self) -> tuple[int, ...]:
+        """UAVs back from a loss and flying to the fleet beside a slot (``on_returned``)."""
+        return tuple(u for u in self._lost if u in self._returning)
+
+    @property
     def awaiting_join(self) -> tuple[int, ...]:
         """Live UAVs with no slot yet."""
         return tuple(u for u in self._live if u not in self._slots)
@@ -445,7 +467,9 @@ class RoadMission(Roster):
         return self._trajectories.get(uav)
 
     def phase(self, uav: int, t: float) -> Phase:
-        """Where ``uav`` is at mission time ``t``."""
+        """Where ``uav`` is at mission time ``t`` (flying back to the fleet: ``join``)."""
+        if uav in self._returning:
+            return "join" if uav in self._slots else "pending"
         return phase_at(uav in self._lost, self.arrival(uav), t)
 
     def pattern_positions(self, t: float) -> dict[int, tuple[float, float]]:
@@ -508,8 +532,18 @@ class RoadMission(Roster):
         return events
 
     def _announce(self, t: float) -> list[MissionEvent]:
-        """``PhaseChanged(.., "protect", ..)`` for UAVs at their first meeting by ``t``."""
+        """``PhaseChanged(.., "protect", ..)`` for UAVs at their first meeting by ``t``;
+        a UAV flying back beside a slot is taken back then, and the fleet re-spread."""
         events: list[MissionEvent] = []
+        back = [u for u in self._returning if self._arrival.get(u, math.inf) <= t]
+        if back and self._clock is not None:
+            for uav in sorted(back):
+                self._returning.discard(uav)
+                self._take_back(uav)
+            self._advance_clock(t)
+            self._respread()
+            self._plan_paths(t)
+            events.append(self._replanned(t, "uav_returned"))
         due = sorted(
             (a, u)
             for u, a in self._arrival.items()
@@ -662,7 +696,7 @@ class RoadMission(Roster):
             ValueError: If a UAV is not live, or a pose is not finite.
         """
         for uav, pose in poses.items():
-            if uav not in self._live:
+            if uav not in self._live and uav not in self._returning:
                 raise ValueError(f"UAV {uav} is not live in this mission")
             if len(pose) != 3 or not all(map(math.isfinite, (*pose, t))):
                 raise ValueError(f"UAV {uav}: join pose must be 3 finite numbers, got {pose}")
@@ -671,6 +705,13 @@ class RoadMission(Roster):
         if self.recording is not None:  # (a refused join changed nothing: not taken)
             self.recording.add("join_many", (dict(poses), t))
         self._advance_clock(t)
+        events: list[MissionEvent] = []
+        returning = {u: p for u, p in poses.items() if u in self._returning}
+        if returning:
+            events += self._welcome(returning, t)
+            poses = {u: p for u, p in poses.items() if u in self._live}
+            if not poses:
+                return [*events, *self.tick(t)]
         for uav in poses:
             self._slots.pop(uav, None)
             self._trajectories.pop(uav, None)
@@ -693,14 +734,83 @@ class RoadMission(Roster):
             self._slots[uav] = slot
             self._starts[uav] = starts[uav]
         self._plan_paths(t)
-        return [*(PhaseChanged(u, "join", t) for u in order), *self.tick(t)]
+        return [*events, *(PhaseChanged(u, "join", t) for u in order), *self.tick(t)]
 
     def on_lost(self, uav: int, t: float) -> list[MissionEvent]:
         """Take ``uav`` out; the others re-spread over the slots left and re-plan."""
         if self.recording is not None:
             self.recording.add("on_lost", (uav, t))
+        if uav in self._returning:  # lost again on its way back
+            self._returning.discard(uav)
+            self._forget(uav)
+            return []
         if not self._take_out(uav):
             return []
+        self._forget(uav)
+        if self._clock is None:
+            return []
+        self._advance_clock(t)
+        self._respread()
+        self._plan_paths(t)
+        return [*self.tick(t), self._replanned(t, "uav_lost")]
+
+    def on_returned(self, uav: int, t: float) -> list[MissionEvent]:
+        """A lost ``uav`` flies again: pending until joined from its pose, which decides
+        how it is taken back (``Mission.on_returned``'s rule). Near enough, or needed
+        at once (the others fewer than a stop needs, bar one), it is taken back, the
+        others re-spread and it joins a free slot. Farther, it first flies to the
+        fleet on a slot of the pattern in force beside the UAV that flies it, on its
+        own layer, not counted by the others' choices (``Returning``); at its first
+        meeting there it is taken back and the fleet re-spread."""
+        if self.recording is not None:
+            self.recording.add("on_returned", (uav, t))
+        if uav not in self._lost or uav in self._returning:
+            return []
+        if not self._live or self._clock is None:
+            self._take_back(uav)
+            if self._clock is None:
+                return []
+            return [*self.tick(t), self._replanned(t, "uav_returned")]
+        self._returning.add(uav)
+        return self.tick(t)
+
+    def _welcome(
+        self, poses: Mapping[int, tuple[float, float, float]], t: float
+    ) -> list[MissionEvent]:
+        """Join returning UAVs: taken back at once if near or needed, else sent to the
+        fleet beside the slot nearest them (``Returning``)."""
+        assert self._clock is not None
+        n = len(self._live)
+        spare = n >= self.min_uavs - 1
+        closing = max(self.request.uav_speed - self._clock.speed, 0.25 * self.request.uav_speed)
+        forecast = self._forecast(t, 60.0)
+        ahead = np.array([t + 30.0])
+        events: list[MissionEvent] = []
+        near: list[int] = []
+        for uav, (north, east, _) in poses.items():
+            gaps = {}
+            for slot in range(n):
+                px, py = forecast.pattern(self._offset(slot, n))(ahead)
+                gaps[slot] = math.hypot(east - float(px[0]), north - float(py[0]))
+            slot = min(gaps, key=gaps.__getitem__)
+            if not spare or gaps[slot] / closing <= self.settings.shadow_after_s:
+                near.append(uav)
+                continue
+            self._forget(uav)
+            self._slots[uav] = slot
+            self._starts[uav] = Pose(east, north, yaw_to_heading(poses[uav][2]))
+            self._plan_paths(t, [uav])
+            arrival = self._arrival.get(uav, math.inf)
+            events.append(Returning(uav, t, slot, arrival))
+        if near:
+            for uav in near:
+                self._returning.discard(uav)
+                self._take_back(uav)
+            events.append(self._replanned(t, "uav_returned"))
+        return events
+
+    def _forget(self, uav: int) -> None:
+        """Drop ``uav``'s slot, paths and join state."""
         for table in (
             self._slots,
             self._trajectories,
@@ -712,22 +822,6 @@ class RoadMission(Roster):
         self._planned_at.pop(uav, None)
         self._planned_v.pop(uav, None)
         self._announced.discard(uav)
-        if self._clock is None:
-            return []
-        self._advance_clock(t)
-        self._respread()
-        self._plan_paths(t)
-        return [*self.tick(t), self._replanned(t, "uav_lost")]
-
-    def on_returned(self, uav: int, t: float) -> list[MissionEvent]:
-        """Take a lost ``uav`` back as pending (join it from its pose)."""
-        if self.recording is not None:
-            self.recording.add("on_returned", (uav, t))
-        if not self._take_back(uav):
-            return []
-        if self._clock is None:
-            return []
-        return [*self.tick(t), self._replanned(t, "uav_returned")]
 
     # ------------------------------------------------------------- internals
 
@@ -748,13 +842,17 @@ class RoadMission(Roster):
     def _respread(self) -> None:
         """Slots 0..N-1 for the slotted UAVs, in their present order (N = live UAVs),
         each UAV kept on the side of the convoy it flies when one choice of sides can."""
-        ranked = sorted(self._slots, key=self._slots.__getitem__)
+        ranked = sorted(
+            (u for u in self._slots if u not in self._returning), key=self._slots.__getitem__
+        )
         n = len(self._live)
         step = n / max(len(ranked), 1)  # (pending UAVs keep gaps to join into)
         before = {u: (slot + self._side) % 2 for u, slot in self._slots.items()}
+        beside = {u: self._slots[u] for u in self._returning if u in self._slots}
         self._slots = {u: min(round(k * step), n - 1) for k, u in enumerate(ranked)}
         kept = sum(before[u] == slot % 2 for u, slot in self._slots.items())
         self._side = 0 if 2 * kept >= len(self._slots) else 1
+        self._slots.update({u: min(slot, n - 1) for u, slot in beside.items()})
 
     def _offset(self, slot: int, n: int) -> float:
         """Pattern phase of ``slot`` of ``n``: ``slot / n`` half-cycles behind slot 0
@@ -1081,7 +1179,9 @@ class RoadMission(Roster):
         or a joining one's, on its way to protect)."""
         seen = np.zeros(len(watch.times), dtype=bool)
         for other, traj in self._trajectories.items():
-            if other != uav and (joining or self._arrival.get(other, math.inf) <= t):
+            if other == uav or other in self._returning:
+                continue
+            if joining or self._arrival.get(other, math.inf) <= t:
                 seen |= watch.sees(traj)
         return seen
 
