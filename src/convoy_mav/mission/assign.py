@@ -39,7 +39,8 @@ def best_assignment(
 
 
 class Roster:
-    """The live and lost UAVs of a mission, and when protection began.
+    """The live and lost UAVs of a mission, the lost ones flying back to it (returning:
+    still lost, not yet in the plan), and when protection began.
 
     Raises:
         ValueError: If ``uav_ids`` is empty or has duplicates.
@@ -50,6 +51,7 @@ class Roster:
             raise ValueError(f"uav_ids must be non-empty and unique, got {list(uav_ids)!r}")
         self._live: list[int] = list(uav_ids)
         self._lost: list[int] = []
+        self._returning: set[int] = set()  # lost, flying again, not yet taken back
         self._protect_start: float | None = None
 
     @property
@@ -59,13 +61,13 @@ class Roster:
 
     @property
     def lost_uavs(self) -> tuple[int, ...]:
-        """UAVs taken out by ``on_lost``."""
-        return tuple(self._lost)
+        """UAVs taken out by ``on_lost`` and not flying back."""
+        return tuple(u for u in self._lost if u not in self._returning)
 
     @property
     def returning_uavs(self) -> tuple[int, ...]:
-        """Lost UAVs flying back to the fleet, not yet in the plan (none by default)."""
-        return ()
+        """Lost UAVs flying back to the fleet, not yet in the plan."""
+        return tuple(u for u in self._lost if u in self._returning)
 
     @property
     def protect_start(self) -> float | None:
@@ -77,7 +79,8 @@ class Roster:
         return _move(uav, self._live, self._lost)
 
     def _take_back(self, uav: int) -> bool:
-        """Move a lost UAV back to the live; False if it was not lost."""
+        """Move a lost UAV (returning or not) back to the live; False if it was not lost."""
+        self._returning.discard(uav)
         return _move(uav, self._lost, self._live)
 
 

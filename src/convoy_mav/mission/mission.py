@@ -119,7 +119,6 @@ class Mission(Roster):
         self._motion: ConvoyMotion | None = None
         self._assigned: dict[int, _Assignment] = {}
         self._announced: set[int] = set()
-        self._returning: set[int] = set()  # lost, flying again, not yet taken back
         self._shadows: dict[int, _Assignment] = {}  # returning: the slot flown to the fleet
         self.replans = 0
 
@@ -150,16 +149,6 @@ class Mission(Roster):
     def predicted_coverage(self) -> float | None:
         """Coverage the plan in force predicts once every UAV is on its slot."""
         return None if self._plan is None else self._plan.predicted_coverage
-
-    @property
-    def lost_uavs(self) -> tuple[int, ...]:
-        """UAVs taken out by ``on_lost`` and not flying back."""
-        return tuple(u for u in self._lost if u not in self._returning)
-
-    @property
-    def returning_uavs(self) -> tuple[int, ...]:
-        """UAVs back from a loss and flying to the fleet, not yet in the plan."""
-        return tuple(u for u in self._lost if u in self._returning)
 
     @property
     def awaiting_join(self) -> tuple[int, ...]:
@@ -237,7 +226,6 @@ class Mission(Roster):
         back = [u for u, a in self._shadows.items() if a.arrival(self.plan_t0) <= t]
         if back and self._motion is not None:  # at the fleet: take them back, re-phase
             for uav in back:
-                self._returning.discard(uav)
                 self._take_back(uav)
             events += self._replan(self._motion.advanced(t), "uav_returned", t)
         due = [
@@ -393,7 +381,6 @@ class Mission(Roster):
             events.append(Returning(uav, t, index, join.arrival + self.plan_t0))
         if near and self._motion is not None:
             for uav in near:
-                self._returning.discard(uav)
                 self._take_back(uav)
             events += self._replan(self._motion.advanced(t), "uav_returned", t)
         return events
@@ -418,7 +405,6 @@ class Mission(Roster):
         if not self._live:  # nobody left to fly to: the returning are the fleet now
             for uav in sorted(self._returning):
                 self._take_back(uav)
-            self._returning.clear()
         count = len(self._live)
         self.detector.set_reference(motion)
         if count == 0:

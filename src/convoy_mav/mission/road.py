@@ -324,7 +324,6 @@ class RoadMission(Roster):
         self._starts: dict[int, Pose] = {}  # joined, not yet planned: where it was
         self._arrival: dict[int, float] = {}
         self._announced: set[int] = set()
-        self._returning: set[int] = set()  # lost, flying again, not yet taken back
         self._clock: PatternClock | None = None
         self._planned_at: dict[int, float] = {}
         self._planned_v: dict[int, tuple[float, float]] = {}  # convoy velocity planned on
@@ -442,16 +441,6 @@ class RoadMission(Roster):
         )
 
     @property
-    def lost_uavs(self) -> tuple[int, ...]:
-        """UAVs taken out by ``on_lost`` and not flying back."""
-        return tuple(u for u in self._lost if u not in self._returning)
-
-    @property
-    def returning_uavs(self) -> tuple[int, ...]:
-        """UAVs back from a loss and flying to the fleet beside a slot (``on_returned``)."""
-        return tuple(u for u in self._lost if u in self._returning)
-
-    @property
     def awaiting_join(self) -> tuple[int, ...]:
         """Live UAVs with no slot yet."""
         return tuple(u for u in self._live if u not in self._slots)
@@ -538,7 +527,6 @@ class RoadMission(Roster):
         back = [u for u in self._returning if self._arrival.get(u, math.inf) <= t]
         if back and self._clock is not None:
             for uav in sorted(back):
-                self._returning.discard(uav)
                 self._take_back(uav)
             self._advance_clock(t)
             self._respread()
@@ -804,7 +792,6 @@ class RoadMission(Roster):
             events.append(Returning(uav, t, slot, arrival))
         if near:
             for uav in near:
-                self._returning.discard(uav)
                 self._take_back(uav)
             events.append(self._replanned(t, "uav_returned"))
         return events
