@@ -188,6 +188,10 @@ class Vehicle:
         command_retry: Mission s to wait for a COMMAND_ACK before re-sending, and
             the first back-off after a refusal (doubling up to ``max_backoff``).
         max_backoff: Longest back-off between refused attempts, mission s.
+        arm_backoff: Longest back-off between refused ARMs, mission s: an autopilot
+            refuses ARM while its checks settle (ArduPilot's ``Need Position
+            Estimate`` for 20-45 s after its GPS fix) and arms the moment they pass,
+            and its neighbours on the launch sequence wait on it.
         altitude: Flight altitude above the mission origin, m (take-off and own
             hold setpoints).
         fix_timeout: Start set-up after this many mission s without a GPS fix
@@ -229,6 +233,7 @@ class Vehicle:
         lost_after: float = 3.0,
         command_retry: float = 1.0,
         max_backoff: float = 10.0,
+        arm_backoff: float = 2.0,
         altitude: float = 50.0,
         fix_timeout: float | None = None,
         keepalive: float = 0.3,
@@ -252,6 +257,7 @@ class Vehicle:
         self.lost_after = lost_after
         self.command_retry = command_retry
         self.max_backoff = max_backoff
+        self.arm_backoff = arm_backoff
         self.altitude = altitude
         self.fix_timeout = fix_timeout
         self.keepalive = keepalive
@@ -1022,7 +1028,7 @@ class Vehicle:
             tel = self.telemetry
             if SetupStep.CLIMB in ap.setup_steps and tel is not None and not self.airborne:
                 self._pad = (tel.north, tel.east)  # (climb straight up from here)
-            await self._command(ap.arm_command(), "arm", deadline, self._is_armed)
+            await self._command(ap.arm_command(), "arm", deadline, self._is_armed, self.arm_backoff)
             await self._wait_until(self._is_armed, _CONFIRM_WAIT)
         elif step is SetupStep.CLIMB:  # (the setpoints climb it: ``_climb_out``)
             in_mode = functools.partial(self._in_mode, ap.external_mode)
@@ -1095,8 +1101,10 @@ class Vehicle:
         what: str,
         deadline: float,
         moot: Callable[[], bool] | None = None,
+        max_backoff: float | None = None,
     ) -> bool:
-        """Send until ACCEPTED; refusals back off exponentially and are reported.
+        """Send until ACCEPTED; refusals back off exponentially (to ``max_backoff``,
+        by default the vehicle's) and are reported.
 
         Returns:
             True once ACCEPTED; False if ``moot()`` became true before an attempt
@@ -1110,6 +1118,7 @@ class Vehicle:
         backoff = self.command_retry
         attempts = 0
         result_name: str | None = None
+        said: tuple[str | None, float] | None = None  # the refusal last reported, and when
         while True:
             now = self.clock.now()
             if moot is not None and moot():
@@ -1139,13 +1148,17 @@ class Vehicle:
             await self._wait_until(functools.partial(self._text_since, now), _REASON_WAIT)
             reason = self.last_statustext if self._text_since(now) else "no reason given"
             wait = min(backoff, max(deadline - self.clock.now(), 0.0))
-            self._emit(
-                EventKind.REFUSED,
-                f"{what} refused ({result_name}): {reason!r}; retrying in {wait:.1f} s",
-                _M.MAV_SEVERITY_WARNING,
-            )
+            if said is None or said[0] != reason or now - said[1] >= self.max_backoff:
+                # (the same refusal again within max_backoff is not said again)
+                tally = "" if attempts == 1 else f" {attempts} times"
+                self._emit(
+                    EventKind.REFUSED,
+                    f"{what} refused{tally} ({result_name}): {reason!r}; retrying in {wait:.1f} s",
+                    _M.MAV_SEVERITY_WARNING,
+                )
+                said = (reason, now)
             await self.clock.sleep_until(self.clock.now() + wait)
-            backoff = min(2.0 * backoff, self.max_backoff)
+            backoff = min(2.0 * backoff, self.max_backoff if max_backoff is None else max_backoff)
 
     def _text_since(self, t: float) -> bool:
         return self._statustext_t >= t

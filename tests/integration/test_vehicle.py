@@ -16,6 +16,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import math
+import re
 from collections.abc import AsyncIterator, Callable, Coroutine
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -184,7 +185,8 @@ async def test_set_up_fly_a_circle_hold_and_lose(
         refused = [e for e in events if e.kind is EventKind.REFUSED]
         assert refused, [e.message for e in events]
         assert refusal in refused[0].message and "UAV 1" in refused[0].message
-        assert vehicle.counters["refused"] == len(refused) <= 5  # back-off: 1, 2, 4 s...
+        # back-off: 1, 2, 4 s... (ARM 1, 2, 2 s...); a refusal said again only 10 s on
+        assert len(refused) <= vehicle.counters["refused"] <= 10
         statuses = [e.message.split(": ")[-1] for e in events if e.kind is EventKind.STATUS]
         assert statuses[-3:] == ["waiting_fix", "setting_up", "flying"]
         assert WARMUP <= t_flying < WARMUP + 25.0  # every aircraft takes off first
@@ -446,6 +448,34 @@ async def test_in_progress_foreign_acks_and_refusals() -> None:
         "UAV 1 (ArduCopter): arm refused (DENIED): 'PreArm: Throttle'; retrying in 1.0 s"
     ]
     assert peer.alt == pytest.approx(15.0)  # relative to home, which is at the origin here
+
+
+async def test_refused_arm_is_retried_at_most_arm_backoff_apart() -> None:
+    """An autopilot refuses ARM until its position estimate settles and arms the
+    moment it does: the retries back off to ``arm_backoff`` (2 s), not ``max_backoff``
+    (10 s), and the same refusal is said again only ``max_backoff`` later."""
+    peer = ScriptedCopter(speedup=20.0)
+    peer.arm_refusals = 8
+    clock = MissionClock(rate_hint=20.0)
+    events: list[VehicleEvent] = []
+    frame = LocalFrame(MockConfig.simple(1).origin)
+    vehicle = Vehicle(1, peer, clock, frame, on_event=events.append, altitude=15.0)
+    peer.vehicle = vehicle
+    async with running(peer.run(), vehicle.run()):
+        await until(lambda: has_status(vehicle, VehicleStatus.FLYING), timeout=10)
+    assert peer.commands.count(peer.m.MAV_CMD_COMPONENT_ARM_DISARM) == 9
+    refused = [e for e in events if e.kind is EventKind.REFUSED]
+    assert refused[0].message == (
+        "UAV 1 (ArduCopter): arm refused (DENIED): 'PreArm: Throttle'; retrying in 1.0 s"
+    )
+    again = re.compile(r"UAV 1 \(ArduCopter\): arm refused (\d) times \(DENIED\): "
+                       r"'PreArm: Throttle'; retrying in 2\.0 s")  # fmt: skip
+    assert len(refused) == 2 and (said := again.fullmatch(refused[1].message))
+    assert int(said[1]) in (6, 7)  # (the first refusal 10 s before)
+    assert refused[1].t - refused[0].t >= 10.0
+    # eight refusals backed off 1 + 7 x 2 s, where the old cap took 1 + 2 + 4 + 8 + 4 x 10
+    flying = next(e.t for e in events if e.status is VehicleStatus.FLYING)
+    assert flying - refused[0].t < 25.0
 
 
 async def test_an_arduplane_armed_on_the_runway_is_taken_off_not_counted(
