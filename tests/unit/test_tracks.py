@@ -111,6 +111,42 @@ def test_csv_errors_name_file_and_line(tmp_path: Path, text: str, where: str, wh
         load_track(path)
 
 
+@pytest.mark.parametrize(
+    "text",
+    [
+        # exporters' names and units, other columns between
+        "Latitude (deg),Longitude (deg),Altitude (m),time [s]\n"
+        "47.0,8.0,400,100\n47.001,8.0,401,110\n",
+        "ID,timestamp,lat_deg,lon_deg\n1,100,47.0,8.0\n2,110,47.001,8.0\n",
+        # POSIX milliseconds, by name or by size
+        "time_ms,lat,lon\n100000,47.0,8.0\n110000,47.001,8.0\n",
+        "Time (ms),Lat,Lng\n100000,47.0,8.0\n110000,47.001,8.0\n",
+        "timestamp,latitude,longitude\n1714557600000,47.0,8.0\n1714557610000,47.001,8.0\n",
+        # ISO-8601 times, with a header or without, Z or an offset
+        "time,lat,lon\n2024-05-01T10:00:00Z,47.0,8.0\n2024-05-01 12:00:10+02:00,47.001,8.0\n",
+        "2024-05-01T10:00:00,47.0,8.0\n2024-05-01T10:00:10,47.001,8.0\n",
+        # a spreadsheet's semicolons and decimal commas; tabs
+        "Zeit;Lat;Lon;time\nx;47,0;8,0;100\ny;47,001;8,0;110\n",
+        "time\tlat\tlon\n100\t47.0\t8.0\n110\t47.001\t8.0\n",
+        "# logger v2\n\n100;47,0;8,0\n110;47,001;8,0\n",
+    ],
+)
+def test_csv_tracks_as_loggers_and_spreadsheets_write_them(tmp_path: Path, text: str) -> None:
+    track = load_track(_write(tmp_path, "convoy.csv", text))
+    assert track.times == (0.0, 10.0)
+    assert track.lats == (47.0, 47.001)
+    assert track.lons == (8.0, 8.0)
+
+
+def test_csv_times_of_one_kind_per_file(tmp_path: Path) -> None:
+    mixed = "time,lat,lon\n2024-05-01T10:00:00Z,47.0,8.0\n10,47.001,8.0\n"
+    with pytest.raises(ValueError, match=r"convoy\.csv:3: time '10' mixes ISO-8601 and numeric"):
+        load_track(_write(tmp_path, "convoy.csv", mixed))
+    bad = "time,lat,lon\nnoon,47.0,8.0\n"
+    with pytest.raises(ValueError, match=r"convoy\.csv:2: time must be seconds or ISO-8601"):
+        load_track(_write(tmp_path, "convoy.csv", bad))
+
+
 # -------------------------------------------------------------------------------- GPX
 
 GPX_11 = """<?xml version="1.0" encoding="UTF-8"?>

@@ -4,8 +4,9 @@
 elsewhere; the mock's ``csv`` ground route reads the same CSV format. Three
 formats, one value (times + WGS-84 samples):
 
-    CSV   ``time,lat,lon`` rows (seconds, degrees), optional header naming the
-          columns in any order, ``#`` comments (:func:`parse_csv_track`).
+    CSV   ``time,lat,lon`` rows (degrees; seconds, POSIX milliseconds or ISO-8601),
+          optional header naming the columns in any order as exporters do, comma,
+          semicolon or tab, ``#`` comments (:func:`parse_csv_track`).
     GPX   1.0/1.1 ``<trkpt lat lon><time>ISO-8601</time>``, or ``<rtept>`` when
           there is no ``<trkpt>``; every point needs a time (:func:`parse_gpx_track`).
     tlog  The ground vehicles' GLOBAL_POSITION_INT in a MAVLink telemetry log,

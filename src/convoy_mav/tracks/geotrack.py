@@ -14,6 +14,7 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass, replace
+from datetime import UTC, datetime
 
 from convoy_mav.geo import GeoPoint, LocalFrame
 from convoy_mav.tracks.cleaning import TrackCleaning, clean_fixes
@@ -24,6 +25,7 @@ __all__ = [
     "GeoTrack",
     "TrackSpeeds",
     "check_fix",
+    "iso_seconds",
     "track_speeds",
 ]
 
@@ -112,6 +114,17 @@ class GeoTrack:
         """Each fix as ``(norths, easts)`` metres in ``frame``."""
         ned = [frame.to_ned(GeoPoint(a, b)) for a, b in zip(self.lats, self.lons, strict=True)]
         return tuple(p[0] for p in ned), tuple(p[1] for p in ned)
+
+
+def iso_seconds(text: str) -> float | None:
+    """POSIX seconds of an ISO-8601 time (``Z``, an offset, or none: UTC), else None."""
+    try:
+        when = datetime.fromisoformat(text)
+    except ValueError:
+        return None
+    if when.tzinfo is None:
+        when = when.replace(tzinfo=UTC)
+    return when.timestamp()
 
 
 def check_fix(where: str, lat: float, lon: float) -> None:

@@ -4,11 +4,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from datetime import UTC, datetime
 from typing import BinaryIO
 from xml.parsers import expat
 
-from convoy_mav.tracks.geotrack import GeoTrack, check_fix
+from convoy_mav.tracks.geotrack import GeoTrack, check_fix, iso_seconds
 
 __all__ = ["parse_gpx_track"]
 
@@ -149,10 +148,7 @@ def _gpx_coordinate(where: str, what: str, attr: str, value: str | None) -> floa
 
 
 def _iso_seconds(where: str, what: str, text: str) -> float:
-    try:
-        when = datetime.fromisoformat(text)
-    except ValueError:
-        raise ValueError(f"{where}: {what} time {text!r} is not ISO-8601") from None
-    if when.tzinfo is None:
-        when = when.replace(tzinfo=UTC)
-    return when.timestamp()
+    seconds = iso_seconds(text)
+    if seconds is None:
+        raise ValueError(f"{where}: {what} time {text!r} is not ISO-8601")
+    return seconds
