@@ -631,6 +631,8 @@ async def _cmd_replay(args: argparse.Namespace) -> int:
             f"{uavs} UAVs{known}",
             flush=True,
         )
+        if track.cleaning.changed:
+            print(f"read as recorded: {track.cleaning.summary()}", flush=True)
         top, airspeed = track_speeds(track).max_mps, scenario.airspeed_mps
         if top >= FAST_CONVOY_RATIO * airspeed:
             fastest = RoadSettings().speed_band[1] * airspeed  # (the road planner's band)

@@ -448,6 +448,22 @@ _DRIVE = Path(__file__).resolve().parents[3] / "shared" / "tracks" / "istanbul_d
 
 
 @pytest.mark.skipif(not _DRIVE.exists(), reason="the shared recorded drive is not beside the repo")
+def test_gpx_points_without_a_time_among_timed_ones_are_dropped_and_counted() -> None:
+    """A point logged before the receiver knew the time, or added in an editor."""
+    from convoy_mav.tracks.gpx import parse_gpx_track
+
+    body = "".join(
+        f'<trkpt lat="47.000{i}" lon="8.0">'
+        + (f"<time>2024-05-01T12:00:0{i}Z</time>" if i % 2 else "")
+        + "</trkpt>\n"
+        for i in range(6)
+    )  # fmt: skip
+    track = parse_gpx_track(f"<gpx><trk><trkseg>\n{body}</trkseg></trk></gpx>", "t.gpx")
+    assert track.times == (1714564801.0, 1714564803.0, 1714564805.0)
+    assert track.cleaning.untimed == 3 and track.cleaning.changed == 3
+    assert track.cleaning.summary() == "3 points without a time dropped"
+
+
 def test_the_recorded_drive_is_read_as_it_comes() -> None:
     """A real phone recording with fixes sharing a time stamp: read, not refused."""
     track = load_track(_DRIVE)

@@ -37,16 +37,33 @@ class TrackCleaning:
         merged: Fixes folded into another one stamped with the same time.
         out_of_order: Fixes dropped for a time stamp no later than the one before.
         spikes: Single fixes dropped as spikes.
+        untimed: Points dropped for having no time, among others that have one (a GPX
+            point added in an editor, or logged before the receiver knew the time).
     """
 
     merged: int = 0
     out_of_order: int = 0
     spikes: int = 0
+    untimed: int = 0
 
     @property
     def changed(self) -> int:
         """Fixes that did not make it into the track as recorded."""
-        return self.merged + self.out_of_order + self.spikes
+        return self.merged + self.out_of_order + self.spikes + self.untimed
+
+    def summary(self) -> str:
+        """One line of what was done, for the operator ("" when nothing was)."""
+        parts = [
+            f"{n} {what}"
+            for n, what in (
+                (self.merged, "fixes sharing a time stamp merged"),
+                (self.out_of_order, "stamped no later than the one before dropped"),
+                (self.spikes, "single-fix spikes dropped"),
+                (self.untimed, "points without a time dropped"),
+            )
+            if n
+        ]
+        return ", ".join(parts)
 
 
 Fixes = tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]]

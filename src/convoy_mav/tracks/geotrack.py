@@ -87,11 +87,14 @@ class GeoTrack:
         lons: list[float],
         source: str,
         fmt: str,
+        *,
+        untimed: int = 0,
     ) -> GeoTrack:
         """A track from fixes as a receiver recorded them: repeated time stamps merged,
-        backward ones and single-fix spikes dropped (``cleaning.clean_fixes``)."""
+        backward ones and single-fix spikes dropped (``cleaning.clean_fixes``);
+        ``untimed``: points the parser dropped for having no time, counted."""
         (ts, la, lo), cleaning = clean_fixes(times, lats, lons)
-        return cls(ts, la, lo, source, fmt, cleaning=cleaning)
+        return cls(ts, la, lo, source, fmt, cleaning=replace(cleaning, untimed=untimed))
 
     @property
     def duration(self) -> float:

@@ -60,26 +60,33 @@ def parse_gpx_track(data: bytes | str | BinaryIO, name: str) -> GeoTrack:
         The track, times in POSIX seconds (not rebased).
 
     Raises:
-        ValueError: Malformed XML, no points, a point without ``lat``/``lon`` or
-            ``<time>``; ``file:line:`` first. Repeated, backward and spiking fixes
-            are merged or dropped and counted (``GeoTrack.cleaning``), not refused.
+        ValueError: Malformed XML, no points, a point without ``lat``/``lon``, or
+            fewer than two with a ``<time>``; ``file:line:`` first. Points without a
+            time among timed ones, and repeated, backward and spiking fixes, are
+            dropped or merged and counted (``GeoTrack.cleaning``), not refused.
     """
     chosen = _gpx_points(data, name)
     times: list[float] = []
     lats: list[float] = []
     lons: list[float] = []
+    untimed: _GpxPoint | None = None  # the first point without a time
     for p in chosen:
         lat, lon = _latlon(p, name)
         where, what = f"{name}:{p.line}", f"{p.kind} #{p.number}"
         if p.time is None:
-            raise ValueError(
-                f"{where}: {what} has no <time>: replaying a track needs when the convoy "
-                "was at each point"
-            )
+            untimed = untimed or p
+            continue
         times.append(_iso_seconds(where, what, p.time))
         lats.append(lat)
         lons.append(lon)
-    return GeoTrack.from_fixes(times, lats, lons, name, "gpx")
+    if untimed is not None and len(times) < 2:
+        raise ValueError(
+            f"{name}:{untimed.line}: {untimed.kind} #{untimed.number} has no <time>: replaying "
+            "a track needs when the convoy was at each point"
+            + ("" if times else " (no point has one; as a route it needs none)")
+        )
+    dropped = len(chosen) - len(times)
+    return GeoTrack.from_fixes(times, lats, lons, name, "gpx", untimed=dropped)
 
 
 def _gpx_points(data: bytes | str | BinaryIO, name: str) -> list[_GpxPoint]:
