@@ -337,7 +337,22 @@ def test_a_route_comes_as_points_or_geojson() -> None:
     )
     geojson = '{"type": "LineString", "coordinates": [[8.1, 47.1], [8.2, 47.2]]}'
     assert topics.parse_convoy_route(geojson) == want  # (GeoJSON is lon, lat)
+    feature = f'{{"type": "Feature", "properties": {{"name": "MSR"}}, "geometry": {geojson}}}'
+    assert topics.parse_convoy_route(feature) == want
+    assert (
+        topics.parse_convoy_route(f'{{"type": "FeatureCollection", "features": [{feature}]}}')
+        == want
+    )
+    named = '{"points": [{"latitude": 47.1, "lng": 8.1}, {"latitude": 47.2, "longitude": 8.2}]}'
+    assert topics.parse_convoy_route(named) == want
+    point = '{"type": "Feature", "geometry": {"type": "Point", "coordinates": [8.1, 47.1]}}'
     for bad, needle in [
+        (point, "geometry must be a LineString, got 'Point'"),
+        (
+            f'{{"type": "FeatureCollection", "features": [{feature}, {feature}]}}',
+            "exactly one feature, got 2",
+        ),
+        ('{"points": [{"lat": 47.1}, {"lat": 47.2, "lon": 8.2}]}', "missing field 'lon'"),
         ("[1, 2]", "JSON object"),
         ('{"points": [[47.1, 8.1]]}', "2.."),
         ('{"points": [[47.1, 8.1], [95.0, 8.2]]}', "out of range"),

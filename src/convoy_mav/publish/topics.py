@@ -505,9 +505,11 @@ def parse_convoy_route(payload: bytes | str) -> list[tuple[float, float]]:
     """Validate ``<prefix>/convoy/route``: the road the convoy will drive, in order.
 
     Accepted forms: ``{"points": [[lat, lon], ...]}``, ``{"points": [{"lat": .., "lon":
-    ..}, ...]}`` or a GeoJSON ``{"type": "LineString", "coordinates": [[lon, lat], ...]}``
-    (GeoJSON's order). Retained messages are used: a route published before the
-    service started is the route.
+    ..}, ...]}`` (``latitude``, ``lng``, ``longitude`` too) or GeoJSON as map tools
+    export it: a ``LineString`` (``"coordinates": [[lon, lat], ...]``, GeoJSON's order),
+    a ``Feature`` holding one, or a ``FeatureCollection`` holding exactly one.
+    Retained messages are used: a route published before the service started is
+    the route.
 
     Returns:
         The (lat, lon) points.
@@ -524,6 +526,7 @@ def parse_convoy_route(payload: bytes | str) -> list[tuple[float, float]]:
         raise BadPayload(f"not JSON: {exc}") from None
     if not isinstance(obj, dict):
         raise BadPayload(f"a route must be a JSON object, got {type(obj).__name__}")
+    obj = _geojson_line(obj)
     if obj.get("type") == "LineString":
         raw, lon_first = obj.get("coordinates"), True
     else:
@@ -535,7 +538,7 @@ def parse_convoy_route(payload: bytes | str) -> list[tuple[float, float]]:
     out = []
     for i, p in enumerate(raw):
         if isinstance(p, dict):
-            lat, lon = _number(p, "lat"), _number(p, "lon")
+            lat, lon = _number(p, _named(p, _LAT_KEYS)), _number(p, _named(p, _LON_KEYS))
         elif isinstance(p, list) and len(p) >= 2:
             a, b = _number({"0": p[0]}, "0"), _number({"1": p[1]}, "1")
             lat, lon = (b, a) if lon_first else (a, b)
@@ -545,6 +548,32 @@ def parse_convoy_route(payload: bytes | str) -> list[tuple[float, float]]:
             raise BadPayload(f"route point {i} out of range: lat {lat}, lon {lon}")
         out.append((lat, lon))
     return out
+
+
+_LAT_KEYS = ("lat", "latitude")
+_LON_KEYS = ("lon", "lng", "longitude")
+
+
+def _named(point: Mapping[str, Any], keys: tuple[str, ...]) -> str:
+    """The first of ``keys`` the point has (the first, to be reported missing, if none)."""
+    return next((k for k in keys if k in point), keys[0])
+
+
+def _geojson_line(obj: dict[str, Any]) -> dict[str, Any]:
+    """A GeoJSON Feature's, or a one-feature FeatureCollection's, geometry; else ``obj``."""
+    if obj.get("type") == "FeatureCollection":
+        features = obj.get("features")
+        if not isinstance(features, list) or len(features) != 1:
+            count = len(features) if isinstance(features, list) else "no"
+            raise BadPayload(f"a route FeatureCollection needs exactly one feature, got {count}")
+        obj = features[0] if isinstance(features[0], dict) else {}
+    if obj.get("type") == "Feature":
+        geometry = obj.get("geometry")
+        if not isinstance(geometry, dict) or geometry.get("type") != "LineString":
+            kind = geometry.get("type") if isinstance(geometry, dict) else None
+            raise BadPayload(f"a route Feature's geometry must be a LineString, got {kind!r}")
+        return geometry
+    return obj
 
 
 def parse_command(payload: bytes | str) -> str:
