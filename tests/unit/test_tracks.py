@@ -492,8 +492,23 @@ def test_a_route_needs_no_times(tmp_path: Path) -> None:
     bad.write_text("47.1\n")
     with pytest.raises(ValueError, match=r"b.csv:1: expected columns lat,lon"):
         load_route(bad)
-    with pytest.raises(ValueError, match=r"a route is a \.gpx or \.csv"):
+    with pytest.raises(ValueError, match=r"a route is a \.gpx, \.csv or \.geojson"):
         load_route(tmp_path / "x.tlog")
+    drawn = tmp_path / "msr.geojson"  # as geojson.io saves a line drawn on the map
+    drawn.write_text(
+        '{"type": "FeatureCollection", "features": [{"type": "Feature", "properties": {}, '
+        '"geometry": {"type": "LineString", "coordinates": [[8.1, 47.1], [8.2, 47.2]]}}]}'
+    )
+    assert load_route(drawn) == ([47.1, 47.2], [8.1, 8.2])
+    points = tmp_path / "r.json"
+    points.write_text('{"points": [[47.1, 8.1], [47.2, 8.2]]}')
+    assert load_route(points) == ([47.1, 47.2], [8.1, 8.2])
+    points.write_text('{"points": [[47.1, 8.1]]}')
+    with pytest.raises(ValueError, match=r"r\.json: a route needs 'points'"):
+        load_route(points)
+    points.write_text("{")
+    with pytest.raises(ValueError, match=r"r\.json: not JSON"):
+        load_route(points)
 
 
 def test_a_track_past_the_size_bound_is_refused_unread(

@@ -118,6 +118,7 @@ from typing import Any, Final
 
 from convoy_mav.coverage import CoverageSample, CoverageStats
 from convoy_mav.errors import ConfigError, ConvoyError
+from convoy_mav.tracks.routejson import route_points
 from convoy_mav.types import Telemetry, VehicleStatus
 
 __all__ = [
@@ -151,7 +152,6 @@ CONVOY_POSITION: Final = "convoy/position"
 CONVOY_ROUTE: Final = "convoy/route"
 COMMAND: Final = "command"
 MAX_ROUTE_BYTES: Final = 1 << 20  # 1 MiB: some 25 000 points, a day's drive at 1 Hz
-MAX_ROUTE_POINTS: Final = 100_000
 COMMANDS: Final = ("pause", "resume")
 MAX_LOCAL_M: Final = 1_000_000.0  # |north|, |east| of a fix: the mission frame spans 1000 km
 MAX_MISSION_S: Final = 10_000_000.0  # a fix's mission time: some 115 days
@@ -504,12 +504,10 @@ def parse_convoy_position(payload: bytes | str) -> dict[str, Any]:
 def parse_convoy_route(payload: bytes | str) -> list[tuple[float, float]]:
     """Validate ``<prefix>/convoy/route``: the road the convoy will drive, in order.
 
-    Accepted forms: ``{"points": [[lat, lon], ...]}``, ``{"points": [{"lat": .., "lon":
-    ..}, ...]}`` (``latitude``, ``lng``, ``longitude`` too) or GeoJSON as map tools
-    export it: a ``LineString`` (``"coordinates": [[lon, lat], ...]``, GeoJSON's order),
-    a ``Feature`` holding one, or a ``FeatureCollection`` holding exactly one.
-    Retained messages are used: a route published before the service started is
-    the route.
+    The forms of a JSON route (``tracks.routejson``): ``{"points": [[lat, lon], ...]}``,
+    ``{"points": [{"lat": .., "lon": ..}, ...]}`` or GeoJSON (a ``LineString``, or a
+    ``Feature`` or one-feature ``FeatureCollection`` of one). Retained messages are
+    used: a route published before the service started is the route.
 
     Returns:
         The (lat, lon) points.
@@ -524,56 +522,10 @@ def parse_convoy_route(payload: bytes | str) -> list[tuple[float, float]]:
         obj = json.loads(payload)
     except (ValueError, UnicodeDecodeError) as exc:
         raise BadPayload(f"not JSON: {exc}") from None
-    if not isinstance(obj, dict):
-        raise BadPayload(f"a route must be a JSON object, got {type(obj).__name__}")
-    obj = _geojson_line(obj)
-    if obj.get("type") == "LineString":
-        raw, lon_first = obj.get("coordinates"), True
-    else:
-        raw, lon_first = obj.get("points"), False
-    if not isinstance(raw, list) or not 2 <= len(raw) <= MAX_ROUTE_POINTS:
-        raise BadPayload(
-            f"a route needs 'points' (or GeoJSON 'coordinates'): 2..{MAX_ROUTE_POINTS}"
-        )
-    out = []
-    for i, p in enumerate(raw):
-        if isinstance(p, dict):
-            lat, lon = _number(p, _named(p, _LAT_KEYS)), _number(p, _named(p, _LON_KEYS))
-        elif isinstance(p, list) and len(p) >= 2:
-            a, b = _number({"0": p[0]}, "0"), _number({"1": p[1]}, "1")
-            lat, lon = (b, a) if lon_first else (a, b)
-        else:
-            raise BadPayload(f"route point {i} must be [lat, lon] or {{lat, lon}}, got {p!r}")
-        if not (-90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0):
-            raise BadPayload(f"route point {i} out of range: lat {lat}, lon {lon}")
-        out.append((lat, lon))
-    return out
-
-
-_LAT_KEYS = ("lat", "latitude")
-_LON_KEYS = ("lon", "lng", "longitude")
-
-
-def _named(point: Mapping[str, Any], keys: tuple[str, ...]) -> str:
-    """The first of ``keys`` the point has (the first, to be reported missing, if none)."""
-    return next((k for k in keys if k in point), keys[0])
-
-
-def _geojson_line(obj: dict[str, Any]) -> dict[str, Any]:
-    """A GeoJSON Feature's, or a one-feature FeatureCollection's, geometry; else ``obj``."""
-    if obj.get("type") == "FeatureCollection":
-        features = obj.get("features")
-        if not isinstance(features, list) or len(features) != 1:
-            count = len(features) if isinstance(features, list) else "no"
-            raise BadPayload(f"a route FeatureCollection needs exactly one feature, got {count}")
-        obj = features[0] if isinstance(features[0], dict) else {}
-    if obj.get("type") == "Feature":
-        geometry = obj.get("geometry")
-        if not isinstance(geometry, dict) or geometry.get("type") != "LineString":
-            kind = geometry.get("type") if isinstance(geometry, dict) else None
-            raise BadPayload(f"a route Feature's geometry must be a LineString, got {kind!r}")
-        return geometry
-    return obj
+    try:
+        return route_points(obj)
+    except ValueError as exc:
+        raise BadPayload(str(exc)) from None
 
 
 def parse_command(payload: bytes | str) -> str:

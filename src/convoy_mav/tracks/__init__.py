@@ -36,6 +36,7 @@ from typing import BinaryIO, Literal
 from convoy_mav.tracks.csvfile import parse_csv_points, parse_csv_track
 from convoy_mav.tracks.geotrack import GeoTrack, TrackSpeeds, track_speeds
 from convoy_mav.tracks.gpx import parse_gpx_points, parse_gpx_track
+from convoy_mav.tracks.routejson import parse_route_json
 from convoy_mav.tracks.tlog import parse_tlog_track
 
 __all__ = [
@@ -101,16 +102,23 @@ def _check_size(name: str) -> None:
 def load_route(path: str | os.PathLike[str]) -> tuple[list[float], list[float]]:
     """Read a route, the road a convoy will drive: (lats, lons), in order, times ignored.
 
-    GPX ``<trkpt>`` or ``<rtept>`` (no ``<time>`` needed) or CSV ``lat,lon[,time]``.
+    GPX ``<trkpt>`` or ``<rtept>`` (no ``<time>`` needed), CSV ``lat,lon[,time]``, or
+    JSON (``.geojson``/``.json``: a GeoJSON LineString as map tools export it, or
+    ``{"points": [[lat, lon], ...]}``, the MQTT route's forms, ``tracks.routejson``).
 
     Raises:
-        ValueError: A malformed file, or one that is not .gpx or .csv.
+        ValueError: A malformed file, or one that is not .gpx, .csv or JSON.
         OSError: The file cannot be read.
     """
     name = os.fspath(path)
+    ext = os.path.splitext(name)[1].lower()
+    if ext in (".geojson", ".json"):
+        _check_size(name)
+        with open(name, "rb") as handle:
+            return parse_route_json(handle.read(), name)
     kind = format_of(name)
     if kind not in ("csv", "gpx"):
-        raise ValueError(f"{name}: a route is a .gpx or .csv file, not a {kind}")
+        raise ValueError(f"{name}: a route is a .gpx, .csv or .geojson file, not a {kind}")
     _check_size(name)
     if kind == "csv":
         with open(name, newline="", encoding="utf-8-sig") as handle:
