@@ -444,10 +444,6 @@ def test_real_receiver_quirks_are_merged_and_counted_not_refused(tmp_path: Path)
     assert len(track.times) == 1 and track.cleaning.merged == 1
 
 
-_DRIVE = Path(__file__).resolve().parents[3] / "shared" / "tracks" / "istanbul_drive.gpx"
-
-
-@pytest.mark.skipif(not _DRIVE.exists(), reason="the shared recorded drive is not beside the repo")
 def test_gpx_points_without_a_time_among_timed_ones_are_dropped_and_counted() -> None:
     """A point logged before the receiver knew the time, or added in an editor."""
     from convoy_mav.tracks.gpx import parse_gpx_track
@@ -464,6 +460,10 @@ def test_gpx_points_without_a_time_among_timed_ones_are_dropped_and_counted() ->
     assert track.cleaning.summary() == "3 points without a time dropped"
 
 
+_DRIVE = Path(__file__).resolve().parents[3] / "shared" / "tracks" / "istanbul_drive.gpx"
+
+
+@pytest.mark.skipif(not _DRIVE.exists(), reason="the shared recorded drive is not beside the repo")
 def test_the_recorded_drive_is_read_as_it_comes() -> None:
     """A real phone recording with fixes sharing a time stamp: read, not refused."""
     track = load_track(_DRIVE)
