@@ -54,8 +54,8 @@ times <= a day)::
     start = { north = 0.0, east = 0.0 }   # route: start point in the mission frame
     stale_after_s = 3.0           # no fresh convoy fix this long: hold + alarm
     route = "route.gpx"           # optional: the road the convoy will drive (GPX trk/rte,
-                                  #   CSV lat,lon[,time] or a GeoJSON LineString; relative to
-                                  #   this file); the road
+                                  #   CSV lat,lon[,time], GeoJSON LineString or KML/KMZ path;
+                                  #   relative to this file); the road
                                   #   planner predicts along it (the convoy may still leave it)
     [[convoy.vehicle]]            # source = "mavlink": the ground vehicles' autopilots
     connection = "udpout:127.0.0.1:14544"

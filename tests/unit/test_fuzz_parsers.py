@@ -1,6 +1,7 @@
 """Hostile input to every pure parser: a clear, typed refusal or a result, never a crash.
 
-Random and mutated bytes into the MAVLink codec, the CSV/GPX/tlog track readers, the
+Random and mutated bytes into the MAVLink codec, the CSV/GPX/tlog track and KML route
+readers, the
 mission config, and the MQTT payloads (hypothesis, in CI; an atheris harness for long
 runs is ``benchmarks/fuzz_parsers.py``).
 """
@@ -22,6 +23,7 @@ from convoy_mav.mavlink.codec import MavCodec
 from convoy_mav.publish import topics
 from convoy_mav.tracks.csvfile import parse_csv_track
 from convoy_mav.tracks.gpx import parse_gpx_track
+from convoy_mav.tracks.kml import kmz_document, parse_kml_points
 from convoy_mav.tracks.tlog import parse_tlog_track
 
 FUZZ = settings(max_examples=300, deadline=None)
@@ -62,6 +64,8 @@ def test_track_readers_refuse_with_a_value_error(data: bytes | str) -> None:
         lambda: parse_csv_track(text.splitlines(), "fuzz.csv"),
         lambda: parse_gpx_track(raw, "fuzz.gpx"),
         lambda: parse_tlog_track(raw, "fuzz.tlog"),
+        lambda: parse_kml_points(raw, "fuzz.kml"),
+        lambda: kmz_document(raw, "fuzz.kmz"),
     ]
     for parse in parsers:
         with contextlib.suppress(ValueError):  # (a named refusal: the CLI prints one line)
@@ -88,6 +92,21 @@ def test_config_refuses_with_a_config_error(data: dict[str, Any], radius: float)
         parse_config(doc)
     except ConfigError as exc:
         assert exc.key  # (names the key)
+
+
+_KML = (
+    "<kml><Placemark><LineString><coordinates>8.1,47.1 8.2,47.2"
+    "</coordinates></LineString></Placemark></kml>"
+)
+
+
+@FUZZ
+@given(st.integers(0, len(_KML) - 1), st.text(max_size=8), st.integers(0, 12))
+def test_a_mangled_kml_route_is_read_or_refused(at: int, insert: str, cut: int) -> None:
+    text = _KML[:at] + insert + _KML[at + cut :]
+    with contextlib.suppress(ValueError):
+        lats, lons = parse_kml_points(text, "fuzz.kml")
+        assert len(lats) == len(lons) >= 2
 
 
 @FUZZ

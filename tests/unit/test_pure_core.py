@@ -42,6 +42,7 @@ PURE = [
     "convoy_mav.tracks.csvfile",
     "convoy_mav.tracks.geotrack",
     "convoy_mav.tracks.gpx",
+    "convoy_mav.tracks.kml",
     "convoy_mav.tracks.routejson",
     "convoy_mav.tracks.tlog",
     "sitl_mock.airframe",

@@ -492,7 +492,7 @@ def test_a_route_needs_no_times(tmp_path: Path) -> None:
     bad.write_text("47.1\n")
     with pytest.raises(ValueError, match=r"b.csv:1: expected columns lat,lon"):
         load_route(bad)
-    with pytest.raises(ValueError, match=r"a route is a \.gpx, \.csv or \.geojson"):
+    with pytest.raises(ValueError, match=r"a route is a \.gpx, \.csv, \.geojson or \.kml"):
         load_route(tmp_path / "x.tlog")
     drawn = tmp_path / "msr.geojson"  # as geojson.io saves a line drawn on the map
     drawn.write_text(
@@ -509,6 +509,90 @@ def test_a_route_needs_no_times(tmp_path: Path) -> None:
     points.write_text("{")
     with pytest.raises(ValueError, match=r"r\.json: not JSON"):
         load_route(points)
+
+
+KML_ROUTE = """<?xml version="1.0" encoding="UTF-8"?>
+<kml xmlns="http://www.opengis.net/kml/2.2" xmlns:gx="http://www.google.com/kml/ext/2.2">
+<Document><name>convoy</name>
+  <Placemark><name>start</name><Point><coordinates>8.1,47.1,0</coordinates></Point></Placemark>
+  <Placemark><name>MSR</name><LineString><tessellate>1</tessellate>
+    <coordinates>
+      8.1,47.1,0 8.15,47.15,0
+      8.2,47.2
+    </coordinates>
+  </LineString></Placemark>
+</Document></kml>
+"""
+
+
+def test_a_route_drawn_in_google_earth_or_qgroundcontrol(tmp_path: Path) -> None:
+    """KML (one LineString or gx:Track; points ignored), and KMZ, the zipped KML."""
+    import zipfile
+
+    from convoy_mav.tracks import load_route
+
+    want = ([47.1, 47.15, 47.2], [8.1, 8.15, 8.2])
+    kml = tmp_path / "msr.kml"
+    kml.write_text(KML_ROUTE)
+    assert load_route(kml) == want
+    kmz = tmp_path / "msr.kmz"
+    with zipfile.ZipFile(kmz, "w") as z:
+        z.writestr("files/icon.png", b"")
+        z.writestr("doc.kml", KML_ROUTE)
+    assert load_route(kmz) == want
+    track = tmp_path / "track.kml"
+    track.write_text(
+        '<kml xmlns:gx="http://www.google.com/kml/ext/2.2"><Placemark><gx:Track>'
+        "<when>2024-05-01T12:00:00Z</when><gx:coord>8.1 47.1 0</gx:coord>"
+        "<gx:coord>8.2 47.2 0</gx:coord></gx:Track></Placemark></kml>"
+    )
+    assert load_route(track) == ([47.1, 47.2], [8.1, 8.2])
+
+
+@pytest.mark.parametrize(
+    ("text", "what"),
+    [
+        (KML_ROUTE.replace("</Document>", "<Placemark><LineString><coordinates>8,47 9,47"
+                           "</coordinates></LineString></Placemark></Document>"),
+         r"a route is one <LineString> or <gx:Track>, found 2 \(lines 5, 11\)"),
+        ("<kml><Placemark><Point><coordinates>8,47</coordinates></Point></Placemark></kml>",
+         "found 0"),
+        (KML_ROUTE.replace("8.2,47.2", "8.2,north"), r"msr\.kml:8: coordinate '8.2,north'"),
+        (KML_ROUTE.replace("8.2,47.2", "8.2,95"), r"msr\.kml:8: .*latitude"),
+        (KML_ROUTE.replace("8.1,47.1,0 8.15,47.15,0\n      8.2,47.2", "8.1,47.1"),
+         r"msr\.kml:5: a route needs two points or more, got 1"),
+        ("<gpx/>", r"msr\.kml:1: the root element is <gpx>, not <kml>"),
+        ("<kml><Document>", r"msr\.kml:1: not well-formed KML"),
+    ],
+)  # fmt: skip
+def test_kml_route_errors_name_file_and_line(tmp_path: Path, text: str, what: str) -> None:
+    from convoy_mav.tracks import load_route
+
+    kml = tmp_path / "msr.kml"
+    kml.write_text(text)
+    with pytest.raises(ValueError, match=what):
+        load_route(kml)
+
+
+def test_a_kmz_without_a_kml_inside(tmp_path: Path) -> None:
+    import zipfile
+
+    from convoy_mav.tracks import load_route
+
+    kmz = tmp_path / "x.kmz"
+    with zipfile.ZipFile(kmz, "w") as z:
+        z.writestr("readme.txt", "")
+    with pytest.raises(ValueError, match=r"x\.kmz: a KMZ with no \.kml document inside"):
+        load_route(kmz)
+    kmz.write_text("not a zip")
+    with pytest.raises(ValueError, match=r"x\.kmz: not a KMZ \(zip\) file"):
+        load_route(kmz)
+    from convoy_mav.tracks.kml import kmz_document
+
+    with zipfile.ZipFile(kmz, "w", zipfile.ZIP_DEFLATED) as z:
+        z.writestr("doc.kml", " " * 10_000)  # (a bomb, scaled down)
+    with pytest.raises(ValueError, match=r"doc\.kml unzips to 10000 bytes, over the 1000"):
+        kmz_document(kmz.read_bytes(), "x.kmz", max_bytes=1000)
 
 
 def test_a_track_past_the_size_bound_is_refused_unread(

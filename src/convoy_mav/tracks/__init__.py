@@ -36,6 +36,7 @@ from typing import BinaryIO, Literal
 from convoy_mav.tracks.csvfile import parse_csv_points, parse_csv_track
 from convoy_mav.tracks.geotrack import GeoTrack, TrackSpeeds, track_speeds
 from convoy_mav.tracks.gpx import parse_gpx_points, parse_gpx_track
+from convoy_mav.tracks.kml import kmz_document, parse_kml_points
 from convoy_mav.tracks.routejson import parse_route_json
 from convoy_mav.tracks.tlog import parse_tlog_track
 
@@ -102,23 +103,31 @@ def _check_size(name: str) -> None:
 def load_route(path: str | os.PathLike[str]) -> tuple[list[float], list[float]]:
     """Read a route, the road a convoy will drive: (lats, lons), in order, times ignored.
 
-    GPX ``<trkpt>`` or ``<rtept>`` (no ``<time>`` needed), CSV ``lat,lon[,time]``, or
+    GPX ``<trkpt>`` or ``<rtept>`` (no ``<time>`` needed), CSV ``lat,lon[,time]``,
     JSON (``.geojson``/``.json``: a GeoJSON LineString as map tools export it, or
-    ``{"points": [[lat, lon], ...]}``, the MQTT route's forms, ``tracks.routejson``).
+    ``{"points": [[lat, lon], ...]}``, the MQTT route's forms, ``tracks.routejson``),
+    or KML/KMZ (one ``<LineString>`` or ``<gx:Track>``, ``tracks.kml``).
 
     Raises:
-        ValueError: A malformed file, or one that is not .gpx, .csv or JSON.
+        ValueError: A malformed file, or one that is not GPX, CSV, JSON or KML.
         OSError: The file cannot be read.
     """
     name = os.fspath(path)
     ext = os.path.splitext(name)[1].lower()
-    if ext in (".geojson", ".json"):
+    if ext in (".geojson", ".json", ".kml", ".kmz"):
         _check_size(name)
         with open(name, "rb") as handle:
-            return parse_route_json(handle.read(), name)
+            data = handle.read()
+        if ext == ".kml":
+            return parse_kml_points(data, name)
+        if ext == ".kmz":
+            return parse_kml_points(kmz_document(data, name), name)
+        return parse_route_json(data, name)
     kind = format_of(name)
     if kind not in ("csv", "gpx"):
-        raise ValueError(f"{name}: a route is a .gpx, .csv or .geojson file, not a {kind}")
+        raise ValueError(
+            f"{name}: a route is a .gpx, .csv, .geojson or .kml/.kmz file, not a {kind}"
+        )
     _check_size(name)
     if kind == "csv":
         with open(name, newline="", encoding="utf-8-sig") as handle:
