@@ -23,7 +23,7 @@ from convoy_mav.mavlink.codec import MavCodec
 from convoy_mav.publish import topics
 from convoy_mav.tracks.csvfile import parse_csv_track
 from convoy_mav.tracks.gpx import parse_gpx_track
-from convoy_mav.tracks.kml import kmz_document, parse_kml_points
+from convoy_mav.tracks.kml import kmz_document, parse_kml_points, parse_kml_track
 from convoy_mav.tracks.tlog import parse_tlog_track
 
 FUZZ = settings(max_examples=300, deadline=None)
@@ -65,6 +65,7 @@ def test_track_readers_refuse_with_a_value_error(data: bytes | str) -> None:
         lambda: parse_gpx_track(raw, "fuzz.gpx"),
         lambda: parse_tlog_track(raw, "fuzz.tlog"),
         lambda: parse_kml_points(raw, "fuzz.kml"),
+        lambda: parse_kml_track(raw, "fuzz.kml"),
         lambda: kmz_document(raw, "fuzz.kmz"),
     ]
     for parse in parsers:

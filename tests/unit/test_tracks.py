@@ -574,6 +574,48 @@ def test_kml_route_errors_name_file_and_line(tmp_path: Path, text: str, what: st
         load_route(kml)
 
 
+KML_DRIVE = """<?xml version="1.0" encoding="UTF-8"?>
+<kml xmlns="http://www.opengis.net/kml/2.2" xmlns:gx="http://www.google.com/kml/ext/2.2">
+<Document><Placemark><name>drive</name><gx:Track>
+  <when>2024-05-01T12:00:00Z</when>
+  <when>2024-05-01T12:00:10Z</when>
+  <when>2024-05-01T14:00:20+02:00</when>
+  <gx:coord>8.0 47.0 410</gx:coord>
+  <gx:coord>8.0 47.001 410</gx:coord>
+  <gx:coord>8.0 47.002 411</gx:coord>
+</gx:Track></Placemark></Document></kml>
+"""
+
+
+def test_a_kml_drive_is_a_track_and_a_kmz_one_too(tmp_path: Path) -> None:
+    """Phone loggers and Google Earth write a drive as a gx:Track: replayed as GPX is."""
+    import zipfile
+
+    track = load_track(_write(tmp_path, "drive.kml", KML_DRIVE))
+    assert track.times == (0.0, 10.0, 20.0)
+    assert track.lats == (47.0, 47.001, 47.002)
+    assert track.format == "kml"
+    kmz = tmp_path / "drive.kmz"
+    with zipfile.ZipFile(kmz, "w") as z:
+        z.writestr("doc.kml", KML_DRIVE)
+    assert load_track(kmz).times == (0.0, 10.0, 20.0)
+    assert format_of("x.KMZ") == "kml"
+
+
+@pytest.mark.parametrize(
+    ("text", "what"),
+    [
+        (KML_ROUTE, r"a recorded track is one <gx:Track> with <when> times, found 0"),
+        (KML_DRIVE.replace("<when>2024-05-01T12:00:10Z</when>", ""),
+         r"drive\.kml:3: <gx:Track> has 2 <when> for 3 <gx:coord>"),
+        (KML_DRIVE.replace("2024-05-01T12:00:10Z", "noon"), r"drive\.kml:5: <when> 'noon'"),
+    ],
+)  # fmt: skip
+def test_kml_track_errors_name_file_and_line(tmp_path: Path, text: str, what: str) -> None:
+    with pytest.raises(ValueError, match=what):
+        load_track(_write(tmp_path, "drive.kml", text))
+
+
 def test_a_kmz_without_a_kml_inside(tmp_path: Path) -> None:
     import zipfile
 

@@ -1,14 +1,17 @@
-"""Recorded convoy tracks: CSV, GPX and tlog files -> one :class:`GeoTrack` value.
+"""Recorded convoy tracks: CSV, GPX, KML and tlog files -> one :class:`GeoTrack` value.
 
 ``convoy-mav replay`` drives the mock's ground vehicles along a track recorded
-elsewhere; the mock's ``csv`` ground route reads the same CSV format. Three
+elsewhere; the mock's ``csv`` ground route reads the same CSV format. Four
 formats, one value (times + WGS-84 samples):
 
     CSV   ``time,lat,lon`` rows (degrees; seconds, POSIX milliseconds or ISO-8601),
           optional header naming the columns in any order as exporters do, comma,
           semicolon or tab, ``#`` comments (:func:`parse_csv_track`).
     GPX   1.0/1.1 ``<trkpt lat lon><time>ISO-8601</time>``, or ``<rtept>`` when
-          there is no ``<trkpt>``; every point needs a time (:func:`parse_gpx_track`).
+          there is no ``<trkpt>``; points without a time among timed ones are dropped
+          and counted (:func:`parse_gpx_track`).
+    KML   one ``<gx:Track>`` (``<when>`` and ``<gx:coord>`` pairs), or a KMZ holding it
+          (:func:`parse_kml_track`).
     tlog  The ground vehicles' GLOBAL_POSITION_INT in a MAVLink telemetry log,
           the convoy being their centroid (:func:`parse_tlog_track`).
 
@@ -36,7 +39,7 @@ from typing import BinaryIO, Literal
 from convoy_mav.tracks.csvfile import parse_csv_points, parse_csv_track
 from convoy_mav.tracks.geotrack import GeoTrack, TrackSpeeds, track_speeds
 from convoy_mav.tracks.gpx import parse_gpx_points, parse_gpx_track
-from convoy_mav.tracks.kml import kmz_document, parse_kml_points
+from convoy_mav.tracks.kml import is_zip, kmz_document, parse_kml_points, parse_kml_track
 from convoy_mav.tracks.routejson import parse_route_json
 from convoy_mav.tracks.tlog import parse_tlog_track
 
@@ -54,8 +57,8 @@ __all__ = [
     "track_speeds",
 ]
 
-TrackFormat = Literal["csv", "gpx", "tlog"]
-FORMATS: tuple[TrackFormat, ...] = ("csv", "gpx", "tlog")
+TrackFormat = Literal["csv", "gpx", "kml", "tlog"]
+FORMATS: tuple[TrackFormat, ...] = ("csv", "gpx", "kml", "tlog")
 
 
 def format_of(path: str | os.PathLike[str]) -> TrackFormat:
@@ -66,12 +69,14 @@ def format_of(path: str | os.PathLike[str]) -> TrackFormat:
     """
     name = os.fspath(path)
     ext = os.path.splitext(name)[1].lower().lstrip(".")
+    if ext == "kmz":
+        return "kml"  # (zipped: read either way)
     for fmt in FORMATS:
         if ext == fmt:
             return fmt
     raise ValueError(
         f"{name}: cannot tell the track format from the extension {ext or '(none)'!r}; "
-        "expected .csv, .gpx or .tlog (or name the format)"
+        "expected .csv, .gpx, .kml/.kmz or .tlog (or name the format)"
     )
 
 
@@ -118,10 +123,8 @@ def load_route(path: str | os.PathLike[str]) -> tuple[list[float], list[float]]:
         _check_size(name)
         with open(name, "rb") as handle:
             data = handle.read()
-        if ext == ".kml":
-            return parse_kml_points(data, name)
-        if ext == ".kmz":
-            return parse_kml_points(kmz_document(data, name), name)
+        if ext in (".kml", ".kmz"):
+            return parse_kml_points(_kml_bytes(data, name), name)
         return parse_route_json(data, name)
     kind = format_of(name)
     if kind not in ("csv", "gpx"):
@@ -136,6 +139,11 @@ def load_route(path: str | os.PathLike[str]) -> tuple[list[float], list[float]]:
         return parse_gpx_points(binary, name)
 
 
+def _kml_bytes(data: bytes, name: str) -> bytes:
+    """A KML document's bytes, unzipped when they are a KMZ's (by name or signature)."""
+    return kmz_document(data, name) if name.lower().endswith(".kmz") or is_zip(data) else data
+
+
 def load_track(
     path: str | os.PathLike[str],
     fmt: TrackFormat | None = None,
@@ -145,7 +153,7 @@ def load_track(
     """Read a recorded convoy track, times rebased to start at 0.
 
     Args:
-        path: A CSV, GPX or tlog file.
+        path: A CSV, GPX, KML/KMZ or tlog file.
         fmt: Its format (default: from the extension, see :func:`format_of`).
         sysids: tlog only: the convoy's vehicles (default: every ground rover).
 
@@ -165,6 +173,9 @@ def load_track(
     elif kind == "gpx":
         with open(name, "rb") as binary:
             track = parse_gpx_track(binary, name)
+    elif kind == "kml":
+        with open(name, "rb") as binary:
+            track = parse_kml_track(_kml_bytes(binary.read(), name), name)
     else:  # (mapped, not read: the pages a tlog's records are decoded from come and go)
         with open(name, "rb") as binary, _mapped(binary) as data:
             track = parse_tlog_track(data, name, sysids=sysids)

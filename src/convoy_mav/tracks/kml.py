@@ -6,8 +6,10 @@ or zipped with its icons as ``.kmz``). A route is the one ``<LineString>``'s
 ``<coordinates>`` (``lon,lat[,alt]`` tuples separated by white space, KML's
 order), or a ``<gx:Track>``'s ``<gx:coord>`` (``lon lat alt``). More than one
 path is refused with the count, as nothing says which the convoy will drive.
-Parsed with expat, as GPX is, so an error names its line; pure but for
-:func:`kmz_document`, which takes the zipped bytes.
+A recorded track (:func:`parse_kml_track`, ``convoy-mav replay``) is one
+``<gx:Track>``, whose ``<when>`` times pair with its ``<gx:coord>`` in order, as
+phone loggers and Google Earth write a drive. Parsed with expat, as GPX is, so an
+error names its line. Pure: bytes in (:func:`kmz_document` unzips a KMZ's).
 """
 
 from __future__ import annotations
@@ -15,13 +17,15 @@ from __future__ import annotations
 import io
 import math
 import zipfile
+from dataclasses import dataclass, field
 from xml.parsers import expat
 
-from convoy_mav.tracks.geotrack import check_fix
+from convoy_mav.tracks.geotrack import GeoTrack, check_fix, iso_seconds
 
-__all__ = ["MAX_KML_BYTES", "kmz_document", "parse_kml_points"]
+__all__ = ["MAX_KML_BYTES", "is_zip", "kmz_document", "parse_kml_points", "parse_kml_track"]
 
 _PATHS = ("LineString", "Track")  # (gx:Track's local name)
+_TEXTS = {("LineString", "coordinates"), ("Track", "coord"), ("Track", "when")}
 
 
 MAX_KML_BYTES = 64 << 20
@@ -51,6 +55,19 @@ def kmz_document(data: bytes, name: str, max_bytes: int = MAX_KML_BYTES) -> byte
         raise ValueError(f"{name}: not a KMZ (zip) file that can be read: {e}") from None
 
 
+@dataclass
+class _Path:
+    kind: str  # "LineString" or "Track"
+    line: int
+    points: list[tuple[float, float]] = field(default_factory=list)
+    whens: list[tuple[int, str]] = field(default_factory=list)  # (line, text)
+
+
+def is_zip(data: bytes) -> bool:
+    """Whether ``data`` is a zip file (a KMZ), by its signature."""
+    return data[:4] == b"PK\x03\x04"
+
+
 def parse_kml_points(data: bytes | str, name: str) -> tuple[list[float], list[float]]:
     """The route a KML document holds: (lats, lons), in order.
 
@@ -59,8 +76,56 @@ def parse_kml_points(data: bytes | str, name: str) -> tuple[list[float], list[fl
             under two points, or a coordinate that is not a number or out of range;
             ``file:line:`` first.
     """
+    path = _one(_kml_paths(data, name), name, "a route is one <LineString> or <gx:Track>")
+    return [p[0] for p in path.points], [p[1] for p in path.points]
+
+
+def parse_kml_track(data: bytes | str, name: str) -> GeoTrack:
+    """The recorded track a KML document holds: its one ``<gx:Track>``, timed by its
+    ``<when>`` (ISO-8601), times not rebased.
+
+    Raises:
+        ValueError: As :func:`parse_kml_points`, and a path without times (a
+            ``<LineString>`` is a route, not a drive), or ``<when>`` and ``<gx:coord>``
+            counts that differ, or a time that is not ISO-8601.
+    """
+    tracks = [p for p in _kml_paths(data, name) if p.kind == "Track"]
+    path = _one(tracks, name, "a recorded track is one <gx:Track> with <when> times")
+    if len(path.whens) != len(path.points):
+        raise ValueError(
+            f"{name}:{path.line}: <gx:Track> has {len(path.whens)} <when> for "
+            f"{len(path.points)} <gx:coord>; each point needs its time"
+        )
+    times = []
+    for line, text in path.whens:
+        seconds = iso_seconds(text)
+        if seconds is None:
+            raise ValueError(f"{name}:{line}: <when> {text!r} is not ISO-8601")
+        times.append(seconds)
+    lats, lons = [p[0] for p in path.points], [p[1] for p in path.points]
+    return GeoTrack.from_fixes(times, lats, lons, name, "kml")
+
+
+def _one(paths: list[_Path], name: str, what: str) -> _Path:
+    """The one path of ``paths`` (two points or more), else why not."""
+    if len(paths) != 1:
+        lines = ", ".join(str(p.line) for p in paths)
+        raise ValueError(
+            f"{name}: {what}, found {len(paths)}"
+            + (f" (lines {lines}); keep the road the convoy will drive" if paths else "")
+        )
+    path = paths[0]
+    if len(path.points) < 2:
+        raise ValueError(
+            f"{name}:{path.line}: a route needs two points or more, got {len(path.points)}"
+        )
+    return path
+
+
+def _kml_paths(data: bytes | str, name: str) -> list[_Path]:
+    """Every ``<LineString>`` and ``<gx:Track>`` of a KML document, in order."""
     parser = expat.ParserCreate(namespace_separator=" ")
-    paths: list[tuple[int, list[tuple[float, float]]]] = []  # (line, points)
+    paths: list[_Path] = []
     stack: list[str] = []
     text: list[str] | None = None
     text_line = 0
@@ -71,25 +136,26 @@ def parse_kml_points(data: bytes | str, name: str) -> tuple[list[float], list[fl
         if not stack and local != "kml":
             raise ValueError(f"{name}:1: the root element is <{local}>, not <kml>")
         if local in _PATHS:
-            paths.append((parser.CurrentLineNumber, []))
-        elif (local == "coordinates" and stack and stack[-1] == "LineString") or (
-            local == "coord" and stack and stack[-1] == "Track"
-        ):
+            paths.append(_Path(local, parser.CurrentLineNumber))
+        elif stack and (stack[-1], local) in _TEXTS:
             text, text_line = [], parser.CurrentLineNumber
         stack.append(local)
 
     def end(tag: str) -> None:
         nonlocal text
         local = stack.pop()
-        if text is None or local not in ("coordinates", "coord"):
+        if text is None or local not in ("coordinates", "coord", "when"):
             return
         joined, text = "".join(text), None
-        if local == "coord":  # gx:coord: "lon lat alt", one point
-            paths[-1][1].append(_point(f"{name}:{text_line}", joined.split()))
-            return
-        for i, row in enumerate(joined.split("\n")):  # "lon,lat[,alt] lon,lat[,alt] ..."
-            where = f"{name}:{text_line + i}"
-            paths[-1][1].extend(_point(where, t.split(",")) for t in row.split())
+        path = paths[-1]
+        if local == "when":
+            path.whens.append((text_line, joined.strip()))
+        elif local == "coord":  # gx:coord: "lon lat alt", one point
+            path.points.append(_point(f"{name}:{text_line}", joined.split()))
+        else:
+            for i, row in enumerate(joined.split("\n")):  # "lon,lat[,alt] lon,lat[,alt] ..."
+                where = f"{name}:{text_line + i}"
+                path.points.extend(_point(where, t.split(",")) for t in row.split())
 
     def chars(data: str) -> None:
         if text is not None:
@@ -103,16 +169,7 @@ def parse_kml_points(data: bytes | str, name: str) -> tuple[list[float], list[fl
     except expat.ExpatError as e:
         reason = expat.ErrorString(e.code)
         raise ValueError(f"{name}:{e.lineno}: not well-formed KML: {reason}") from None
-    if len(paths) != 1:
-        lines = ", ".join(str(line) for line, _ in paths)
-        raise ValueError(
-            f"{name}: a route is one <LineString> or <gx:Track>, found {len(paths)}"
-            + (f" (lines {lines}); keep the road the convoy will drive" if paths else "")
-        )
-    line, points = paths[0]
-    if len(points) < 2:
-        raise ValueError(f"{name}:{line}: a route needs two points or more, got {len(points)}")
-    return [p[0] for p in points], [p[1] for p in points]
+    return paths
 
 
 def _point(where: str, fields: list[str]) -> tuple[float, float]:
