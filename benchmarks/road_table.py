@@ -10,6 +10,7 @@
     .venv/bin/python benchmarks/road_table.py --gaps  # where the loss is, why (~3 min)
     .venv/bin/python benchmarks/road_table.py --foresight  # given the true future (~5 min)
     .venv/bin/python benchmarks/road_table.py --fast-stops  # stops from speed (~2 min)
+    .venv/bin/python benchmarks/road_table.py --stop-reach  # could the fleet close them (~1 min)
     .venv/bin/python benchmarks/road_table.py --no-route-count  # 6 or 7 UAVs, no route (~8 min)
 
 Simulation: the service's ``RoadMission`` fed the convoy's fixes through its own
@@ -39,8 +40,10 @@ import numpy.typing as npt
 from convoy_mav.config import DEFAULT_ORIGIN
 from convoy_mav.geo import GeoPoint, LocalFrame
 from convoy_mav.mission.choose import road_fleet
+from convoy_mav.mission.road import RoadMission, RoadSettings
 from convoy_mav.mission.simulate import RoadRun, fly_road
 from convoy_mav.planning import PlanRequest
+from convoy_mav.planning.dubins import Pose, dubins_word_lengths
 from convoy_mav.tracks import GeoTrack, load_track
 from convoy_mav.tracks.roads import (
     KINDS,
@@ -390,6 +393,76 @@ def _fast_stops() -> None:
         print(f"| {ratio:.2f} | " + " | ".join(cells) + " |", flush=True)
 
 
+REACH_SPEED_RATIO = 0.67  # --stop-reach: stops from 12 m/s for the demo's 18 m/s planes
+REACH_FORESIGHT_S = (None, 0.0, 2.0, 5.0, 7.0, 10.0, math.inf)
+
+
+def _soonest(mission: RoadMission, t: float, x: float, y: float, req: PlanRequest) -> list[float]:
+    """Mission times at which each UAV, from where its path in force has it at ``t``, could
+    first be within r of (x, y): the shortest Dubins path at the top of the speed band to
+    a point 0.9 r from it, any heading, sampled (24 points, 12 headings)."""
+    r, R = req.sensor_radius, req.turn_radius
+    fastest = RoadSettings().speed_band[1] * req.uav_speed
+    goals = [
+        Pose(x + 0.9 * r * math.cos(a), y + 0.9 * r * math.sin(a), h)
+        for a in np.linspace(0.0, 2.0 * math.pi, 24, endpoint=False)
+        for h in np.linspace(0.0, 2.0 * math.pi, 12, endpoint=False)
+    ]
+    out = []
+    for uav in range(1, 64):
+        path = mission.trajectory(uav)
+        if path is None:
+            continue
+        s = path.sample(t)
+        here = Pose(s.x, s.y, s.heading)
+        length = min(min(dubins_word_lengths(here, g, R).values()) for g in goals)
+        out.append(t + length / fastest)
+    return sorted(out)
+
+
+def _reached(foresight: float | None) -> RoadRun:
+    req = DEFAULT
+    rt = stops_from(REACH_SPEED_RATIO * req.uav_speed)
+    uavs = road_fleet(req.turn_radius, req.sensor_radius)
+    return fly_road(
+        rt.t, rt.north, rt.east, req, uavs, true_north=rt.true_north, true_east=rt.true_east,
+        route_known=True, record=foresight is None, foresight_s=foresight,
+    )  # fmt: skip
+
+
+def _stop_reach() -> None:
+    """Whether a fast convoy's stop leaves a gap the fleet could have closed: stops from
+    0.67 of the airspeed (``stops_from``, the route known). For each gap of 10 s or
+    more, when each UAV could at the soonest be over the stopped convoy, from where it
+    flew at the gap's start and at the onset of the braking; then the same stops given
+    the convoy's true next seconds (``fly_road(foresight_s=...)``)."""
+    with ProcessPoolExecutor(os.cpu_count()) as pool:
+        runs = list(pool.map(_reached, REACH_FORESIGHT_S))
+    run, rt, req = runs[0], stops_from(REACH_SPEED_RATIO * DEFAULT.uav_speed), DEFAULT
+    assert run.recording is not None
+    speed = np.hypot(np.gradient(rt.true_north, rt.t), np.gradient(rt.true_east, rt.t))
+    top = float(np.max(speed))
+    print("| gap | braking from | stopped at | soonest over it, from the gap's start | "
+          "from the onset of braking |\n|---|---|---|---|---|")  # fmt: skip
+    for start, end in run.gaps:
+        if end - start < 10.0:
+            continue
+        before = rt.t < start
+        onset = float(rt.t[before & (speed >= 0.98 * top)][-1])
+        k = int(np.flatnonzero((rt.t > onset) & (speed < 0.05))[0])
+        x, y = float(rt.true_east[k]), float(rt.true_north[k])
+        cells = []
+        for t in (start, onset):
+            mission = RoadMission.replayed(run.recording, until=t)
+            cells.append(", ".join(f"{a:.0f}" for a in _soonest(mission, t, x, y, req)))
+        print(f"| {start:.0f}-{end:.0f} s | {onset:.0f} s | {rt.t[k]:.0f} s | "
+              f"{cells[0]} | {cells[1]} |")  # fmt: skip
+    print("\n| foresight | coverage | longest gap |\n|---|---|---|")
+    for h, flown in zip(REACH_FORESIGHT_S, runs, strict=True):
+        label = "forecast" if h is None else "all" if math.isinf(h) else f"{h:.0f} s"
+        print(f"| {label} | {100 * flown.coverage:.2f} % | {flown.longest_gap_s:.1f} s |")
+
+
 COUNT_OFFSETS_S = (0.0, 11.0, 23.0)  # the track's first seconds dropped: another phase
 
 
@@ -457,6 +530,11 @@ def main() -> None:
         "--fast-stops", action="store_true", help="the simulation of stops from speed"
     )
     parser.add_argument(
+        "--stop-reach",
+        action="store_true",
+        help="whether a fast convoy's stop leaves a gap the fleet could have closed",
+    )
+    parser.add_argument(
         "--no-route-count",
         action="store_true",
         help="the simulation without a route, stationary minimum + 1 against + 2 UAVs",
@@ -473,6 +551,9 @@ def main() -> None:
         return
     if args.fast_stops:
         _fast_stops()
+        return
+    if args.stop_reach:
+        _stop_reach()
         return
     if args.foresight:
         _foresight()
