@@ -191,6 +191,15 @@ def test_alarm_payload() -> None:
             b'{"north": 1, "east": 2, "source": 7, "extra": "ignored"}',
             {"north": 1.0, "east": 2.0, "source": 7},
         ),
+        (b'{"latitude": 47.39, "longitude": 8.54}', {"lat": 47.39, "lon": 8.54}),
+        (  # an OwnTracks location, as its app publishes it
+            b'{"_type": "location", "lat": 47.39, "lon": 8.54, "tst": 1714557600, "acc": 5}',
+            {"lat": 47.39, "lon": 8.54},
+        ),
+        (
+            b'{"lat": 47.39, "lng": 8.54, "source": "truck"}',
+            {"lat": 47.39, "lon": 8.54, "source": "truck"},
+        ),
     ],
 )
 def test_convoy_position_accepted(raw: bytes | str, expected: dict[str, Any]) -> None:

@@ -453,8 +453,12 @@ def _number(obj: Mapping[str, Any], key: str) -> float:
     return x
 
 
+_GEO_ALIASES = {"latitude": "lat", "lng": "lon", "longitude": "lon"}
+
+
 def parse_convoy_position(payload: bytes | str) -> dict[str, Any]:
-    """Validate ``<prefix>/convoy/position``.
+    """Validate ``<prefix>/convoy/position``: ``lat``/``lon`` (or ``latitude``, ``lng``,
+    ``longitude``, as trackers publish them) or ``north``/``east``; other fields ignored.
 
     Returns:
         ``{"lat", "lon"}`` or ``{"north", "east"}`` as floats, plus ``"t"`` (float)
@@ -468,6 +472,7 @@ def parse_convoy_position(payload: bytes | str) -> dict[str, Any]:
     obj = _load(payload)
     if not isinstance(obj, dict):
         raise BadPayload(f"convoy position must be a JSON object, got {type(obj).__name__}")
+    obj = {_GEO_ALIASES.get(k, k): v for k, v in obj.items()}  # (latitude, lng, longitude)
     geo = {"lat", "lon"} & obj.keys()
     local = {"north", "east"} & obj.keys()
     if geo and local:
