@@ -560,7 +560,7 @@ def test_a_route_drawn_in_google_earth_or_qgroundcontrol(tmp_path: Path) -> None
         (KML_ROUTE.replace("8.2,47.2", "8.2,north"), r"msr\.kml:8: coordinate '8.2,north'"),
         (KML_ROUTE.replace("8.2,47.2", "8.2,95"), r"msr\.kml:8: .*latitude"),
         (KML_ROUTE.replace("8.1,47.1,0 8.15,47.15,0\n      8.2,47.2", "8.1,47.1"),
-         r"msr\.kml:5: a route needs two points or more, got 1"),
+         r"msr\.kml:5: a path needs two points or more, got 1"),
         ("<gpx/>", r"msr\.kml:1: the root element is <gpx>, not <kml>"),
         ("<kml><Document>", r"msr\.kml:1: not well-formed KML"),
     ],

@@ -1,4 +1,4 @@
-"""KML and KMZ routes: a path drawn in Google Earth or QGroundControl, as a route.
+"""KML and KMZ: a path drawn in Google Earth or QGroundControl, or a logged drive.
 
 Ground-station and map users keep roads as KML: QGroundControl imports and exports
 polylines as KML, Google Earth saves a drawn path as a ``<LineString>`` (``.kml``,
@@ -48,7 +48,7 @@ def kmz_document(data: bytes, name: str, max_bytes: int = MAX_KML_BYTES) -> byte
             if info.file_size > max_bytes:
                 raise ValueError(
                     f"{name}: {info.filename} unzips to {info.file_size} bytes, over the "
-                    f"{max_bytes} a route may be"
+                    f"{max_bytes} a KML document may be"
                 )
             return kmz.read(info)  # (no more than file_size is read)
     except (zipfile.BadZipFile, zipfile.LargeZipFile, NotImplementedError, RuntimeError) as e:
@@ -76,7 +76,12 @@ def parse_kml_points(data: bytes | str, name: str) -> tuple[list[float], list[fl
             under two points, or a coordinate that is not a number or out of range;
             ``file:line:`` first.
     """
-    path = _one(_kml_paths(data, name), name, "a route is one <LineString> or <gx:Track>")
+    path = _one(
+        _kml_paths(data, name),
+        name,
+        "a route is one <LineString> or <gx:Track>",
+        "keep the road the convoy will drive",
+    )
     return [p[0] for p in path.points], [p[1] for p in path.points]
 
 
@@ -90,7 +95,12 @@ def parse_kml_track(data: bytes | str, name: str) -> GeoTrack:
             counts that differ, or a time that is not ISO-8601.
     """
     tracks = [p for p in _kml_paths(data, name) if p.kind == "Track"]
-    path = _one(tracks, name, "a recorded track is one <gx:Track> with <when> times")
+    path = _one(
+        tracks,
+        name,
+        "a recorded track is one <gx:Track> with <when> times",
+        "keep the drive to replay",
+    )
     if len(path.whens) != len(path.points):
         raise ValueError(
             f"{name}:{path.line}: <gx:Track> has {len(path.whens)} <when> for "
@@ -106,18 +116,18 @@ def parse_kml_track(data: bytes | str, name: str) -> GeoTrack:
     return GeoTrack.from_fixes(times, lats, lons, name, "kml")
 
 
-def _one(paths: list[_Path], name: str, what: str) -> _Path:
-    """The one path of ``paths`` (two points or more), else why not."""
+def _one(paths: list[_Path], name: str, what: str, keep: str) -> _Path:
+    """The one path of ``paths`` (two points or more), else ``what`` was expected, and
+    which to ``keep`` when there are several."""
     if len(paths) != 1:
         lines = ", ".join(str(p.line) for p in paths)
         raise ValueError(
-            f"{name}: {what}, found {len(paths)}"
-            + (f" (lines {lines}); keep the road the convoy will drive" if paths else "")
+            f"{name}: {what}, found {len(paths)}" + (f" (lines {lines}); {keep}" if paths else "")
         )
     path = paths[0]
     if len(path.points) < 2:
         raise ValueError(
-            f"{name}:{path.line}: a route needs two points or more, got {len(path.points)}"
+            f"{name}:{path.line}: a path needs two points or more, got {len(path.points)}"
         )
     return path
 
