@@ -192,9 +192,9 @@ def test_alarm_payload() -> None:
             {"north": 1.0, "east": 2.0, "source": 7},
         ),
         (b'{"latitude": 47.39, "longitude": 8.54}', {"lat": 47.39, "lon": 8.54}),
-        (  # an OwnTracks location, as its app publishes it
-            b'{"_type": "location", "lat": 47.39, "lon": 8.54, "tst": 1714557600, "acc": 5}',
-            {"lat": 47.39, "lon": 8.54},
+        (  # an OwnTracks location, as its app publishes it: each phone is a source
+            b'{"_type": "location", "lat": 47.39, "lon": 8.54, "tst": 1714557600, "tid": "t1"}',
+            {"lat": 47.39, "lon": 8.54, "source": "t1"},
         ),
         (
             b'{"lat": 47.39, "lng": 8.54, "source": "truck"}',

@@ -458,7 +458,8 @@ _GEO_ALIASES = {"latitude": "lat", "lng": "lon", "longitude": "lon"}
 
 def parse_convoy_position(payload: bytes | str) -> dict[str, Any]:
     """Validate ``<prefix>/convoy/position``: ``lat``/``lon`` (or ``latitude``, ``lng``,
-    ``longitude``, as trackers publish them) or ``north``/``east``; other fields ignored.
+    ``longitude``, as trackers publish them) or ``north``/``east``; other fields ignored,
+    but for an OwnTracks location's ``tid``, the source when none is named.
 
     Returns:
         ``{"lat", "lon"}`` or ``{"north", "east"}`` as floats, plus ``"t"`` (float)
@@ -473,6 +474,8 @@ def parse_convoy_position(payload: bytes | str) -> dict[str, Any]:
     if not isinstance(obj, dict):
         raise BadPayload(f"convoy position must be a JSON object, got {type(obj).__name__}")
     obj = {_GEO_ALIASES.get(k, k): v for k, v in obj.items()}  # (latitude, lng, longitude)
+    if "source" not in obj and obj.get("_type") == "location" and "tid" in obj:
+        obj["source"] = obj["tid"]  # (OwnTracks: each phone's tracker id is one vehicle)
     geo = {"lat", "lon"} & obj.keys()
     local = {"north", "east"} & obj.keys()
     if geo and local:
