@@ -7,6 +7,7 @@ mock that cannot start must say why in the parent.
 
 from __future__ import annotations
 
+import asyncio
 import socket
 
 import pytest
@@ -40,6 +41,9 @@ async def test_the_truth_comes_back_for_every_vehicle_and_the_child_is_gone() ->
         assert all(e.port > 0 for e in mock.endpoints)  # bound by the child
         proc = mock._proc
         assert proc is not None and proc.is_alive()
+        # Let its simulation run a while (40 sim s a wall second): stopped at once, a child
+        # on a loaded host had recorded only its first truth rows, at t = 0.
+        await asyncio.sleep(1.0)
     assert not proc.is_alive()
     assert mock.history is not None
     rows = mock.history.rows
