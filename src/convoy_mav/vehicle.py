@@ -1116,6 +1116,7 @@ class Vehicle:
         ap = self.firmware
         assert ap is not None
         backoff = self.command_retry
+        cap = self.max_backoff if max_backoff is None else max_backoff
         attempts = 0
         result_name: str | None = None
         said: tuple[str | None, float] | None = None  # the refusal last reported, and when
@@ -1158,7 +1159,7 @@ class Vehicle:
                 )
                 said = (reason, now)
             await self.clock.sleep_until(self.clock.now() + wait)
-            backoff = min(2.0 * backoff, self.max_backoff if max_backoff is None else max_backoff)
+            backoff = min(2.0 * backoff, cap)
 
     def _text_since(self, t: float) -> bool:
         return self._statustext_t >= t

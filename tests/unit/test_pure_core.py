@@ -45,6 +45,7 @@ PURE = [
     "convoy_mav.tracks.kml",
     "convoy_mav.tracks.routejson",
     "convoy_mav.tracks.tlog",
+    "convoy_mav.tracks.xmlfeed",
     "sitl_mock.airframe",
     "sitl_mock.autopilot",
     "sitl_mock.flight",

@@ -118,7 +118,7 @@ from typing import Any, Final
 
 from convoy_mav.coverage import CoverageSample, CoverageStats
 from convoy_mav.errors import ConfigError, ConvoyError
-from convoy_mav.tracks.routejson import route_points
+from convoy_mav.tracks.routejson import json_number, route_points, with_geo_keys
 from convoy_mav.types import Telemetry, VehicleStatus
 
 __all__ = [
@@ -442,18 +442,10 @@ def _load(payload: bytes | str) -> Any:
 
 def _number(obj: Mapping[str, Any], key: str) -> float:
     """A required finite JSON number field."""
-    if key not in obj:
-        raise BadPayload(f"missing field {key!r}")
-    value = obj[key]
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise BadPayload(f"field {key!r} must be a JSON number, got {value!r}")
-    x = float(value)
-    if not math.isfinite(x):
-        raise BadPayload(f"field {key!r} is not finite ({value!r})")
-    return x
-
-
-_GEO_ALIASES = {"latitude": "lat", "lng": "lon", "longitude": "lon"}
+    try:
+        return json_number(obj, key)
+    except ValueError as exc:
+        raise BadPayload(str(exc)) from None
 
 
 def parse_convoy_position(payload: bytes | str) -> dict[str, Any]:
@@ -473,7 +465,7 @@ def parse_convoy_position(payload: bytes | str) -> dict[str, Any]:
     obj = _load(payload)
     if not isinstance(obj, dict):
         raise BadPayload(f"convoy position must be a JSON object, got {type(obj).__name__}")
-    obj = {_GEO_ALIASES.get(k, k): v for k, v in obj.items()}  # (latitude, lng, longitude)
+    obj = with_geo_keys(obj)
     if "source" not in obj and obj.get("_type") == "location" and "tid" in obj:
         obj["source"] = obj["tid"]  # (OwnTracks: each phone's tracker id is one vehicle)
     geo = {"lat", "lon"} & obj.keys()

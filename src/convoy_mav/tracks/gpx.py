@@ -8,6 +8,7 @@ from typing import BinaryIO
 from xml.parsers import expat
 
 from convoy_mav.tracks.geotrack import GeoTrack, check_fix, iso_seconds
+from convoy_mav.tracks.xmlfeed import feed_xml
 
 __all__ = ["parse_gpx_track"]
 
@@ -125,14 +126,7 @@ def _gpx_points(data: bytes | str | BinaryIO, name: str) -> list[_GpxPoint]:
     parser.StartElementHandler = start
     parser.EndElementHandler = end
     parser.CharacterDataHandler = chars
-    try:
-        if isinstance(data, bytes | str):
-            parser.Parse(data, True)
-        else:
-            parser.ParseFile(data)  # (in chunks)
-    except expat.ExpatError as e:
-        reason = expat.ErrorString(e.code)
-        raise ValueError(f"{name}:{e.lineno}: not well-formed GPX: {reason}") from None
+    feed_xml(parser, data, name, "GPX")
     if root and root[0] != "gpx":
         raise ValueError(f"{name}:1: the root element is <{root[0]}>, not <gpx>")
     kind = "trkpt" if counts["trkpt"] else "rtept"

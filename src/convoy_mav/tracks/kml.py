@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 from xml.parsers import expat
 
 from convoy_mav.tracks.geotrack import GeoTrack, check_fix, iso_seconds
+from convoy_mav.tracks.xmlfeed import feed_xml
 
 __all__ = ["MAX_KML_BYTES", "is_zip", "kmz_document", "parse_kml_points", "parse_kml_track"]
 
@@ -174,11 +175,7 @@ def _kml_paths(data: bytes | str, name: str) -> list[_Path]:
     parser.StartElementHandler = start
     parser.EndElementHandler = end
     parser.CharacterDataHandler = chars
-    try:
-        parser.Parse(data, True)
-    except expat.ExpatError as e:
-        reason = expat.ErrorString(e.code)
-        raise ValueError(f"{name}:{e.lineno}: not well-formed KML: {reason}") from None
+    feed_xml(parser, data, name, "KML")
     return paths
 
 

@@ -15,11 +15,10 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
-__all__ = ["MAX_ROUTE_POINTS", "parse_route_json", "route_points"]
+__all__ = ["MAX_ROUTE_POINTS", "json_number", "parse_route_json", "route_points", "with_geo_keys"]
 
 MAX_ROUTE_POINTS = 100_000
-_LAT_KEYS = ("lat", "latitude")
-_LON_KEYS = ("lon", "lng", "longitude")
+_GEO_ALIASES = {"latitude": "lat", "lng": "lon", "longitude": "lon"}
 
 
 def parse_route_json(text: str | bytes, name: str) -> tuple[list[float], list[float]]:
@@ -60,9 +59,10 @@ def route_points(obj: Any) -> list[tuple[float, float]]:
     out = []
     for i, p in enumerate(raw):
         if isinstance(p, dict):
-            lat, lon = _number(p, _named(p, _LAT_KEYS)), _number(p, _named(p, _LON_KEYS))
+            named = with_geo_keys(p)
+            lat, lon = json_number(named, "lat"), json_number(named, "lon")
         elif isinstance(p, list) and len(p) >= 2:
-            a, b = _number({"0": p[0]}, "0"), _number({"1": p[1]}, "1")
+            a, b = json_number({"0": p[0]}, "0"), json_number({"1": p[1]}, "1")
             lat, lon = (b, a) if lon_first else (a, b)
         else:
             raise ValueError(f"route point {i} must be [lat, lon] or {{lat, lon}}, got {p!r}")
@@ -72,8 +72,8 @@ def route_points(obj: Any) -> list[tuple[float, float]]:
     return out
 
 
-def _number(obj: Mapping[str, Any], key: str) -> float:
-    """A required finite JSON number field."""
+def json_number(obj: Mapping[str, Any], key: str) -> float:
+    """A required finite JSON number field (``ValueError`` saying which, and why)."""
     if key not in obj:
         raise ValueError(f"missing field {key!r}")
     value = obj[key]
@@ -85,9 +85,10 @@ def _number(obj: Mapping[str, Any], key: str) -> float:
     return x
 
 
-def _named(point: Mapping[str, Any], keys: tuple[str, ...]) -> str:
-    """The first of ``keys`` the point has (the first, to be reported missing, if none)."""
-    return next((k for k in keys if k in point), keys[0])
+def with_geo_keys(obj: Mapping[str, Any]) -> dict[str, Any]:
+    """``obj`` with ``latitude``/``lng``/``longitude`` also under ``lat``/``lon``, as
+    trackers and map tools name them (a ``lat`` or ``lon`` of its own wins)."""
+    return {**{_GEO_ALIASES[k]: v for k, v in obj.items() if k in _GEO_ALIASES}, **obj}
 
 
 def _geojson_line(obj: dict[str, Any]) -> dict[str, Any]:
