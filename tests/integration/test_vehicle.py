@@ -429,15 +429,24 @@ class ScriptedCopter:
             await asyncio.sleep(0.002)
 
 
-async def test_in_progress_foreign_acks_and_refusals() -> None:
+async def _fly_scripted(
+    arm_refusals: int, timeout: float
+) -> tuple[ScriptedCopter, list[VehicleEvent]]:
+    """Set up a vehicle on a ``ScriptedCopter`` that refuses ARM so many times, to FLYING."""
     peer = ScriptedCopter(speedup=20.0)
+    peer.arm_refusals = arm_refusals
     clock = MissionClock(rate_hint=20.0)
     events: list[VehicleEvent] = []
     frame = LocalFrame(MockConfig.simple(1).origin)
     vehicle = Vehicle(1, peer, clock, frame, on_event=events.append, altitude=15.0)
     peer.vehicle = vehicle
     async with running(peer.run(), vehicle.run()):
-        await until(lambda: has_status(vehicle, VehicleStatus.FLYING), timeout=5)
+        await until(lambda: has_status(vehicle, VehicleStatus.FLYING), timeout=timeout)
+    return peer, events
+
+
+async def test_in_progress_foreign_acks_and_refusals() -> None:
+    peer, events = await _fly_scripted(arm_refusals=1, timeout=5)
     m = peer.m
     # IN_PROGRESS waited for (no re-send), the foreign DENIED ignored, our DENIED retried
     assert peer.commands.count(m.MAV_CMD_DO_SET_MODE) == 1
@@ -454,15 +463,7 @@ async def test_refused_arm_is_retried_at_most_arm_backoff_apart() -> None:
     """An autopilot refuses ARM until its position estimate settles and arms the
     moment it does: the retries back off to ``arm_backoff`` (2 s), not ``max_backoff``
     (10 s), and the same refusal is said again only ``max_backoff`` later."""
-    peer = ScriptedCopter(speedup=20.0)
-    peer.arm_refusals = 8
-    clock = MissionClock(rate_hint=20.0)
-    events: list[VehicleEvent] = []
-    frame = LocalFrame(MockConfig.simple(1).origin)
-    vehicle = Vehicle(1, peer, clock, frame, on_event=events.append, altitude=15.0)
-    peer.vehicle = vehicle
-    async with running(peer.run(), vehicle.run()):
-        await until(lambda: has_status(vehicle, VehicleStatus.FLYING), timeout=10)
+    peer, events = await _fly_scripted(arm_refusals=8, timeout=10)
     assert peer.commands.count(peer.m.MAV_CMD_COMPONENT_ARM_DISARM) == 9
     refused = [e for e in events if e.kind is EventKind.REFUSED]
     assert refused[0].message == (

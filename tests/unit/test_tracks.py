@@ -473,42 +473,31 @@ def test_the_recorded_drive_is_read_as_it_comes() -> None:
 
 
 def test_a_route_needs_no_times(tmp_path: Path) -> None:
-    """[convoy] route: GPX <rtept> without <time>, CSV lat,lon[,time]."""
+    """[convoy] route: GPX <rtept> without <time>, CSV lat,lon[,time], GeoJSON, JSON."""
     from convoy_mav.tracks import load_route
 
-    gpx = tmp_path / "r.gpx"
-    gpx.write_text(
-        '<gpx version="1.1"><rte><rtept lat="47.1" lon="8.1"/><rtept lat="47.2" lon="8.2"/>'
-        "</rte></gpx>"
-    )
-    assert load_route(gpx) == ([47.1, 47.2], [8.1, 8.2])
-    csv_ = tmp_path / "r.csv"
-    csv_.write_text("# a route\n47.1,8.1\n47.2,8.2,60\n")
-    assert load_route(csv_) == ([47.1, 47.2], [8.1, 8.2])
-    named = tmp_path / "n.csv"
-    named.write_text("lon,lat\n8.1,47.1\n8.2,47.2\n")
-    assert load_route(named) == ([47.1, 47.2], [8.1, 8.2])
-    bad = tmp_path / "b.csv"
-    bad.write_text("47.1\n")
+    def route(name: str, text: str) -> tuple[list[float], list[float]]:
+        return load_route(_write(tmp_path, name, text))
+
+    want = ([47.1, 47.2], [8.1, 8.2])
+    gpx = '<gpx version="1.1"><rte><rtept lat="47.1" lon="8.1"/><rtept lat="47.2" lon="8.2"/>'
+    assert route("r.gpx", gpx + "</rte></gpx>") == want
+    assert route("r.csv", "# a route\n47.1,8.1\n47.2,8.2,60\n") == want
+    assert route("n.csv", "lon,lat\n8.1,47.1\n8.2,47.2\n") == want
     with pytest.raises(ValueError, match=r"b.csv:1: expected columns lat,lon"):
-        load_route(bad)
+        route("b.csv", "47.1\n")
     with pytest.raises(ValueError, match=r"a route is a \.gpx, \.csv, \.geojson or \.kml"):
         load_route(tmp_path / "x.tlog")
-    drawn = tmp_path / "msr.geojson"  # as geojson.io saves a line drawn on the map
-    drawn.write_text(
+    drawn = (  # as geojson.io saves a line drawn on the map
         '{"type": "FeatureCollection", "features": [{"type": "Feature", "properties": {}, '
         '"geometry": {"type": "LineString", "coordinates": [[8.1, 47.1], [8.2, 47.2]]}}]}'
     )
-    assert load_route(drawn) == ([47.1, 47.2], [8.1, 8.2])
-    points = tmp_path / "r.json"
-    points.write_text('{"points": [[47.1, 8.1], [47.2, 8.2]]}')
-    assert load_route(points) == ([47.1, 47.2], [8.1, 8.2])
-    points.write_text('{"points": [[47.1, 8.1]]}')
+    assert route("msr.geojson", drawn) == want
+    assert route("r.json", '{"points": [[47.1, 8.1], [47.2, 8.2]]}') == want
     with pytest.raises(ValueError, match=r"r\.json: a route needs 'points'"):
-        load_route(points)
-    points.write_text("{")
+        route("r.json", '{"points": [[47.1, 8.1]]}')
     with pytest.raises(ValueError, match=r"r\.json: not JSON"):
-        load_route(points)
+        route("r.json", "{")
 
 
 KML_ROUTE = """<?xml version="1.0" encoding="UTF-8"?>
