@@ -16,10 +16,10 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 # The main job: the mock fleet (PX4 personality) and the service, a convoy moving on a
-# straight road, 1200 s of sim time at 40x; report, plot and tlog land in out/.
+# straight road, 1200 s of sim time at 20x; report, plot and tlog land in out/.
 demo: $(STAMP)
 	mkdir -p out && rm -f out/mission.tlog  # (a --tlog that exists is kept: a new file is written beside it)
-	$(BIN)/convoy-mav demo --scenario moving --duration 1200 --speedup 40 \
+	$(BIN)/convoy-mav demo --scenario moving --duration 1200 --speedup 20 \
 	  --report out/report.json --plot out/mission.png --tlog out/mission.tlog
 
 # One pytest-xdist worker per core; an idle worker takes tests queued for a busy one

@@ -97,7 +97,7 @@ _REAL_TIME_ABOVE = 1.5  # a speedup up to this is real time (no speedup to lower
 _ON_TIME_FOR_S = 60.0  # mission s on time (setpoint rounds, re-plans) before late is news again
 _SLOW_LOOK_S = 30.0  # mission s the host is judged over before (and after) a speedup change
 _SLOW_STALLED = 0.2  # ... a loop held up this fraction of them is behind the simulator
-_SLOW_GAP_S = 1.0  # ... or two setpoint rounds this far apart (PX4's COM_OF_LOSS_T)
+_SLOW_GAP_S = _SETPOINTS_LATE_S  # ... or two setpoint rounds this far apart (see below)
 _SLOW_GAP_SETTLE_S = 10.0  # ... which acts once this long has passed, not the whole look
 _SLOW_TAKEN = 1.25  # a speedup still above the one asked times this was not taken
 _LAUNCH_CLEARANCE = 1.5  # a pad is clear of UAVs this many horizontal minima away ...
@@ -870,15 +870,19 @@ class ConvoyService:
         demo at 40x on a slow 2-core host: 63-91 % covered, against 98.6 % at 20x and
         99.3 % at 10x). Behind is the planner behind, the control loop held up
         ``_SLOW_STALLED`` of the last ``_SLOW_LOOK_S`` mission s or more, two setpoint
-        rounds ``_SLOW_GAP_S`` apart in them (PX4's ``COM_OF_LOSS_T``: every UAV left
-        OFFBOARD at once), or re-plans flown ``_SLOW_REPLANS_S`` past their tick once the
-        lag fit has taken ``_SLOW_REFIT`` steps in at this speedup (the re-plans' compute
-        is mission seconds at a high speedup; the urban grid with its route on the mock:
-        94.4 % at 40x, 0.37 mission s a UAV, against 97.3 % at 10x, 0.07 s); a change is
-        judged after as long again. Such a gap is
-        acted on ``_SLOW_GAP_SETTLE_S`` into a look, not at its end: each one costs
-        the fleet its OFFBOARD (``make demo`` at 40x on a slow host lost 2-3 % of
-        its coverage to the ones that came before the first look). A simulator that
+        rounds ``_SLOW_GAP_S`` apart in them, or re-plans flown ``_SLOW_REPLANS_S`` past
+        their tick once the lag fit has taken ``_SLOW_REFIT`` steps in at this speedup
+        (the re-plans' compute is mission seconds at a high speedup; the urban grid with
+        its route on the mock: 94.4 % at 40x, 0.37 mission s a UAV, against 97.3 % at
+        10x, 0.07 s); a change is judged after as long again.
+
+        The gap is half PX4's ``COM_OF_LOSS_T``: a host that has used half the margin
+        once uses all of it sooner or later, and then every UAV leaves OFFBOARD at once
+        (``make demo`` at 40x on a 2-core host: rounds 0.5-0.9 s apart in most runs,
+        and in two of nine 1-3 s, fleet-wide failsafes and 98.3-98.5 % covered, when it
+        took a whole second to act). It is acted on ``_SLOW_GAP_SETTLE_S`` into a look,
+        not at its end (at 1 s, ``make demo`` at 40x on a slow host lost 2-3 % of its
+        coverage to the failsafes that came before the first look). A simulator that
         keeps its speed (PX4 SITL, whose speed is an environment variable) is told
         about once, and left alone.
         """
@@ -981,8 +985,11 @@ class ConvoyService:
         if self.paused:
             return None
         sp = self.view.setpoint(sysid, t)
+        if sp is None:  # no slot yet (its join in the worker): hold, as the keepalive would
+            vehicle = self.vehicles.get(sysid)
+            return None if vehicle is None else vehicle.hold_setpoint()
         fence = self.fence
-        if sp is None or fence is None:
+        if fence is None:
             return sp
         hold = self._hold
         if hold is not None:  # (the convoy is outside the fence)

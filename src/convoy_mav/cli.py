@@ -194,8 +194,9 @@ def _add_mock_flight_options(
         "end...) and [aircraft] (airspeed, turn radius, altitude) fly the plan, and the "
         "mock's aircraft are built to match (its [[uav]] and [convoy] are not used)",
     )  # fmt: skip
-    parser.add_argument("--speedup", type=float, default=40.0, metavar="X",
-                        help="sim seconds per wall second to start at (default 40); "
+    parser.add_argument("--speedup", type=float, default=DEMO_SPEEDUP, metavar="X",
+                        help="sim seconds per wall second to start at "
+                        f"(default {DEMO_SPEEDUP:g}); "
                         "halved while the host falls behind it, down to "
                         f"{DEMO_SPEEDUP_FLOOR:g}")  # fmt: skip
     parser.add_argument("--fixed-speedup", action="store_true",
@@ -536,6 +537,11 @@ async def _cmd_run(args: argparse.Namespace) -> int:
 
 MAX_SPEEDUP = 1000.0
 """Fastest the mock runs: past it a step of its kinematics is longer than a setpoint period."""
+DEMO_SPEEDUP = 20.0
+"""demo, replay: the mock's speedup to start at. Twice it, 40x, leaves a 2-core host
+25 wall ms between two setpoints before PX4's 1-s ``COM_OF_LOSS_T``, about what the
+host's own scheduling jitter is: UAVs failed safe in most runs there (``app``,
+``_check_speedup``)."""
 DEMO_SPEEDUP_FLOOR = 5.0
 """demo, replay: the mock's speedup is not halved below this (``sim_speedup_floor``)."""
 MAX_DURATION_S = 7 * 86_400.0

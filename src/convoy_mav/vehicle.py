@@ -673,6 +673,20 @@ class Vehicle:
         north, east = self._pad
         return Setpoint(sp.t, north, east, -self.altitude, 0.0, 0.0, 0.0, sp.yaw, 0.0)
 
+    def hold_setpoint(self) -> Setpoint | None:
+        """The hold the keepalive would send, now, for an autopilot that needs a live
+        stream (PX4 OFFBOARD) while it has nothing else to fly (None otherwise).
+
+        The streamer sends it while the mission has no slot for the UAV (set up, its
+        join still being planned): left to the keepalive, which looks twice a second
+        while the stream is fed, the stream could stop for half a second at every
+        join, half PX4's default ``COM_OF_LOSS_T`` and all of a shorter one.
+        """
+        ap = self.firmware
+        if ap is None or not ap.streams_during_setup or self.status not in _STREAM_NEEDED:
+            return None
+        return self._own_setpoint()
+
     def _own_setpoint(self) -> Setpoint | None:
         """Hold where the last setpoint was, or where the UAV is at flight altitude."""
         now = self.clock.now()

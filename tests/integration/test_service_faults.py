@@ -24,6 +24,7 @@ from convoy_mav.app import ConvoyService
 from convoy_mav.demo import SCENARIOS, run_demo, score_fleet
 from convoy_mav.mission.road import RoadMission
 from convoy_mav.planning import make_plan
+from convoy_mav.types import VehicleStatus
 from sitl_mock import MockFleet
 from tests.hostspeed import host_speedup
 
@@ -184,6 +185,41 @@ async def test_a_radio_dropout_is_no_stall_of_the_service() -> None:
         f"\nradio dropout of {marks['unmuted'] - marks['muted']:.0f} mission s: stall counted "
         f"{marks['stalled']:.2f} s, widest round gap {marks['widest']:.2f} s"
     )
+
+
+async def test_a_uav_whose_join_is_still_planned_is_streamed_a_hold_every_round() -> None:
+    """PX4 needs a live stream: a UAV set up while its join is still being planned is
+    sent the hold from the streamer every round, not left to its keepalive (which looks
+    twice a second while the stream is fed: half a second without a setpoint at every
+    join, half PX4's default ``COM_OF_LOSS_T`` and all of a shorter one). Each join here
+    takes 3 mission s in the worker: the keepalive fired up to ten times in each before."""
+    join_s = 3.0
+    windows: dict[int, list[int]] = {}  # UAV -> keepalives [on waiting, last seen waiting]
+    stop = asyncio.Event()
+
+    async def slow_joins(fleet: MockFleet, service: ConvoyService) -> None:
+        mission = service.mission
+        join_many = mission.join_many
+
+        def slow(*args: Any, **kwargs: Any) -> Any:
+            time.sleep(join_s / SPEEDUP)
+            return join_many(*args, **kwargs)
+
+        mission.join_many = slow  # type: ignore[method-assign]
+        vehicles = service.vehicles
+        while len(service.view.slots) < len(vehicles) or not vehicles:
+            for sysid, vehicle in vehicles.items():
+                if vehicle.status is VehicleStatus.FLYING and sysid not in service.view.slots:
+                    count = vehicle.counters["keepalive"]
+                    windows.setdefault(sysid, [count, count])[1] = count
+            await asyncio.sleep(0.002)
+        stop.set()
+
+    scenario = SCENARIOS["moving"]
+    await run_demo(scenario, duration=DURATION, speedup=SPEEDUP, during=slow_joins, stop=stop)
+    assert len(windows) == scenario.fleet(), windows  # each one waited for its join
+    for sysid, (first, last) in windows.items():
+        assert last - first <= 1, (sysid, first, last)
 
 
 Script = Callable[[MockFleet, ConvoyService], Awaitable[None]]
