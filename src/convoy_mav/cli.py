@@ -540,7 +540,7 @@ MAX_SPEEDUP = 1000.0
 DEMO_SPEEDUP = 20.0
 """demo, replay: the mock's speedup to start at. Twice it, 40x, leaves a 2-core host
 25 wall ms between two setpoints before PX4's 1-s ``COM_OF_LOSS_T``, about what the
-host's own scheduling jitter is: UAVs failed safe in most runs there (``app``,
+host's own scheduling jitter is: some UAV failed safe in seven runs of ten there (``app``,
 ``_check_speedup``)."""
 DEMO_SPEEDUP_FLOOR = 5.0
 """demo, replay: the mock's speedup is not halved below this (``sim_speedup_floor``)."""
