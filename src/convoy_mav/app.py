@@ -880,9 +880,10 @@ class ConvoyService:
         once uses all of it sooner or later, and then every UAV leaves OFFBOARD at once
         (``make demo`` at 40x on a slow 2-core host: rounds up to 0.94 s apart in seven
         runs of ten, and in three 1.7-3.4 s, fleet-wide failsafes, in two of them 98.3
-        and 98.5 % covered, when it took a whole second to act). It is acted on ``_SLOW_GAP_SETTLE_S`` into a look,
-        not at its end (at 1 s, ``make demo`` at 40x on a slow host lost 2-3 % of its
-        coverage to the failsafes that came before the first look). A simulator that
+        and 98.5 % covered, when it took a whole second to act). It is acted on
+        ``_SLOW_GAP_SETTLE_S`` into a look, not at its end (at 1 s, ``make demo`` at 40x
+        on a slow host lost 2-3 % of its coverage to the failsafes that came before the
+        first look). A simulator that
         keeps its speed (PX4 SITL, whose speed is an environment variable) is told
         about once, and left alone.
         """
