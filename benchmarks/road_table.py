@@ -12,6 +12,7 @@
     .venv/bin/python benchmarks/road_table.py --fast-stops  # stops from speed (~2 min)
     .venv/bin/python benchmarks/road_table.py --stop-reach  # could the fleet close them (~1 min)
     .venv/bin/python benchmarks/road_table.py --no-route-count  # 6 or 7 UAVs, no route (~8 min)
+    .venv/bin/python benchmarks/road_table.py --deviations  # routes the convoy leaves (~3 min)
 
 Simulation: the service's ``RoadMission`` fed the convoy's fixes through its own
 ``ConvoyTracker``, UAVs flying exactly what they are sent (``fly_road``), coverage
@@ -44,8 +45,10 @@ from convoy_mav.mission.road import RoadMission, RoadSettings
 from convoy_mav.mission.simulate import RoadRun, fly_road
 from convoy_mav.planning import PlanRequest
 from convoy_mav.planning.dubins import Pose, dubins_word_lengths
+from convoy_mav.planning.road import Road
 from convoy_mav.tracks import GeoTrack, load_track
 from convoy_mav.tracks.roads import (
+    DEVIATIONS,
     KINDS,
     VARIANTS,
     corner,
@@ -505,6 +508,44 @@ def _no_route_count() -> None:
     )
 
 
+DEVIATION_MODES = ("route given", "no route", "its own path as route")
+
+
+def _deviated(job: tuple[str, float, str]) -> RoadRun:
+    name, offset, mode = job
+    dev = DEVIATIONS[name](np.random.default_rng(0))
+    rt = dev.track
+    keep = rt.t >= rt.t[0] + offset
+    given = Road.from_points(dev.route_east, dev.route_north)
+    return fly_road(
+        rt.t[keep] - rt.t[keep][0], rt.north[keep], rt.east[keep], DEFAULT,
+        road_fleet(DEFAULT.turn_radius, DEFAULT.sensor_radius, route=mode != "no route"),
+        true_north=rt.true_north[keep], true_east=rt.true_east[keep],
+        route=given if mode == "route given" else None, route_known=mode != "no route",
+    )  # fmt: skip
+
+
+def _deviations() -> None:
+    """Drives that leave the route planned for them (``tracks.roads.DEVIATIONS``), each
+    from ``COUNT_OFFSETS_S``: with that route, with none (and the count without one), and
+    with the drive's own path as its route (what keeping to it would have given)."""
+    jobs = [(n, o, m) for n in DEVIATIONS for m in DEVIATION_MODES for o in COUNT_OFFSETS_S]
+    with ProcessPoolExecutor(os.cpu_count()) as pool:
+        runs = list(pool.map(_deviated, jobs))
+    print("| drive | " + " | ".join(DEVIATION_MODES) + " |\n|---|---|---|---|")
+    means: dict[str, list[float]] = {m: [] for m in DEVIATION_MODES}
+    it = iter(runs)
+    for name in DEVIATIONS:
+        cells = []
+        for mode in DEVIATION_MODES:
+            row = [next(it) for _ in COUNT_OFFSETS_S]
+            means[mode] += [run.coverage for run in row]
+            cov = " · ".join(f"{100 * run.coverage:.1f}" for run in row)
+            cells.append(f"{cov} % / {max(run.longest_gap_s for run in row):.0f} s")
+        print(f"| {name} | " + " | ".join(cells) + " |")
+    print("mean " + ", ".join(f"{m} {100 * np.mean(v):.2f} %" for m, v in means.items()))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--mock", action="store_true", help="also fly them against sitl_mock")
@@ -540,12 +581,18 @@ def main() -> None:
         help="the simulation without a route, stationary minimum + 1 against + 2 UAVs",
     )
     parser.add_argument(
+        "--deviations", action="store_true", help="the simulation of routes the convoy leaves"
+    )
+    parser.add_argument(
         "--keep",
         type=Path,
         metavar="DIR",
         help="with --mock: keep each mock cell's report, tlog and mission recording in DIR",
     )
     args = parser.parse_args()
+    if args.deviations:
+        _deviations()
+        return
     if args.no_route_count:
         _no_route_count()
         return

@@ -48,7 +48,7 @@ from convoy_mav.planning import Plan, Pose, make_plan, optimal_path_from_entry
 from convoy_mav.planning.export import entry_to_dict, plan_to_dict
 from convoy_mav.provision import provision_signing
 from convoy_mav.schedule import setpoint_at
-from convoy_mav.tracks import FORMATS, load_track, track_speeds
+from convoy_mav.tracks import FORMATS, load_route, load_track, track_speeds
 from convoy_mav.tracks.geotrack import SPEED_WINDOW_S
 from convoy_mav.tracks.roads import KINDS as ROAD_KINDS
 from convoy_mav.tracks.roads import road_kind
@@ -165,6 +165,12 @@ def _build_parser() -> argparse.ArgumentParser:
         help="give the service the track's path (not its timing) as the convoy's route; "
         "without it the service sees only the ground vehicles' telemetry",
     )
+    replay.add_argument(
+        "--route", metavar="FILE",
+        help="give the service this planned route (GPX trk/rte, CSV lat,lon, GeoJSON, KML/KMZ), "
+        "as [convoy] route does for run, while the convoy drives TRACK, which need not keep "
+        "to it: a detour, the route driven back, a circuit lapped",
+    )  # fmt: skip
     replay.add_argument(
         "--format", choices=FORMATS, help="the track's format (default: from the extension)"
     )
@@ -623,6 +629,15 @@ async def _cmd_replay(args: argparse.Namespace) -> int:
             raise ConvoyError(f"{args.track}: cannot read the track: {e.strerror or e}") from e
         except ValueError as e:  # the message names the file and the line
             raise ConvoyError(str(e)) from e
+    if args.route is not None:
+        if args.route_known:
+            raise ConfigError("--route", args.route, "give --route FILE or --route-known, not both")
+        try:
+            load_route(args.route)
+        except OSError as e:
+            raise ConfigError("--route", args.route, f"cannot be read ({e.strerror or e})") from e
+        except ValueError as e:
+            raise ConfigError("--route", args.route, f"cannot be used as a route ({e})") from e
     scenario = replay_scenario(track, _rehearsed(args, SCENARIOS["stationary"]))
     duration = track.duration if args.duration is None else args.duration
     if duration <= 0.0:
@@ -630,8 +645,9 @@ async def _cmd_replay(args: argparse.Namespace) -> int:
             "--duration", args.duration, f"{args.track} spans 0 s: give the seconds to fly"
         )
     if not args.quiet:
-        uavs = args.uavs or scenario.fleet(route_known=args.route_known)
+        uavs = args.uavs or scenario.fleet(route_known=_has_route(args))
         known = ", route known" if args.route_known else ""
+        known += f", route {args.route}" if args.route is not None else ""
         print(
             f"replaying {args.track}: {len(track.times)} fixes over {track.duration:.1f} s, "
             f"{uavs} UAVs{known}",
@@ -656,6 +672,11 @@ async def _cmd_replay(args: argparse.Namespace) -> int:
     return await _fly_mock(args, scenario, duration)
 
 
+def _has_route(args: argparse.Namespace) -> bool:
+    """``replay`` gives the service a route: the track's path, or a route file."""
+    return bool(getattr(args, "route_known", False) or getattr(args, "route", None))
+
+
 async def _fly_mock(args: argparse.Namespace, scenario: Scenario, duration: float) -> int:
     """Fly ``scenario`` against the mock in a process of its own; summary, report, plot."""
     stop = asyncio.Event()
@@ -666,13 +687,15 @@ async def _fly_mock(args: argparse.Namespace, scenario: Scenario, duration: floa
     def configure(cfg: MissionConfig) -> MissionConfig:
         if mission is not None:
             cfg = rehearsed_config(cfg, mission)
+        if (route := getattr(args, "route", None)) is not None:
+            cfg = replace(cfg, convoy=replace(cfg.convoy, route_file=route))
         return replace(cfg, mission_recording=args.record_mission)
 
     result = await run_demo(
         scenario,
         duration=duration,
         speedup=args.speedup,
-        uavs=args.uavs,
+        uavs=args.uavs or (scenario.fleet(route_known=True) if _has_route(args) else None),
         personality=args.personality,
         frame=args.frame,
         tlog=args.tlog,

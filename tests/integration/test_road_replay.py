@@ -8,6 +8,7 @@ stationary minimum + 1); what it predicts must be what the truth measures.
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 from typing import Any
 
@@ -18,9 +19,10 @@ from convoy_mav.app import ConvoyService
 from convoy_mav.cli import main
 from convoy_mav.config import DEFAULT_ORIGIN
 from convoy_mav.demo import replay_scenario, run_demo, score_fleet
+from convoy_mav.geo import LocalFrame
 from convoy_mav.mission.recording import load_recording
 from convoy_mav.mission.road import RoadMission
-from convoy_mav.tracks.roads import road_kind
+from convoy_mav.tracks.roads import DEVIATIONS, road_kind
 from sitl_mock import MockFleet
 from tests.hostspeed import host_speedup
 
@@ -76,6 +78,54 @@ def test_a_road_is_protected_as_predicted(
     replay = RoadMission.replayed(load_recording(tmp_path / "mission.inputs"))
     assert replay.predicted_coverage == pytest.approx(report["predicted_coverage"], abs=2e-3)
     assert replay.protect_start == pytest.approx(start, abs=1e-6)
+
+
+def test_a_planned_route_the_convoy_drives_out_and_back_is_flown_as_its_route(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``replay TRACK --route FILE``: the service is given the route planned (the way out
+    only, a CSV of lat,lon) while the mock's rovers drive out and back: it finds the
+    convoy again on the route driven the other way and covers it as it predicts."""
+    dev = DEVIATIONS["out and back"](np.random.default_rng(0))
+    frame = LocalFrame(DEFAULT_ORIGIN)
+    rt = dev.track
+    drive_csv, route_csv = tmp_path / "drive.csv", tmp_path / "route.csv"
+    rows = ["time,lat,lon"]
+    for t, n, e in zip(rt.t, rt.north, rt.east, strict=True):
+        p = frame.to_geo(float(n), float(e))
+        rows.append(f"{t:.1f},{p.lat:.7f},{p.lon:.7f}")
+    drive_csv.write_text("\n".join(rows) + "\n")
+    way = zip(dev.route_north[::10], dev.route_east[::10], strict=True)  # (every 5 m)
+    route_csv.write_text("".join(f"{q.lat:.7f},{q.lon:.7f}\n" for q in (
+        frame.to_geo(float(n), float(e)) for n, e in way)))  # fmt: skip
+    report_path = tmp_path / "r.json"
+    argv = ["replay", str(drive_csv), "--route", str(route_csv), "--report", str(report_path)]
+    argv += ["--speedup", str(SPEEDUP), "--fixed-speedup", "--quiet"]
+    assert main(argv) == 0
+    assert "ground truth" in capsys.readouterr().out
+    report = json.loads(report_path.read_text())
+    planner = report["planner"]
+    assert report["uav_count"] == 6  # (the count with a route)
+    assert planner["name"] == "road" and planner["route_known"]
+    assert planner["route_length_m"] == pytest.approx(400.0 + 75.0 * math.pi + 800.0, abs=5.0)
+    assert planner["convoy_found_again_on_route"] >= 1  # (driving it back)
+    why = _diagnosis(report)
+    truth = report["truth_coverage_fraction"]
+    assert truth >= 0.95, why
+    assert report["predicted_coverage"] == pytest.approx(truth, abs=0.015), why
+
+
+def test_a_route_file_that_cannot_be_read_is_refused_before_the_flight(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    bad = tmp_path / "route.csv"
+    bad.write_text("lat,lon\n52.1,not a number\n")
+    argv = ["replay", "--road", "bends", "--route", str(bad), "--quiet"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "--route" in err and str(bad) in err
+    assert main(["replay", "--road", "bends", "--route", str(bad), "--route-known"]) == 2
+    assert "not both" in capsys.readouterr().err
 
 
 def _diagnosis(report: dict[str, Any]) -> str:

@@ -8,6 +8,21 @@ Design rules:
   to drive on along the route. A convoy farther than
   ``off_route_m`` from the route for ``off_route_s`` has left it: it is
   then predicted like a convoy with no route until it is back on it.
+- A route is a road, not a timetable: the convoy may drive it the other way
+  (out and back on a route given one way), lap it (a patrol circuit given as
+  one lap), or come back onto it far from where it left (a detour). Driving
+  against the route, past its end, or off it (``left_route``: not a chord
+  cut across a bend, nor a spike of the fixes; the recorded drive ends near
+  where it began), the convoy is looked for on the whole route, either way
+  round when it drives against it, among the stretches heading its way, and
+  found again there (``Road.nearest_heading``). Searched only near the last
+  place, it was predicted standing, then down a road it had left (out and
+  back on a route given one way, in simulation: 82.4 %, now 99.3 %; with no
+  route, 97.2 % with a UAV more).
+- The end of a route is where the convoy is going: it is forecast to stop
+  there (its destination, or where it turns back), not to drive on straight
+  past it; once past it, or 25 m off the route heading away from it (a turn
+  the route does not take), it is forecast from its own velocity at once.
 - Along a route its speed is forecast to relax, with time constant
   ``relax_s``, to its mean over the last ``mean_window_s`` (stops
   included): the mean of an Ornstein-Uhlenbeck speed. A convoy in traffic
@@ -54,6 +69,11 @@ _MOVING_MPS = 0.5  # slower along the route, a convoy has no corner to stop shor
 _CORNER_FROM_M = 5.0  # a corner nearer than this ahead: the convoy is turning it
 _CORNER_STEP_M = 2.0  # the route's curvature is searched every ... metres
 _CRUISING_MPS = 3.0  # along the route at least this fast, the convoy is driving (not creeping)
+_LOST_S = 1.0  # off the route, past its end or against it this long: look on all of it
+_REFIND_NEAR_M = 10.0  # past the end or against it, a place this little farther off will do
+_REFIND_JUMP_M = 100.0  # ... if it is this far along the route from where the convoy was
+_TURNING_OFF_M = 25.0  # this far off the route and heading away from it ...
+_TURNING_OFF_RAD = math.radians(45.0)  # ... by more than this: it is leaving the route
 
 
 @dataclass(frozen=True, slots=True)
@@ -99,6 +119,10 @@ class ConvoyModel:
         if not (math.isfinite(mean_window_s) and mean_window_s > 0.0):
             raise ValueError(f"mean_window_s must be positive, got {mean_window_s!r}")
         self.route = route
+        self._roads = (route, None if route is None else route.reversed())
+        self._reversed = False  # the convoy drives the route the other way
+        self._lost_since: float | None = None
+        self._leaving = False  # off the route and heading away from it
         self.off_route_m = off_route_m
         self.off_route_s = off_route_s
         self.relax_s = relax_s
@@ -113,12 +137,24 @@ class ConvoyModel:
         self._cruise: float | None = None  # the last speed along it while driving
         self._off_since: float | None = None
         self.left_route = False
-        self.counters = {"left_route": 0, "back_on_route": 0}
+        self.counters = {"left_route": 0, "back_on_route": 0, "found_again": 0}
 
     @property
     def estimate(self) -> ConvoyEstimate | None:
         """The latest estimate folded in."""
         return self._est
+
+    @property
+    def road(self) -> Road | None:
+        """The route as the convoy drives it (reversed if it drives it the other way)."""
+        return self._roads[self._reversed]
+
+    @property
+    def _off_road(self) -> bool:
+        """Predicted from its own velocity, not the route: it has left the route, is
+        leaving it, or has driven past its end (where the route says nothing)."""
+        road = self.road
+        return self.left_route or self._leaving or (road is not None and self._s > road.length)
 
     @property
     def motion(self) -> RoadMotion | None:
@@ -128,12 +164,15 @@ class ConvoyModel:
             return None
         if self.route is None:
             return RoadMotion(est.t, est.speed, None)
-        speed = est.speed if self.left_route else self._along
-        return RoadMotion(est.t, speed, not self.left_route)
+        off = self._off_road
+        return RoadMotion(est.t, est.speed if off else self._along, not off)
 
     def set_route(self, route: Road) -> None:
         """A new route (the convoy is found on it afresh at the next estimate)."""
         self.route = route
+        self._roads = (route, route.reversed())
+        self._reversed = False
+        self._lost_since = None
         self._off_since = None
         self.left_route = False
         est, self._est = self._est, None
@@ -146,14 +185,36 @@ class ConvoyModel:
             return
         first = self._est is None
         self._est = est
-        route = self.route
+        route = self.road
         if route is None:
             return
         x, y = est.east, est.north
-        self._s = route.project(x, y, None if first else self._s)
-        p = route.point(self._s)
+        s = route.project(x, y, None if first else self._s)
+        p = route.point(s)
         off = math.hypot(p.x - x, p.y - y)
-        self._along = max(0.0, est.ve * math.cos(p.heading) + est.vn * math.sin(p.heading))
+        along = est.ve * math.cos(p.heading) + est.vn * math.sin(p.heading)
+        against = along <= -_CRUISING_MPS
+        beyond = not 0.0 <= s <= route.length
+        if not (est.speed >= _CRUISING_MPS and (self.left_route or beyond or against)):
+            self._lost_since = None
+        elif self._lost_since is None:
+            self._lost_since = est.t
+        elif est.t - self._lost_since >= _LOST_S:
+            course = math.atan2(est.vn, est.ve)
+            found = self._found_again(x, y, course, s, off, beyond or against, against)
+            if found is not None:
+                s, route = found
+                p = route.point(s)
+                off = math.hypot(p.x - x, p.y - y)
+                along = est.ve * math.cos(p.heading) + est.vn * math.sin(p.heading)
+                self._lost_since = None
+        self._s = s
+        self._along = max(0.0, along)
+        self._leaving = (
+            est.speed >= _CRUISING_MPS
+            and off > _TURNING_OFF_M
+            and along < est.speed * math.cos(_TURNING_OFF_RAD)
+        )
         if self._along >= _CRUISING_MPS:
             self._cruise = self._along
         self._note_speed(est.t, self._along)
@@ -168,6 +229,47 @@ class ConvoyModel:
             if self.left_route:
                 self.left_route = False
                 self.counters["back_on_route"] += 1
+
+    def _found_again(
+        self,
+        x: float,
+        y: float,
+        course: float,
+        s: float,
+        off: float,
+        lost_way: bool,
+        either_way: bool,
+    ) -> tuple[float, Road] | None:
+        """Where the convoy is found again on the whole route (either way round if
+        ``either_way``): its arc length and the route the way it drives it (now
+        :attr:`road`); None to keep ``s``.
+
+        A place counts if it is within ``off_route_m`` and, to be taken over ``s``, half
+        as far off as ``s`` is, or (``lost_way``: past the end or driving against the
+        route) no more than ``_REFIND_NEAR_M`` farther; and it is another place: the
+        other way round, or ``_REFIND_JUMP_M`` along the route from ``s``.
+        """
+        best: tuple[float, float, bool] | None = None
+        for reverse, road in enumerate(self._roads):
+            if road is None or (not either_way and reverse != self._reversed):
+                continue
+            hit = road.nearest_heading(x, y, course)
+            if hit is not None and (best is None or hit[1] < best[1]):
+                best = (hit[0], hit[1], bool(reverse))
+        if best is None:
+            return None
+        s_new, off_new, reverse = best
+        if off_new > self.off_route_m:
+            return None
+        if not (off_new <= 0.5 * off or (lost_way and off_new <= off + _REFIND_NEAR_M)):
+            return None
+        if reverse == self._reversed and abs(s_new - s) < _REFIND_JUMP_M:
+            return None
+        self._reversed = reverse
+        self.counters["found_again"] += 1
+        road = self.road
+        assert road is not None
+        return s_new, road
 
     def _note_speed(self, t: float, speed: float) -> None:
         """Add a speed along the route to the trailing window (trapezoids, O(1) each)."""
@@ -210,9 +312,10 @@ class ConvoyModel:
         if est is None:
             return 0.0, 0.0
         dt = max(t - est.t, 0.0)
-        if self.route is None or self.left_route:
+        road = self.road
+        if road is None or self._off_road:
             return est.east + est.ve * dt, est.north + est.vn * dt
-        p = self.route.point(self._s + float(self.ahead(np.array(dt))))
+        p = road.point(min(self._s + float(self.ahead(np.array(dt))), road.length))
         return p.x, p.y
 
     def positions(self, times: npt.NDArray[np.float64]) -> tuple[FloatArray, FloatArray]:
@@ -221,9 +324,10 @@ class ConvoyModel:
         if est is None:
             return np.zeros(len(times)), np.zeros(len(times))
         dt = _since(times, est)
-        if self.route is None or self.left_route:
+        road = self.road
+        if road is None or self._off_road:
             return est.east + est.ve * dt, est.north + est.vn * dt
-        x, y, _, _ = self.route.arrays(self._s + self.ahead(dt))
+        x, y, _, _ = road.arrays(np.minimum(self._s + self.ahead(dt), road.length))
         return x, y
 
     def stopping_short(
@@ -235,8 +339,8 @@ class ConvoyModel:
         within reach.
         """
         est = self._est
-        route = self.route
-        if est is None or route is None or self.left_route or self._along < _MOVING_MPS:
+        route = self.road
+        if est is None or route is None or self._off_road or self._along < _MOVING_MPS:
             return None
         s = self._s + self.ahead(_since(times, est))
         ahead = np.arange(self._s, float(s[-1]) + short_m, _CORNER_STEP_M)
@@ -270,9 +374,9 @@ class ConvoyModel:
         if not accel > 0.0:
             raise ValueError(f"accel must be positive, got {accel!r}")
         est = self._est
-        route = self.route
+        route = self.road
         cruise = self._cruise
-        if est is None or route is None or self.left_route or cruise is None:
+        if est is None or route is None or self._off_road or cruise is None:
             return None
         if self._along >= below_mps:
             return None

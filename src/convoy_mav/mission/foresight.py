@@ -84,7 +84,7 @@ class Foresight(ConvoyModel):
         h = 0.5 * _VELOCITY_SPAN_S
         (x0, x_edge, x1), (y0, y_edge, y1) = self._truth(np.array([edge - h, edge, edge + h]))
         vx, vy = (x1 - x0) / _VELOCITY_SPAN_S, (y1 - y0) / _VELOCITY_SPAN_S
-        route = self.route
+        route = self.road
         if route is None or self.left_route:
             return x + vx * beyond, y + vy * beyond
         s_edge = route.project(float(x_edge), float(y_edge), self._s)

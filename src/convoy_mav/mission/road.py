@@ -1387,6 +1387,7 @@ class RoadMission(Roster):
             "route_length_m": None if route is None else round(route.length, 1),
             "route_max_curvature_per_m": None if route is None else route.max_curvature(),
             "convoy_left_route": self.model.counters["left_route"],
+            "convoy_found_again_on_route": self.model.counters["found_again"],
             "convoy_speed_range_mps": None if speeds is None else [round(v, 2) for v in speeds],
             "convoy_fast": {
                 "above_speed_ratio": FAST_CONVOY_RATIO,

@@ -65,6 +65,7 @@ def fly_road(
     true_north: npt.ArrayLike | None = None,
     true_east: npt.ArrayLike | None = None,
     route_known: bool = False,
+    route: Road | None = None,
     settings: RoadSettings | None = None,
     dt: float = 0.5,
     record: bool = False,
@@ -80,6 +81,7 @@ def fly_road(
         true_north, true_east: Where the convoy really was at ``t`` (default:
             the fixes): what coverage is scored against.
         route_known: Give the mission the track's path (not its timing) as its route.
+        route: Give the mission this route instead (one the convoy may not keep to).
         settings: Road mission settings.
         dt: Scoring step, seconds.
         record: Keep the mission's inputs (``RoadRun.recording``), to replay.
@@ -96,7 +98,8 @@ def fly_road(
     fn, fe = np.asarray(north, dtype=np.float64), np.asarray(east, dtype=np.float64)
     tn = fn if true_north is None else np.asarray(true_north, dtype=np.float64)
     te = fe if true_east is None else np.asarray(true_east, dtype=np.float64)
-    route = Road.from_points(te, tn) if route_known else None
+    if route is None and route_known:
+        route = Road.from_points(te, tn)
     ids = list(range(1, uavs + 1))
     mission = RoadMission(
         request, ids, down=lambda _u: -100.0, route=route, settings=settings, record=record

@@ -223,6 +223,33 @@ class Road:
                     return float(self.s[end] + along)
         return best_s
 
+    def reversed(self) -> Road:
+        """The same road driven the other way: arc length from the far end."""
+        return Road(
+            self.s.copy(),
+            self.x[::-1].copy(),
+            self.y[::-1].copy(),
+            self.heading[::-1] + math.pi,
+            -self.curvature[::-1],
+        )
+
+    def nearest_heading(
+        self, x: float, y: float, course: float, within: float = math.radians(45.0)
+    ) -> tuple[float, float] | None:
+        """(arc length, distance) of the grid point nearest (x, y) anywhere on the road
+        among those whose heading is within ``within`` rad of ``course``; None if none is.
+
+        The whole road is searched, for a convoy found again after it left the road,
+        drove past its end (a loop lapped) or turned back; the heading keeps it off the
+        other carriageway of a road that doubles back.
+        """
+        ok = np.cos(self.heading - course) >= math.cos(within)
+        if not ok.any():
+            return None
+        d2 = np.where(ok, (self.x - x) ** 2 + (self.y - y) ** 2, np.inf)
+        i = int(np.argmin(d2))
+        return float(self.s[i]), math.sqrt(float(d2[i]))
+
     def max_curvature(self, s0: float = 0.0, s1: float | None = None) -> float:
         """Largest |curvature| between arc lengths ``s0`` and ``s1`` (default: the end)."""
         hi = self.length if s1 is None else s1

@@ -9,7 +9,8 @@ Design rules:
   (Gaussian, per axis) and optional repeated time stamps, as receivers
   record them; a seeded ``numpy.random.Generator`` makes it reproducible.
 - :data:`KINDS` are the named roads ``demo`` and the tests fly; :data:`VARIANTS`
-  the same kinds with other numbers; :func:`random_road` draws one of any kind
+  the same kinds with other numbers; :data:`DEVIATIONS` drives that do not keep
+  to the route planned for them; :func:`random_road` draws one of any kind
   for property tests. Pure: nothing here opens a file.
 """
 
@@ -26,8 +27,10 @@ from convoy_mav.geo import GeoPoint, LocalFrame
 from convoy_mav.tracks.geotrack import GeoTrack
 
 __all__ = [
+    "DEVIATIONS",
     "KINDS",
     "VARIANTS",
+    "Deviation",
     "Drive",
     "Piece",
     "RoadTrack",
@@ -36,6 +39,7 @@ __all__ = [
     "junction",
     "random_road",
     "road_kind",
+    "route_of",
     "stops_from",
 ]
 
@@ -391,3 +395,56 @@ def random_road(rng: np.random.Generator, *, max_speed: float = 12.0, pieces: in
     return drive(
         "random", out, how, noise_m=float(rng.uniform(0.0, 3.0)), seed=int(rng.integers(1 << 30))
     )
+
+
+def route_of(pieces: Sequence[Piece], *, heading_deg: float = 0.0) -> tuple[FloatArray, FloatArray]:
+    """(north, east) of the road along ``pieces``, every half metre: a route planned for it."""
+    _, north, east = _layout(pieces, math.radians(90.0 - heading_deg))
+    return north, east
+
+
+@dataclass(frozen=True, slots=True)
+class Deviation:
+    """A drive and the route planned for it, which the drive does not keep to."""
+
+    track: RoadTrack
+    route_north: FloatArray
+    route_east: FloatArray
+
+
+# Out of town and back on the one road: north, a 90 deg right of 150 m, east; there a
+# U-turn across the road (8 m) and back the same way. The route says the way out only.
+_OUT = [Piece(400.0), Piece(radius=150.0, angle_deg=-90.0), Piece(800.0)]
+_BACK = [Piece(radius=4.0, angle_deg=180.0), Piece(800.0), Piece(radius=150.0, angle_deg=90.0)]
+_BACK.append(Piece(400.0))
+# A patrol circuit of 2.99 km (900 by 500 m, 30-m corners), given as one lap.
+_LAP = [Piece(900.0), Piece(radius=30.0, angle_deg=90.0), Piece(500.0)]
+_LAP += [Piece(radius=30.0, angle_deg=90.0)]
+_LAP *= 2
+
+
+def _out_and_back(rng: np.random.Generator) -> Deviation:
+    rt = drive("out and back", _OUT + _BACK, Drive(((0.0, 8.0),)), noise_m=1.0)
+    return Deviation(rt, *route_of(_OUT))
+
+
+def _patrol(rng: np.random.Generator) -> Deviation:
+    rt = drive("patrol circuit", _LAP * 3, Drive(((0.0, 8.0),)), noise_m=1.0)
+    return Deviation(rt, *route_of(_LAP))
+
+
+def _detour(rng: np.random.Generator) -> Deviation:
+    """A road closed 2 km on: round the block, 400 m north for 1.5 km, and back onto it."""
+    turn = [Piece(radius=20.0, angle_deg=90.0), Piece(400.0), Piece(radius=20.0, angle_deg=-90.0)]
+    back = [Piece(radius=20.0, angle_deg=-90.0), Piece(400.0), Piece(radius=20.0, angle_deg=90.0)]
+    pieces = [Piece(2000.0), *turn, Piece(1500.0), *back, Piece(2000.0)]
+    rt = drive("detour", pieces, Drive(((0.0, 8.0),)), heading_deg=90.0, noise_m=1.0)
+    return Deviation(rt, *route_of([Piece(6000.0)], heading_deg=90.0))
+
+
+#: Drives that leave the route planned for them (the road table's ``--deviations``).
+DEVIATIONS: dict[str, Callable[[np.random.Generator], Deviation]] = {
+    "out and back": _out_and_back,
+    "patrol circuit, 3 laps": _patrol,
+    "detour": _detour,
+}
