@@ -245,6 +245,17 @@ def _signing(uav: UavConfig) -> Signing | None:
     return Signing.from_files(key, uav.sysid & 0xFF, state)
 
 
+def _without_setpoints(firmware: set[str]) -> str:
+    """What the fleet's autopilots do when setpoints stop (``Firmware.name`` of each
+    recognised one), for the late-setpoints warning."""
+    if not firmware or "PX4" in firmware:
+        return "PX4 leaves OFFBOARD after 1 s without one"
+    return (
+        "ArduPilot holds its last target without one: ArduCopter stops there after "
+        "GUID_TIMEOUT, 3 s, ArduPlane circles it"
+    )
+
+
 def _firmware_family(vehicle: Vehicle) -> str | None:
     """``px4`` or ``ardupilot`` (the MQTT schema's names), once recognised."""
     if vehicle.firmware is None:
@@ -847,10 +858,12 @@ class ConvoyService:
             if self._setpoints_late_t is None:
                 rate = self.clock.rate
                 remedy = "at this speedup: lower it" if rate > _REAL_TIME_ABOVE else "(real time)"
+                firmware = {
+                    v.firmware.name for v in self.vehicles.values() if v.firmware is not None
+                }
                 text = (
                     f"setpoints late: {gap:.2f} mission s between two rounds at {rate:.3g}x "
-                    "(PX4 leaves OFFBOARD after 1 s without one); "
-                    f"the host is short of CPU {remedy}"
+                    f"({_without_setpoints(firmware)}); the host is short of CPU {remedy}"
                 )
                 self._warn_once("setpoints_late", text)
             self._setpoints_late_t = t

@@ -11,7 +11,7 @@ from types import SimpleNamespace
 
 import pytest
 
-from convoy_mav.app import ConvoyService
+from convoy_mav.app import ConvoyService, _without_setpoints
 from convoy_mav.config import MissionConfig, parse_config
 from convoy_mav.mission.road import RoadMission
 from convoy_mav.types import ConvoyEstimate
@@ -157,6 +157,11 @@ def test_setpoint_rounds_far_apart_are_warned_once_with_the_remedy_and_noted_aft
     real_time.streamer = SimpleNamespace(take_widest_gap=lambda: 0.8)  # type: ignore[assignment]
     real_time._check_setpoints(0.0)
     assert real_time.events[-1].endswith("the host is short of CPU (real time)")
+    # What the late rounds cost is said for the fleet's own autopilots.
+    assert "(PX4 leaves OFFBOARD after 1 s without one)" in warned[0]  # (none heard yet)
+    assert "PX4 leaves OFFBOARD" in _without_setpoints({"ArduCopter", "PX4"})
+    ardupilot = _without_setpoints({"ArduCopter", "ArduPlane"})
+    assert "PX4" not in ardupilot and "GUID_TIMEOUT" in ardupilot
 
 
 def test_a_convoy_too_fast_for_the_pattern_is_alarmed_until_it_slows() -> None:
