@@ -232,16 +232,21 @@ async def _until_slowed(
     then: Script | None = None,
     *,
     late_replans: bool = False,
+    late_rounds: bool = False,
     personality: str = "px4",
 ) -> dict[str, Any]:
     """Fly ``scenario`` with the mock's speedup allowed down to half: once protecting,
     ``fault`` makes the host fall behind; the run stops once the service has halved the
     speedup (``marks["asked"]``, sim time) and ``then`` (or 5 mission s) has run: the
     rest would fly at half speed. Re-plans flown late slow it too only when
-    ``late_replans`` (a slow host's own would before the fault). Returns the report."""
+    ``late_replans``, and setpoint rounds half a second apart only when ``late_rounds``:
+    a slow host's own would before the fault (a loaded CI host's cold start: rounds 0.5
+    mission s apart at 10 s, the simulator slowed for them before the fault began)."""
     with pytest.MonkeyPatch.context() as patch:
         if not late_replans:
             patch.setattr(app, "_SLOW_REPLANS_S", math.inf)
+        if not late_rounds:
+            patch.setattr(app, "_SLOW_GAP_S", math.inf)
         return await _slowed(scenario, fault, marks, then, personality)
 
 
@@ -402,7 +407,7 @@ async def test_setpoint_rounds_a_second_apart_slow_the_simulator_before_the_look
         await service.clock.sleep_until(marks["look"] + 1.0)
         streamer._round = held  # type: ignore[method-assign]
 
-    report = await _until_slowed("moving", hold_the_stream, marks)
+    report = await _until_slowed("moving", hold_the_stream, marks, late_rounds=True)
     assert marks["asked"] - marks["look"] < 25.0, marks
     assert any("simulator slowed" in e and "setpoint rounds" in e for e in report["events"])
 
