@@ -516,12 +516,12 @@ def _deviated(job: tuple[str, float, str]) -> RoadRun:
     dev = DEVIATIONS[name](np.random.default_rng(0))
     rt = dev.track
     keep = rt.t >= rt.t[0] + offset
-    given = Road.from_points(dev.route_east, dev.route_north)
+    given = Road.from_points(dev.route_east, dev.route_north) if mode == "route given" else None
     return fly_road(
         rt.t[keep] - rt.t[keep][0], rt.north[keep], rt.east[keep], DEFAULT,
         road_fleet(DEFAULT.turn_radius, DEFAULT.sensor_radius, route=mode != "no route"),
         true_north=rt.true_north[keep], true_east=rt.true_east[keep],
-        route=given if mode == "route given" else None, route_known=mode != "no route",
+        route=given, route_known=mode != "no route",
     )  # fmt: skip
 
 

@@ -85,6 +85,13 @@ class RoadMotion:
     on_route: bool | None  # None: no route was given
 
 
+def _on(route: Road, s: float, est: ConvoyEstimate) -> tuple[float, float]:
+    """How far the estimate is from ``route`` at arc length ``s``, and its speed along it."""
+    p = route.point(s)
+    along = est.ve * math.cos(p.heading) + est.vn * math.sin(p.heading)
+    return math.hypot(p.x - est.east, p.y - est.north), along
+
+
 def _since(times: npt.NDArray[np.float64], est: ConvoyEstimate) -> FloatArray:
     """Seconds from the estimate to each of ``times`` (none before it)."""
     return np.maximum(times - est.t, 0.0)
@@ -190,9 +197,7 @@ class ConvoyModel:
             return
         x, y = est.east, est.north
         s = route.project(x, y, None if first else self._s)
-        p = route.point(s)
-        off = math.hypot(p.x - x, p.y - y)
-        along = est.ve * math.cos(p.heading) + est.vn * math.sin(p.heading)
+        off, along = _on(route, s, est)
         against = along <= -_CRUISING_MPS
         beyond = not 0.0 <= s <= route.length
         if not (est.speed >= _CRUISING_MPS and (self.left_route or beyond or against)):
@@ -204,9 +209,7 @@ class ConvoyModel:
             found = self._found_again(x, y, course, s, off, beyond or against, against)
             if found is not None:
                 s, route = found
-                p = route.point(s)
-                off = math.hypot(p.x - x, p.y - y)
-                along = est.ve * math.cos(p.heading) + est.vn * math.sin(p.heading)
+                off, along = _on(route, s, est)
                 self._lost_since = None
         self._s = s
         self._along = max(0.0, along)
