@@ -52,6 +52,18 @@ def test_past_its_horizon_a_routed_convoy_drives_on_along_the_route() -> None:
     np.testing.assert_allclose(y, [0.0, 0.0, 40.0, 80.0], atol=2.0)
 
 
+def test_past_its_horizon_a_routed_convoy_stops_at_the_routes_end() -> None:
+    """The truth's speed along the route carries the convoy to the route's end, where
+    the service's forecast stops it too (its destination), not straight on past it."""
+    model = Foresight(ConvoyModel(ROUTE), T, X, Y, 10.0)
+    model.observe(ConvoyEstimate(80.0, 150.0, 400.0, 5.0, 0.0))
+    x, y = model.positions(np.array([90.0, 110.0, 200.0]))
+    end = ROUTE.point(ROUTE.length)
+    np.testing.assert_allclose(x, [400.0, end.x, end.x], atol=1.0)
+    np.testing.assert_allclose(y, [200.0, end.y, end.y], atol=1.0)
+    assert end.y == pytest.approx(250.0, abs=1.0)
+
+
 def test_without_an_estimate_it_forecasts_as_the_model_does() -> None:
     model = Foresight(ConvoyModel(), T, X, Y, 5.0)
     x, y = model.positions(np.array([0.0, 1.0]))

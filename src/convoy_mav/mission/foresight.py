@@ -72,7 +72,8 @@ class Foresight(ConvoyModel):
 
     def positions(self, times: npt.NDArray[np.float64]) -> tuple[FloatArray, FloatArray]:
         """Where the convoy truly is at ``times`` up to ``horizon`` past the estimate;
-        later, the truth then driven on at its velocity then (along the route, if any)."""
+        later, the truth then driven on at its velocity then (along the route, if any, as
+        the service's forecast does: to its end, not past it)."""
         est = self.estimate
         if est is None:
             return super().positions(times)
@@ -85,12 +86,12 @@ class Foresight(ConvoyModel):
         (x0, x_edge, x1), (y0, y_edge, y1) = self._truth(np.array([edge - h, edge, edge + h]))
         vx, vy = (x1 - x0) / _VELOCITY_SPAN_S, (y1 - y0) / _VELOCITY_SPAN_S
         route = self.road
-        if route is None or self.left_route:
+        if route is None or self._off_road:
             return x + vx * beyond, y + vy * beyond
         s_edge = route.project(float(x_edge), float(y_edge), self._s)
         heading = route.point(s_edge).heading
         along = max(0.0, vx * math.cos(heading) + vy * math.sin(heading))
-        rx, ry, _, _ = route.arrays(s_edge + along * beyond)
+        rx, ry, _, _ = route.arrays(np.minimum(s_edge + along * beyond, route.length))
         late = beyond > 0.0
         return np.where(late, rx, x), np.where(late, ry, y)
 
