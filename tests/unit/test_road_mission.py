@@ -130,6 +130,18 @@ def test_parked_and_straight_convoys_are_covered_throughout(speed: float) -> Non
     assert run.predicted_coverage == pytest.approx(run.coverage, abs=0.01)
 
 
+def test_the_prediction_weighs_time_not_control_steps() -> None:
+    """Predicted coverage samples the protect phase every 0.5 s of mission time, however
+    often the mission is stepped: sampled from each step's own start, a 10-Hz loop scored
+    every step as half a second, and a stretch stepped densely outweighed a sparse one
+    (on the mock the step ranges from 0.1 to 4 s)."""
+    t = np.arange(0.0, 400.0, 1.0)
+    mission, _ = _fly(t, 0.0 * t, 0.0 * t, road_fleet(R, r), dt=0.1)
+    assert mission.protect_start is not None and mission._scored_until is not None
+    protected = mission._scored_until - mission.protect_start
+    assert mission._scored_s == pytest.approx(protected, abs=0.5)
+
+
 def _sides(streams: Streams, after: float) -> list[bool]:
     """The side (east of it) each UAV came back from, 5 s before each meeting with a convoy
     driving north at 8 m/s, in the order of the meetings after ``after``."""
