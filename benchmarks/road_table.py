@@ -13,6 +13,7 @@
     .venv/bin/python benchmarks/road_table.py --stop-reach  # could the fleet close them (~1 min)
     .venv/bin/python benchmarks/road_table.py --no-route-count  # 6 or 7 UAVs, no route (~8 min)
     .venv/bin/python benchmarks/road_table.py --deviations  # routes the convoy leaves (~3 min)
+    .venv/bin/python benchmarks/road_table.py --spread DIR  # cells kept by --mock --keep DIR
 
 Simulation: the service's ``RoadMission`` fed the convoy's fixes through its own
 ``ConvoyTracker``, UAVs flying exactly what they are sent (``fly_road``), coverage
@@ -41,6 +42,7 @@ import numpy.typing as npt
 from convoy_mav.config import DEFAULT_ORIGIN
 from convoy_mav.geo import GeoPoint, LocalFrame
 from convoy_mav.mission.choose import road_fleet
+from convoy_mav.mission.recording import load_recording
 from convoy_mav.mission.road import RoadMission, RoadSettings
 from convoy_mav.mission.simulate import RoadRun, fly_road
 from convoy_mav.planning import PlanRequest
@@ -546,6 +548,41 @@ def _deviations() -> None:
     print("mean " + ", ".join(f"{m} {100 * np.mean(v):.2f} %" for m, v in means.items()))
 
 
+SPREAD_FACTORS = (0.97, 0.98, 0.99, 1.01, 1.02, 1.03)
+
+
+def _respread(job: tuple[Path, float]) -> float:
+    """Predicted coverage of one kept mock cell replayed with its lags scaled."""
+    path, factor = job
+    replay = RoadMission.replayed(load_recording(path).with_lag_scaled(factor))
+    return float("nan") if replay.predicted_coverage is None else replay.predicted_coverage
+
+
+def _spread(keep: Path) -> None:
+    """How far one flight's coverage could have gone: each mock cell kept in ``keep``
+    (``--mock --keep``) replayed with its re-plan lags 1-3 % shorter and longer
+    (``MissionRecording.with_lag_scaled``), the predicted coverage of each replay.
+    The prediction is within a point of the truth, so this is the spread of the truth
+    a second flight of the cell could give, without flying it again."""
+    cells = sorted(p for p in keep.glob("*.inputs") if p.with_suffix(".json").exists())
+    jobs = [(p, f) for p in cells for f in SPREAD_FACTORS]
+    with ProcessPoolExecutor(max_workers=min(2, os.cpu_count() or 1)) as pool:
+        predicted = list(pool.map(_respread, jobs))
+    print("| cell | truth | predicted as flown | replays 0.97-1.03: min · median · max |")
+    print("|---|---|---|---|")
+    for k, path in enumerate(cells):
+        report = json.loads(path.with_suffix(".json").read_text())
+        got = np.array(predicted[k * len(SPREAD_FACTORS) : (k + 1) * len(SPREAD_FACTORS)])
+        truth, flown = report.get("truth_coverage_fraction"), report.get("predicted_coverage")
+        spread = " · ".join(f"{100 * v:.1f}" for v in (got.min(), np.median(got), got.max()))
+        row = [path.stem, _pct(truth), _pct(flown), f"{spread} %"]
+        print("| " + " | ".join(row) + " |", flush=True)
+
+
+def _pct(value: float | None) -> str:
+    return "-" if value is None else f"{100 * value:.1f} %"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--mock", action="store_true", help="also fly them against sitl_mock")
@@ -589,7 +626,16 @@ def main() -> None:
         metavar="DIR",
         help="with --mock: keep each mock cell's report, tlog and mission recording in DIR",
     )
+    parser.add_argument(
+        "--spread",
+        type=Path,
+        metavar="DIR",
+        help="replay each mock cell kept in DIR with its lags 1-3 %% off: one flight's spread",
+    )
     args = parser.parse_args()
+    if args.spread:
+        _spread(args.spread)
+        return
     if args.deviations:
         _deviations()
         return

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 import pickle
 from pathlib import Path
 
@@ -94,3 +95,21 @@ def test_a_recording_from_before_a_setting_was_added_replays_with_its_default(
     loaded = load_recording(path)
     assert loaded.settings == RoadSettings(keep_margin_s=0.75)
     assert RoadMission.replayed(loaded).settings == loaded.settings
+
+
+def test_a_lag_scaled_replay_is_the_flight_on_a_host_a_little_slower(
+    recorded: tuple[float, MissionRecording],
+) -> None:
+    """Scaled by 1 the replay is the flight; scaled, only the lags told change, and the
+    re-plans start further along each UAV's path: other plans, the same inputs else."""
+    predicted, recording = recorded
+    assert RoadMission.replayed(recording.with_lag_scaled(1.0)).predicted_coverage == predicted
+    lagged = dataclasses.replace(recording, calls=[("set_replan_lag", (0.5, 0.05))])
+    lagged.calls += recording.calls
+    slower = lagged.with_lag_scaled(2.0)
+    assert slower.calls[0] == ("set_replan_lag", (1.0, 0.1))
+    assert slower.calls[1:] == recording.calls and lagged.calls[0][1] == (0.5, 0.05)
+    a, b = RoadMission.replayed(lagged), RoadMission.replayed(slower)
+    assert any(a.setpoint(u, 400.0) != b.setpoint(u, 400.0) for u in recording.uav_ids)
+    with pytest.raises(ValueError, match="factor"):
+        recording.with_lag_scaled(math.nan)

@@ -19,9 +19,10 @@ your own.
 
 from __future__ import annotations
 
+import math
 import pickle
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -81,6 +82,26 @@ class MissionRecording:
                 break
             out.append((method, args))
         return out
+
+    def with_lag_scaled(self, factor: float) -> MissionRecording:
+        """The same inputs, every re-plan lag told (``set_replan_lag``) ``factor`` times
+        as long: the flight as it might have gone on a host a little faster or slower.
+
+        A road mission's choices are discrete (which leg, keep or fill, which meeting),
+        so a change this small as a 1 % longer lag sends some plans another way and the
+        mission on from there: replays at factors about 1 give the spread of one flight's
+        coverage, which a single flight cannot (``benchmarks/road_table.py --spread``).
+
+        Raises:
+            ValueError: If ``factor`` is negative or not finite.
+        """
+        if not (math.isfinite(factor) and factor >= 0.0):
+            raise ValueError(f"factor must be finite and >= 0, got {factor!r}")
+        calls = [
+            (m, tuple(factor * a for a in args) if m == "set_replan_lag" else args)
+            for m, args in self.calls
+        ]
+        return replace(self, calls=calls)
 
     def save(self, path: str | Path) -> None:
         """Write the recording (a pickle)."""
