@@ -1423,8 +1423,8 @@ class RoadMission(Roster):
         self._scored_until = t
         if start is None or self._protect_start is None or len(self._history) < 2:
             return
-        # On a fixed grid: each call scoring from its own start sampled every control
-        # step once, weighting the steps' density rather than time.
+        # On a fixed grid of mission time: sampled from each call's own start, every
+        # control step was a sample, and the score weighed steps rather than time.
         start = math.ceil(max(start, self._protect_start) / _SCORE_STEP) * _SCORE_STEP
         times = np.arange(start, t, _SCORE_STEP)
         if len(times) == 0:
