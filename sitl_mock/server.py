@@ -206,6 +206,9 @@ class VehicleLink(asyncio.DatagramProtocol):
         if not self.alive:
             self.counters["killed"] += 1
             return
+        if self.deaf:
+            self.counters["deaf"] += 1
+            return
         faults = self.fleet.faults
         if faults.drop_to_vehicle(self.sysid):
             self.counters["lost_to_vehicle"] += 1
@@ -333,6 +336,9 @@ class VehicleLink(asyncio.DatagramProtocol):
 
     muted = False
     """Frames are dropped on the way out (a radio still down after a pause)."""
+
+    deaf = False
+    """Datagrams are dropped on the way in (an uplink down, the downlink still up)."""
 
     def kill(self) -> None:
         """Stop answering and sending entirely (power loss)."""

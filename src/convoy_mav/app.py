@@ -82,8 +82,6 @@ _GROUND_POSITION_HZ = 10  # GLOBAL_POSITION_INT rate asked of ground vehicles
 _MAX_SPEED_FACTOR = 2.5  # a UAV fix implying more than this x its airspeed is not its own
 _MAX_SPEED_FLOOR = 30.0  # m/s: ... nor more than this, whatever the airspeed (wind, a dive)
 _FIX_WINDOW_S = (30.0, 2.0)  # mission s an external fix may be stamped before / after now
-_OWN_FAILSAFE_S = 10.0  # mission s after a link is back in which a hold is our stream's doing
-_REFLY_FAILSAFE_S = 30.0  # mission s after flying again in which a hold is our outage's
 _TAKEN_CONFIRM_S = 3.0  # mission s a mode change must stand (no reboot) to be a pilot's
 _STALL_TICKS = 3  # a control tick this many periods late is a stall of the host
 _PLANNER_BEHIND = 1.5  # re-plans this many times rarer than planned: the planner is behind
@@ -261,14 +259,6 @@ def _firmware_family(vehicle: Vehicle) -> str | None:
     if vehicle.firmware is None:
         return None
     return "px4" if vehicle.firmware.name == "PX4" else "ardupilot"
-
-
-def _is_stream_loss_failsafe(text: str | None) -> bool:
-    """Whether an autopilot's STATUSTEXT blames a lost offboard/guided setpoint stream."""
-    if not text:
-        return False
-    low = text.lower()
-    return "offboard" in low and ("signal" in low or "lost" in low or "loss" in low)
 
 
 class _Stop(Exception):
@@ -516,13 +506,7 @@ class ConvoyService:
             and vehicle is not None
             and not self.paused
             and not self._stopping  # (the end of the mission's own holds are no failsafe)
-            and (
-                _is_stream_loss_failsafe(vehicle.last_statustext)
-                or event.t - max(vehicle.recovered_t, vehicle.stream_resumed_t) < _OWN_FAILSAFE_S
-                # (a UAV set up again may report the hold of its outage late: the
-                # known loaded-host case of the fleet-pause test)
-                or event.t - vehicle.reflying_t < _REFLY_FAILSAFE_S
-            )
+            and vehicle.hold_is_ours(event.t)
         ):
             # Our own setpoint stream hiccupped (a stalled host, a lossy link, a link
             # just back after an outage, whose failsafe text may have been lost with
@@ -572,7 +556,11 @@ class ConvoyService:
                 continue
             del self._taken_pending[sysid]
             v = self.vehicles[sysid]
-            if v.status is VehicleStatus.HOLDING and v.counters["reboots"] == reboots:
+            if v.status is VehicleStatus.HOLDING and v.hold_is_ours(since):
+                # Its stream-loss text came after the HEARTBEAT that showed the hold.
+                self._note(f"uav{sysid}: re-engaging after a setpoint-loss failsafe")
+                v.resume()
+            elif v.status is VehicleStatus.HOLDING and v.counters["reboots"] == reboots:
                 self._taken.add(sysid)
                 self._alarm(Alarm(t, "uav_taken", True, f"{message}; the others re-phase"), sysid)
 

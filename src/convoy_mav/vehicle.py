@@ -112,6 +112,11 @@ _HOME_WAIT = 60.0  # mission s after the fix that set-up waits for HOME_POSITION
 _STREAM_RETRY = 5.0  # mission s between stream requests while no position arrives
 _FED_LOOK = 0.5  # mission s between looks at a fed stream (PX4's COM_OF_LOSS_T: 1 s)
 _STREAM_GAP_S = 1.0  # mission s without a setpoint an autopilot may take for a loss (PX4's default)
+_OWN_FAILSAFE_S = 10.0  # mission s after a link is back in which a hold is our stream's doing
+_REFLY_FAILSAFE_S = 30.0  # mission s after flying again in which a hold is our outage's
+_FAILSAFE_TEXT_S = 5.0  # mission s between a stream-loss STATUSTEXT and the hold it explains
+_FOREIGN_MODE_S = 5.0  # mission s after another station's mode command is accepted: its hold
+_MODE_COMMANDS = (_M.MAV_CMD_DO_SET_MODE, _M.MAVLINK_MSG_ID_SET_MODE)  # what a mode ACK answers
 _JUMP_SLACK_M = 50.0  # m a fix may land past max_speed x the time since the last (GPS glitches)
 _JUMP_CONFIRM = 5  # agreeing fixes in a row that make a jump the vehicle's own (an estimator reset)
 _REJECT_WARN_EVERY = 10.0  # mission s between two warnings of rejected frames of one kind
@@ -119,6 +124,15 @@ _FENCE_TRIES = 3  # sends of one fence message that got no answer before the upl
 _FENCE_ANSWERS_PER_ITEM = 6  # answers read per fence item at most (duplicates included)
 _LAUNCH_NOTE_S = 30.0  # mission s between two notes of a UAV still waiting to launch
 _LOST_MARGIN = 1e-3  # mission s past lost_after the watchdog looks (silence must exceed it)
+
+
+def _is_stream_loss_failsafe(text: str | None) -> bool:
+    """Whether an autopilot's STATUSTEXT blames a lost offboard setpoint stream (PX4:
+    "Failsafe: no offboard signal", "Offboard signal lost")."""
+    if not text:
+        return False
+    low = text.lower()
+    return "offboard" in low and ("signal" in low or "lost" in low or "loss" in low)
 
 
 class LinkLike(Protocol):
@@ -284,6 +298,8 @@ class Vehicle:
         self.recovered_t = -math.inf  # mission time it was last heard again after LOST
         self.stream_resumed_t = -math.inf  # mission time our setpoints resumed after a gap
         self.reflying_t = -math.inf  # mission time it flew again after a new set-up
+        self.foreign_mode_t = -math.inf  # mission time another station's mode change was taken
+        self._stream_loss_text_t = -math.inf  # mission time of the last stream-loss STATUSTEXT
         self._flown = False
         self.first_heard_t: float | None = None
         self._statustext_t = -math.inf
@@ -513,7 +529,13 @@ class Vehicle:
         """Record the result for a waiting command; tell the strategy."""
         target = getattr(msg, "target_system", 0)
         if target not in (0, self.gcs_sysid):
-            return  # the answer to another ground station
+            # The answer to another ground station (seen where the link is shared: a
+            # router, a radio, one UDP port). Its mode command taken is the sign a mode
+            # change that follows is its, not our stream's failsafe (``hold_is_ours``).
+            if msg.command in _MODE_COMMANDS and msg.result == _M.MAV_RESULT_ACCEPTED:
+                self.foreign_mode_t = now
+                self.counters["foreign_mode"] += 1
+            return
         self._ack_seq += 1
         self._acks[msg.command] = (msg.result, self._ack_seq)
         if self.firmware is not None:
@@ -525,6 +547,8 @@ class Vehicle:
         text = text.rstrip("\x00").strip()
         self.last_statustext = text
         self._statustext_t = now
+        if _is_stream_loss_failsafe(text):
+            self._stream_loss_text_t = now
         self._emit(EventKind.STATUSTEXT, text, int(msg.severity))
 
     def handle_GLOBAL_POSITION_INT(self, msg: Message, now: float) -> None:
@@ -1174,6 +1198,31 @@ class Vehicle:
                 said = (reason, now)
             await self.clock.sleep_until(self.clock.now() + wait)
             backoff = min(2.0 * backoff, cap)
+
+    def hold_is_ours(self, t: float) -> bool:
+        """Whether the autopilot's fall from our mode to its hold, reported at ``t``, is
+        our setpoint stream's doing (a failsafe: take the UAV back) rather than a pilot's
+        or another ground station's (respect it).
+
+        Ours when the autopilot said so (a stream-loss STATUSTEXT within
+        ``_FAILSAFE_TEXT_S`` of ``t``, either side: the text and the HEARTBEAT that shows
+        the hold come in either order), or, its text perhaps lost with the link, soon
+        after the link came back, our stream resumed after a gap, or the UAV flew again
+        after an outage. Not ours, whatever those say, when another station's mode
+        command was accepted just before: a stranger who takes the UAV while our stream
+        hiccups keeps it. (A text from minutes ago explains no hold now: a UAV that once
+        failed safe would otherwise be fought for ever after.)
+        """
+        if 0.0 <= t - self.foreign_mode_t < _FOREIGN_MODE_S:
+            return False
+        return (
+            abs(t - self._stream_loss_text_t) < _FAILSAFE_TEXT_S
+            or 0.0 <= t - self.recovered_t < _OWN_FAILSAFE_S
+            or 0.0 <= t - self.stream_resumed_t < _OWN_FAILSAFE_S
+            # (a UAV set up again may report the hold of its outage late: the known
+            # loaded-host case of the fleet-pause test)
+            or 0.0 <= t - self.reflying_t < _REFLY_FAILSAFE_S
+        )
 
     def _text_since(self, t: float) -> bool:
         return self._statustext_t >= t

@@ -190,6 +190,22 @@ def test_loss_to_vehicle_drops_before_parsing() -> None:
     assert fleet.peers(1) == []  # a lost datagram teaches the vehicle nothing
 
 
+def test_a_deaf_link_drops_what_comes_in_and_still_sends() -> None:
+    fleet, _, transports = make()
+    link = fleet.link(1)
+    link.datagram_received(hello(), PEER_A)  # (a peer, then the uplink goes down)
+    link.deaf = True
+    link.datagram_received(frame(arm()), PEER_A)
+    c = fleet.counters(1)
+    assert (c["deaf"], c["messages_in"]) == (1, 1)
+    transports[1].sent.clear()
+    run(fleet, 1.1)  # (its heartbeat and telemetry still go out)
+    assert any(m.get_type() == "HEARTBEAT" for m in transports[1].to(PEER_A))
+    link.deaf = False
+    link.datagram_received(frame(arm()), PEER_A)
+    assert fleet.counters(1)["messages_in"] == 2
+
+
 def test_latency_holds_datagrams_for_sim_time_both_ways() -> None:
     fleet, _, tx = make(faults={"latency_to_vehicle": 0.5, "latency_from_vehicle": 0.25})
     run(fleet, 1.5)
