@@ -1209,11 +1209,11 @@ class Vehicle:
         the hold come in either order), or, its text perhaps lost with the link, soon
         after the link came back, our stream resumed after a gap, or the UAV flew again
         after an outage. Not ours, whatever those say, when another station's mode
-        command was accepted just before: a stranger who takes the UAV while our stream
-        hiccups keeps it. (A text from minutes ago explains no hold now: a UAV that once
-        failed safe would otherwise be fought for ever after.)
+        command was accepted within ``_FOREIGN_MODE_S`` (either side, too): a stranger
+        who takes the UAV while our stream hiccups keeps it. (A text from minutes ago
+        explains no hold now: a UAV that once failed safe would be fought for ever after.)
         """
-        if 0.0 <= t - self.foreign_mode_t < _FOREIGN_MODE_S:
+        if abs(t - self.foreign_mode_t) < _FOREIGN_MODE_S:
             return False
         return (
             abs(t - self._stream_loss_text_t) < _FAILSAFE_TEXT_S

@@ -73,6 +73,9 @@ def test_a_strangers_mode_command_taken_makes_the_hold_its_own() -> None:
     assert v.hold_is_ours(99.0)
     _mode_ack(v, 99.0, to=STRANGER)  # another station's mode change accepted
     assert not v.hold_is_ours(100.0)
+    assert not v.hold_is_ours(98.0)  # (its answer seen after the HEARTBEAT showing the hold)
+    _text(v, FAILSAFE_TEXT, 109.0)  # (a later hold is judged afresh)
+    assert v.hold_is_ours(110.0)
     assert v.counters["foreign_mode"] == 1
 
 
