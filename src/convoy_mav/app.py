@@ -512,10 +512,7 @@ class ConvoyService:
             # just back after an outage, whose failsafe text may have been lost with
             # it) and the autopilot fell back to its hold: take control back.  Any
             # other mode change is a pilot's, and is respected.
-            self._note(f"uav{event.sysid}: re-engaging after a setpoint-loss failsafe")
-            # The vehicle reports the mode change before it marks itself HOLDING:
-            # resume on the next turn of the loop, once it has.
-            asyncio.get_running_loop().call_soon(vehicle.resume)
+            self._take_back(vehicle)
         elif (
             event.kind == EventKind.MODE
             and not self.paused
@@ -556,13 +553,19 @@ class ConvoyService:
                 continue
             del self._taken_pending[sysid]
             v = self.vehicles[sysid]
-            if v.status is VehicleStatus.HOLDING and v.hold_is_ours(since):
-                # Its stream-loss text came after the HEARTBEAT that showed the hold.
-                self._note(f"uav{sysid}: re-engaging after a setpoint-loss failsafe")
-                v.resume()
-            elif v.status is VehicleStatus.HOLDING and v.counters["reboots"] == reboots:
+            if v.status is not VehicleStatus.HOLDING:
+                continue
+            if v.hold_is_ours(since):  # (its stream-loss text came after the HEARTBEAT)
+                self._take_back(v)
+            elif v.counters["reboots"] == reboots:
                 self._taken.add(sysid)
                 self._alarm(Alarm(t, "uav_taken", True, f"{message}; the others re-phase"), sysid)
+
+    def _take_back(self, vehicle: Vehicle) -> None:
+        """Fly a UAV our own stream's failsafe held again. (The vehicle reports the mode
+        change before it marks itself HOLDING: resumed on the next turn of the loop.)"""
+        self._note(f"uav{vehicle.uid}: re-engaging after a setpoint-loss failsafe")
+        asyncio.get_running_loop().call_soon(vehicle.resume)
 
     def _plan_leaves_fence(
         self, t: float, view: MissionView, skip: set[int]
