@@ -44,7 +44,7 @@ from convoy_mav.geo import GeoPoint, LocalFrame
 from convoy_mav.mission.choose import road_fleet
 from convoy_mav.mission.recording import load_recording
 from convoy_mav.mission.road import RoadMission, RoadSettings
-from convoy_mav.mission.simulate import RoadRun, fly_road
+from convoy_mav.mission.simulate import RoadRun, chord_velocity, fly_road
 from convoy_mav.planning import PlanRequest
 from convoy_mav.planning.dubins import Pose, dubins_word_lengths
 from convoy_mav.planning.road import Road
@@ -97,11 +97,13 @@ def _paths(track: GeoTrack, truth: Truth) -> Paths:
 
 
 def _fly(paths: Paths, req: PlanRequest, known: bool, foresight_s: float | None = None) -> RoadRun:
+    """Fly a road in simulation, its fixes reporting the velocity the mock's ground
+    vehicles report when they drive it (``chord_velocity``)."""
     times, north, east, tn, te = paths
     uavs = road_fleet(req.turn_radius, req.sensor_radius, route=known)
     return fly_road(
         times, north, east, req, uavs, true_north=tn, true_east=te, route_known=known,
-        foresight_s=foresight_s,
+        foresight_s=foresight_s, reported=chord_velocity(times, north, east),
     )  # fmt: skip
 
 

@@ -78,6 +78,7 @@ log = logging.getLogger(__name__)
 
 _GIL_SWITCH_S = 0.001  # s: how long the mission worker may hold the GIL at a time
 _GROUND_STREAM_RETRY = 5.0  # mission s between stream requests to a silent ground vehicle
+_VELOCITY_SOURCES = ("velocity_reported", "velocity_fitted")  # (tracker counters)
 _GROUND_POSITION_HZ = 10  # GLOBAL_POSITION_INT rate asked of ground vehicles
 _MAX_SPEED_FACTOR = 2.5  # a UAV fix implying more than this x its airspeed is not its own
 _MAX_SPEED_FLOOR = 30.0  # m/s: ... nor more than this, whatever the airspeed (wind, a dive)
@@ -452,7 +453,9 @@ class ConvoyService:
                 return
             t = self.clock.to_mission(msg.time_boot_ms, sysid)
             north, east, _ = self.frame.to_ned(GeoPoint(msg.lat * 1e-7, msg.lon * 1e-7))
-            self.tracker.update(t, north, east, source=sysid)
+            # vx, vy: the vehicle's own NED ground velocity, cm/s (the tracker judges it)
+            velocity = (msg.vx * 0.01, msg.vy * 0.01)
+            self.tracker.update(t, north, east, source=sysid, velocity=velocity)
             self._ground_heard[sysid] = t
 
     def _on_mqtt_convoy(self, fix: Mapping[str, Any]) -> None:
@@ -462,10 +465,27 @@ class ConvoyService:
         else:
             north, east = fix["north"], fix["east"]
         if self.config.convoy.source == "mqtt" and self.clock.synced:
-            self.convoy_fix(north, east, fix.get("t"))
+            source = fix.get("source")
+            self.convoy_fix(
+                north,
+                east,
+                fix.get("t"),
+                source="external" if source is None else f"mqtt:{source}",
+                velocity=fix.get("velocity"),
+            )
 
-    def convoy_fix(self, north: float, east: float, t: float | None = None) -> bool:
-        """An external convoy fix (MQTT, replay) in the mission frame.
+    def convoy_fix(
+        self,
+        north: float,
+        east: float,
+        t: float | None = None,
+        *,
+        source: str = "external",
+        velocity: tuple[float, float] | None = None,
+    ) -> bool:
+        """An external convoy fix (MQTT, replay) in the mission frame, from ``source``
+        (each vehicle its own: the estimate is the centroid of their latest fixes), with
+        the ``(vn, ve)`` it reports, if any.
 
         A fix stamped outside ``_FIX_WINDOW_S`` of mission time now is dropped and
         counted: it would move the estimate, and every plan, to another time.
@@ -479,7 +499,7 @@ class ConvoyService:
                     t, now, self._fixes_rejected,
                 )  # fmt: skip
             return False
-        return self.tracker.update(now if t is None else t, north, east, "external")
+        return self.tracker.update(now if t is None else t, north, east, source, velocity)
 
     def command(self, command: str) -> None:
         """Operator command: ``pause`` (every UAV loiters) or ``resume``."""
@@ -1723,7 +1743,11 @@ class ConvoyService:
                 "clock_jumps_reanchored": self.clock.jumps,
                 "ground_fixes": self._ground_rejected,
                 "external_fixes_out_of_time": self._fixes_rejected,
-                **{f"convoy_{k}": n for k, n in self.tracker.counters.items() if k != "accepted"},
+                **{
+                    f"convoy_{k}": n
+                    for k, n in self.tracker.counters.items()
+                    if k not in ("accepted", *_VELOCITY_SOURCES)
+                },
             },
             tlog=self._tlog_path,
             refused=self.refused,
@@ -1782,6 +1806,8 @@ class ConvoyService:
 
     def _planner_report(self) -> dict[str, Any]:
         out: dict[str, Any] = {"name": self.planner, "why": self._planner_why}
+        # Convoy estimates whose velocity was the vehicles' own, and the fixes' slope.
+        out["convoy_velocity"] = {k: self.tracker.counters[k] for k in _VELOCITY_SOURCES}
         if isinstance(self.mission, RoadMission):
             out.update(self.mission.report())
         return out

@@ -7,6 +7,14 @@ Design rules:
 - Velocity is the least-squares slope of the centroid samples over a sliding
   time window: robust to GPS noise, and it needs no model of the route.  A
   centroid sample is dated at the mean time of the fixes it averages.
+- A ground vehicle that reports its own velocity (GLOBAL_POSITION_INT's
+  vx/vy: an autopilot's estimate from GPS Doppler, not a difference of fixes)
+  knows it without the slope's lag of half a window (2 s into a corner, 2 s
+  into a stop).  Its reports are used while they can be trusted: steady (their
+  change from one second to the next, in the median over the last 10 s, under
+  ``steady_mps``) and borne out by the fixes (their mean over the window within
+  ``agree_mps`` of the slope).  A feed that reports zeros, another frame, or a
+  difference of 3-m-noisy fixes fails one of the two and the slope is used.
 - A source silent for longer than ``stale_after`` leaves the centroid, so one
   dead truck does not freeze the convoy in place.  Whenever the set of
   sources changes, the centroid jumps (it is now the centre of other
@@ -21,8 +29,11 @@ Design rules:
 
 from __future__ import annotations
 
+import bisect
 import math
+import statistics
 from collections import Counter, deque
+from collections.abc import Iterable
 from dataclasses import dataclass, replace
 
 from convoy_mav.plausible import JumpGate
@@ -38,6 +49,20 @@ class _Fix:
     t: float
     north: float
     east: float
+    velocity: tuple[float, float] | None = None  # as the source reported it, m/s
+
+
+_REPORT_CHANGE_S = 1.0  # a report's change is measured against the one this long before
+_REPORT_CHECK_S = 10.0  # over this long, in the median, and only once this much is seen
+_REPORT_MEAN_S = 1.0  # the velocity used is the reports' mean over this long
+
+
+def _mean_velocity(reports: Iterable[tuple[float, float, float, float]]) -> tuple[float, float]:
+    """Mean (vn, ve) of some reports (at least one)."""
+    count = sn = se = 0.0
+    for _, vn, ve, _ in reports:
+        count, sn, se = count + 1.0, sn + vn, se + ve
+    return sn / count, se / count
 
 
 class ConvoyTracker:
@@ -51,11 +76,17 @@ class ConvoyTracker:
             span at least this long (until then the last velocity is held).
         max_speed: Fastest a ground vehicle drives, m/s: a source's fix farther
             from its last than this allows is dropped (``plausible.JumpGate``).
+        steady_mps: Reported velocities whose median change over a second is larger
+            are not trusted (3 m of GPS noise differenced at 1 Hz changes 7 m/s).
+        agree_mps: Reported velocities whose mean over the window is farther than
+            this from the fixes' slope are not trusted.
 
     Attributes:
         counters: ``accepted``, ``non_finite``, ``out_of_order``, ``jump``
             (farther than the convoy can drive), ``source_dropped`` (a source left
-            the centroid), ``source_added``.
+            the centroid), ``source_added``, ``velocity_non_finite`` (a report's
+            velocity ignored, its position kept), ``velocity_reported`` and
+            ``velocity_fitted`` (estimates from the reports and from the slope).
     """
 
     def __init__(
@@ -65,6 +96,8 @@ class ConvoyTracker:
         window: float = 10.0,
         min_span: float = 1.0,
         max_speed: float = 70.0,
+        steady_mps: float = 2.0,
+        agree_mps: float = 1.5,
     ):
         for name, value in (("stale_after", stale_after), ("window", window)):
             if not (math.isfinite(value) and value > 0.0):
@@ -76,20 +109,34 @@ class ConvoyTracker:
         self.min_span = min_span
         self.counters: Counter[str] = Counter()
         self.max_speed = max_speed
+        self.steady_mps = steady_mps
+        self.agree_mps = agree_mps
         self._gates: dict[Source, JumpGate] = {}
         self._fixes: dict[Source, _Fix] = {}
         self._active: frozenset[Source] = frozenset()
         self._samples: deque[tuple[float, float, float]] = deque()
+        # (t, vn, ve, change over a second) of the centroid's reported velocity, while
+        # every source reports one
+        self._reports: deque[tuple[float, float, float, float]] = deque()
         self._velocity = (0.0, 0.0)
         self._last: ConvoyEstimate | None = None
+        self._trusted = False  # the velocity now is the reports', not the slope's
 
     @property
     def sources(self) -> frozenset[Source]:
         """The sources in the current centroid."""
         return self._active
 
-    def update(self, t: float, north: float, east: float, source: Source = 0) -> bool:
-        """Fold in one position fix of ``source`` at mission time ``t``.
+    def update(
+        self,
+        t: float,
+        north: float,
+        east: float,
+        source: Source = 0,
+        velocity: tuple[float, float] | None = None,
+    ) -> bool:
+        """Fold in one position fix of ``source`` at mission time ``t``, with the
+        ``(vn, ve)`` it reports when it does.
 
         Returns:
             True if the fix was used; False if it was ignored (a NaN/inf value,
@@ -110,7 +157,10 @@ class ConvoyTracker:
         if not gate.admit(t, north, east):
             self.counters["jump"] += 1
             return False
-        self._fixes[source] = _Fix(t, north, east)
+        if velocity is not None and not all(map(math.isfinite, velocity)):
+            self.counters["velocity_non_finite"] += 1
+            velocity = None
+        self._fixes[source] = _Fix(t, north, east, velocity)
         self.counters["accepted"] += 1
         now = t if self._last is None else max(t, self._last.t)
         active = frozenset(s for s, f in self._fixes.items() if now - f.t <= self.stale_after)
@@ -119,6 +169,7 @@ class ConvoyTracker:
             self.counters["source_added"] += len(active - self._active)
             self._active = active
             self._samples.clear()
+            self._reports.clear()
         fixes = [self._fixes[s] for s in active]
         # The centroid of fixes taken at different times is where the convoy was
         # at their mean time (exactly, for a constant velocity): sampling it
@@ -129,9 +180,45 @@ class ConvoyTracker:
         self._samples.append((tc, n, e))
         while self._samples and self._samples[0][0] < tc - self.window:
             self._samples.popleft()
-        vn, ve = self._velocity = self._fit_velocity()
+        self._fold_reports(tc, fixes)
+        vn, ve = self._velocity = self._reported_velocity() or self._fit_velocity()
+        self.counters["velocity_reported" if self._trusted else "velocity_fitted"] += 1
         self._last = ConvoyEstimate(now, n + vn * (now - tc), e + ve * (now - tc), vn, ve)
         return True
+
+    def _fold_reports(self, tc: float, fixes: list[_Fix]) -> None:
+        """The centroid's reported velocity at ``tc`` (when every source reports one) and
+        its change from the report a second before."""
+        reported = [f.velocity for f in fixes if f.velocity is not None]
+        reports = self._reports
+        if len(reported) < len(fixes):
+            reports.clear()
+            return
+        vn = sum(v[0] for v in reported) / len(reported)
+        ve = sum(v[1] for v in reported) / len(reported)
+        j = bisect.bisect_right(reports, tc - _REPORT_CHANGE_S, key=lambda r: r[0]) - 1
+        change = math.hypot(vn - reports[j][1], ve - reports[j][2]) if j >= 0 else math.nan
+        reports.append((tc, vn, ve, change))
+        while reports and reports[0][0] < tc - _REPORT_CHECK_S - _REPORT_CHANGE_S:
+            reports.popleft()
+
+    def _reported_velocity(self) -> tuple[float, float] | None:
+        """The reports' recent mean, when they are steady and the fixes bear them out."""
+        self._trusted = False
+        reports = self._reports
+        if not reports or reports[-1][0] - reports[0][0] < _REPORT_CHECK_S:
+            return None
+        newest = reports[-1][0]
+        changes = [r[3] for r in reports if r[0] >= newest - _REPORT_CHECK_S and r[3] == r[3]]
+        if not changes or statistics.median(changes) > self.steady_mps:
+            return None
+        fitted = self._fit_velocity()
+        start = self._samples[0][0] if self._samples else newest
+        mn, me = _mean_velocity(r for r in reports if r[0] >= start)
+        if math.hypot(mn - fitted[0], me - fitted[1]) > self.agree_mps:
+            return None
+        self._trusted = True
+        return _mean_velocity(r for r in reports if r[0] >= newest - _REPORT_MEAN_S)
 
     def _fit_velocity(self) -> tuple[float, float]:
         """Least-squares slope of the centroid samples, or the held velocity."""

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import random
+from collections.abc import Callable
 
 import pytest
 
@@ -144,3 +145,77 @@ def test_velocity_follows_a_turn_within_one_window() -> None:
 def test_bad_parameters_are_refused(kwargs: dict[str, float]) -> None:
     with pytest.raises(ValueError):
         ConvoyTracker(**kwargs)
+
+
+def _corner(
+    tracker: ConvoyTracker,
+    report: Callable[[float, float, float], tuple[float, float] | None],
+    until: float = 20.0,
+    rate: float = 10.0,
+) -> None:
+    """A vehicle north at 8 m/s, then east at 8 m/s from t = 15, fixed at ``rate`` Hz;
+    ``report(t, vn, ve)`` is the velocity it reports with each fix."""
+    for k in range(int(until * rate) + 1):
+        t = k / rate
+        n, e = 8.0 * min(t, 15.0), 8.0 * max(t - 15.0, 0.0)
+        vn, ve = (8.0, 0.0) if t < 15.0 else (0.0, 8.0)
+        assert tracker.update(t, n, e, source=1, velocity=report(t, vn, ve))
+
+
+def test_a_vehicles_own_velocity_turns_with_it_where_the_slope_lags() -> None:
+    fitted, reported = ConvoyTracker(window=4.0), ConvoyTracker(window=4.0)
+    _corner(fitted, lambda t, vn, ve: None, until=16.0)
+    _corner(reported, lambda t, vn, ve: (vn, ve), until=16.0)
+    lagging, turned = fitted.estimate(16.0), reported.estimate(16.0)
+    assert lagging is not None and turned is not None
+    assert lagging.vn > 5.0  # a second into the corner the 4-s slope still heads north
+    assert (turned.vn, turned.ve) == pytest.approx((0.0, 8.0), abs=1e-9)
+    assert reported.counters["velocity_reported"] > 0
+    assert fitted.counters["velocity_reported"] == 0
+
+
+def test_reports_are_trusted_only_after_ten_seconds_of_them() -> None:
+    tr = ConvoyTracker(window=4.0)
+    _corner(tr, lambda t, vn, ve: (vn, ve) if t >= 8.0 else None, until=17.0)
+    est = tr.estimate(17.0)
+    assert est is not None and est.vn > 1.0  # 9 s of reports: still the slope
+    assert tr.counters["velocity_reported"] == 0
+
+
+def test_reports_of_a_differenced_noisy_track_are_not_trusted() -> None:
+    rng = random.Random(3)
+
+    def noisy(t: float, vn: float, ve: float) -> tuple[float, float]:
+        return vn + rng.gauss(0.0, 4.2), ve + rng.gauss(0.0, 4.2)  # 3 m of noise, 1 Hz
+
+    tr = ConvoyTracker(window=4.0)
+    _corner(tr, noisy, until=14.0, rate=1.0)
+    assert tr.counters["velocity_reported"] == 0
+    assert tr.counters["velocity_fitted"] == 15
+
+
+@pytest.mark.parametrize("wrong", [(0.0, 0.0), (0.0, 8.0), (800.0, 0.0)])
+def test_reports_the_fixes_do_not_bear_out_are_not_trusted(wrong: tuple[float, float]) -> None:
+    """Zeros (a GPS with no velocity), another frame, centimetres as metres."""
+    tr = ConvoyTracker(window=4.0)
+    _corner(tr, lambda t, vn, ve: wrong, until=14.0)
+    est = tr.estimate(14.0)
+    assert est is not None and (est.vn, est.ve) == pytest.approx((8.0, 0.0), abs=1e-6)
+    assert tr.counters["velocity_reported"] == 0
+
+
+def test_a_non_finite_velocity_is_dropped_and_its_position_kept() -> None:
+    tr = ConvoyTracker()
+    assert tr.update(0.0, 1.0, 2.0, velocity=(math.nan, 0.0))
+    assert tr.counters["velocity_non_finite"] == 1
+    est = tr.estimate(0.0)
+    assert est is not None and (est.north, est.east) == (1.0, 2.0)
+
+
+def test_reports_count_only_while_every_source_reports() -> None:
+    tr = ConvoyTracker(window=4.0)
+    for k in range(200):
+        t = k * 0.1
+        tr.update(t, 8.0 * t + 5.0, 0.0, source="A", velocity=(8.0, 0.0))
+        tr.update(t, 8.0 * t - 5.0, 0.0, source="B")  # (a tracker with no velocity)
+    assert tr.counters["velocity_reported"] == 0

@@ -200,6 +200,18 @@ def test_alarm_payload() -> None:
             b'{"lat": 47.39, "lng": 8.54, "source": "truck"}',
             {"lat": 47.39, "lon": 8.54, "source": "truck"},
         ),
+        (  # the vehicle's own velocity, m/s north and east
+            b'{"north": 1, "east": 2, "vn": 3, "ve": -4.5}',
+            {"north": 1.0, "east": 2.0, "velocity": (3.0, -4.5)},
+        ),
+        (  # OwnTracks: 36 km/h on a course of 90 degrees is 10 m/s east
+            b'{"_type": "location", "lat": 47.39, "lon": 8.54, "vel": 36, "cog": 90}',
+            {"lat": 47.39, "lon": 8.54, "velocity": pytest.approx((0.0, 10.0))},
+        ),
+        (  # (vel and cog are OwnTracks' own: elsewhere they are not a velocity)
+            b'{"lat": 47.39, "lon": 8.54, "vel": 36, "cog": 90}',
+            {"lat": 47.39, "lon": 8.54},
+        ),
     ],
 )
 def test_convoy_position_accepted(raw: bytes | str, expected: dict[str, Any]) -> None:
@@ -232,6 +244,9 @@ def test_convoy_position_accepted(raw: bytes | str, expected: dict[str, Any]) ->
         (b'{"lat": 47.0, "lon": 8.0, "north": 1.0}', "not both"),
         (b'{"north": 1.0, "east": 2.0, "t": NaN}', "'t' is not finite"),
         (b'{"north": 1.0, "east": 2.0, "source": [1]}', "'source' must be"),
+        (b'{"north": 1.0, "east": 2.0, "vn": 1.0}', "both vn and ve"),
+        (b'{"north": 1.0, "east": 2.0, "vn": 1.0, "ve": NaN}', "'ve' is not finite"),
+        (b'{"north": 1.0, "east": 2.0, "vn": "3", "ve": 0}', "'vn' must be a JSON number"),
         (b"{" + b" " * topics.MAX_INPUT_BYTES + b"}", "exceeds"),
         (b"[" * 5000 + b"]" * 5000, "exceeds"),
     ],

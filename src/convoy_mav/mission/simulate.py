@@ -29,7 +29,7 @@ from convoy_mav.mission.road import RoadMission, RoadSettings
 from convoy_mav.planning.plan import PlanRequest
 from convoy_mav.planning.road import Road
 
-__all__ = ["RoadRun", "fly_road"]
+__all__ = ["RoadRun", "chord_velocity", "fly_road"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -64,6 +64,7 @@ def fly_road(
     *,
     true_north: npt.ArrayLike | None = None,
     true_east: npt.ArrayLike | None = None,
+    reported: tuple[npt.ArrayLike, npt.ArrayLike] | None = None,
     route_known: bool = False,
     route: Road | None = None,
     settings: RoadSettings | None = None,
@@ -80,6 +81,8 @@ def fly_road(
         uavs: Fleet size.
         true_north, true_east: Where the convoy really was at ``t`` (default:
             the fixes): what coverage is scored against.
+        reported: The velocity (north, east) each fix reports, as a ground vehicle's
+            GLOBAL_POSITION_INT does (``chord_velocity``: the mock's); None, none.
         route_known: Give the mission the track's path (not its timing) as its route.
         route: Give the mission this route instead (one the convoy may not keep to).
         settings: Road mission settings.
@@ -108,6 +111,7 @@ def fly_road(
         mission.model = Foresight(mission.model, ts, te, tn, foresight_s)
     mission.set_replan_lag(*replan_lag)
     tracker = ConvoyTracker(window=4.0)
+    vn, ve = (None, None) if reported is None else (np.asarray(v, np.float64) for v in reported)
     # The UAVs start circling near the convoy's first fix, spread around it.
     R = request.turn_radius
     joined = False
@@ -119,7 +123,8 @@ def fly_road(
     step_times = np.arange(float(ts[0]), end, dt)
     for now in step_times.tolist():
         while k < len(ts) and ts[k] <= now:
-            tracker.update(float(ts[k]), float(fn[k]), float(fe[k]))
+            velocity = None if vn is None or ve is None else (float(vn[k]), float(ve[k]))
+            tracker.update(float(ts[k]), float(fn[k]), float(fe[k]), velocity=velocity)
             k += 1
         if now < busy_until:
             _score(samples, off_pattern, mission, ids, now, ts, tn, te, request.sensor_radius)
@@ -166,6 +171,19 @@ def fly_road(
         tuple(gaps),
         dt * len(off_pattern),
     )
+
+
+def chord_velocity(
+    t: npt.ArrayLike, north: npt.ArrayLike, east: npt.ArrayLike
+) -> tuple[FloatArray, FloatArray]:
+    """The velocity the mock's ground vehicles report at each fix of a track they drive:
+    its chord to the next fix (they follow the track's straight segments), zero at the
+    end."""
+    ts = np.asarray(t, dtype=np.float64)
+    dt = np.maximum(np.diff(ts), 1e-9)
+    vn = np.append(np.diff(np.asarray(north, dtype=np.float64)) / dt, 0.0)
+    ve = np.append(np.diff(np.asarray(east, dtype=np.float64)) / dt, 0.0)
+    return vn, ve
 
 
 def _score(

@@ -94,10 +94,13 @@ topic: while the broker is away, older values are dropped, not queued.
 
 `<prefix>/convoy/position` (input): either `{"lat": deg, "lon": deg}` or
 `{"north": m, "east": m}` (mission frame), each optionally with `"t"` (mission
-seconds of the fix) and `"source"` (string or integer id when several trackers
-report). Fields must be JSON numbers and finite; latitude in [-90, 90],
-longitude in [-180, 180]; unknown fields are ignored; both forms at once, or
-half of one, are rejected. Example: `{"lat": 47.3977, "lon": 8.5456, "t": 812.4}`.
+seconds of the fix), `"source"` (string or integer id when several trackers
+report: the convoy is the centroid of each one's latest fix) and the vehicle's
+own ground velocity, `"vn"` and `"ve"` in m/s (an OwnTracks location's `vel`,
+km/h, and `cog`, degrees, are read as such). Fields must be JSON numbers and
+finite; latitude in [-90, 90], longitude in [-180, 180]; unknown fields are
+ignored; both forms at once, or half of one (or of the velocity), are rejected.
+Example: `{"lat": 47.3977, "lon": 8.5456, "t": 812.4}`.
 
 `<prefix>/command` (input): `{"command": "pause"}` / `{"command": "resume"}`,
 or the plain strings `pause` / `resume` (case and surrounding blanks ignored).
@@ -454,8 +457,8 @@ def parse_convoy_position(payload: bytes | str) -> dict[str, Any]:
     but for an OwnTracks location's ``tid``, the source when none is named.
 
     Returns:
-        ``{"lat", "lon"}`` or ``{"north", "east"}`` as floats, plus ``"t"`` (float)
-        and ``"source"`` (str or int) when given.
+        ``{"lat", "lon"}`` or ``{"north", "east"}`` as floats, plus ``"t"`` (float),
+        ``"source"`` (str or int) and ``"velocity"`` (``(vn, ve)``, m/s) when given.
 
     Raises:
         BadPayload: Not JSON, not an object, missing/NaN/inf/non-number fields,
@@ -498,7 +501,29 @@ def parse_convoy_position(payload: bytes | str) -> dict[str, Any]:
         if isinstance(source, bool) or not isinstance(source, str | int):
             raise BadPayload(f"field 'source' must be a string or integer, got {source!r}")
         out["source"] = source
+    velocity = _velocity(obj)
+    if velocity is not None:
+        out["velocity"] = velocity
     return out
+
+
+_KMH: Final = 1.0 / 3.6
+
+
+def _velocity(obj: Mapping[str, Any]) -> tuple[float, float] | None:
+    """The vehicle's own ground velocity (north, east) in m/s, when the fix carries it:
+    ``vn``/``ve``, or an OwnTracks location's ``vel`` (km/h) and ``cog`` (deg)."""
+    local = {"vn", "ve"} & obj.keys()
+    if local:
+        if len(local) == 1:
+            raise BadPayload("give both vn and ve (m/s), or neither")
+        vn, ve = _number(obj, "vn"), _number(obj, "ve")
+    elif obj.get("_type") == "location" and {"vel", "cog"} <= obj.keys():
+        speed, course = _number(obj, "vel") * _KMH, math.radians(_number(obj, "cog"))
+        vn, ve = speed * math.cos(course), speed * math.sin(course)
+    else:
+        return None
+    return vn, ve  # (the tracker judges it against the fixes: ``ConvoyTracker``)
 
 
 def parse_convoy_route(payload: bytes | str) -> list[tuple[float, float]]:
