@@ -115,6 +115,20 @@ def test_convoy_fix_on_the_flight_loop(benchmark: BenchmarkFixture) -> None:
     benchmark(fix)
 
 
+def test_convoy_fix_with_its_velocity_on_the_flight_loop(benchmark: BenchmarkFixture) -> None:
+    """The same, the vehicle reporting its velocity (GLOBAL_POSITION_INT vx/vy, 10 Hz):
+    the reports' steadiness over 10 s and their agreement with the fixes, judged."""
+    tracker = ConvoyTracker(window=4.0)
+    state = {"t": 0.0}
+
+    def fix() -> None:
+        state["t"] += 0.1
+        tracker.update(state["t"], 8.0 * state["t"], 0.0, 5, (8.0, 0.0))
+
+    benchmark(fix)
+    assert tracker.counters["velocity_reported"] > 0
+
+
 def test_road_estimate_update(benchmark: BenchmarkFixture) -> None:
     """The road mission folding in one convoy estimate on a known 25-km route
     (projection near the last arc length, the pattern clock): worker thread, 10 Hz."""

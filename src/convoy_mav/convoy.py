@@ -181,7 +181,8 @@ class ConvoyTracker:
         while self._samples and self._samples[0][0] < tc - self.window:
             self._samples.popleft()
         self._fold_reports(tc, fixes)
-        vn, ve = self._velocity = self._reported_velocity() or self._fit_velocity()
+        fitted = self._fit_velocity()
+        vn, ve = self._velocity = self._reported_velocity(fitted) or fitted
         self.counters["velocity_reported" if self._trusted else "velocity_fitted"] += 1
         self._last = ConvoyEstimate(now, n + vn * (now - tc), e + ve * (now - tc), vn, ve)
         return True
@@ -202,8 +203,9 @@ class ConvoyTracker:
         while reports and reports[0][0] < tc - _REPORT_CHECK_S - _REPORT_CHANGE_S:
             reports.popleft()
 
-    def _reported_velocity(self) -> tuple[float, float] | None:
-        """The reports' recent mean, when they are steady and the fixes bear them out."""
+    def _reported_velocity(self, fitted: tuple[float, float]) -> tuple[float, float] | None:
+        """The reports' recent mean, when they are steady and the fixes (whose slope is
+        ``fitted``) bear them out."""
         self._trusted = False
         reports = self._reports
         if not reports or reports[-1][0] - reports[0][0] < _REPORT_CHECK_S:
@@ -212,7 +214,6 @@ class ConvoyTracker:
         changes = [r[3] for r in reports if r[0] >= newest - _REPORT_CHECK_S and r[3] == r[3]]
         if not changes or statistics.median(changes) > self.steady_mps:
             return None
-        fitted = self._fit_velocity()
         start = self._samples[0][0] if self._samples else newest
         mn, me = _mean_velocity(r for r in reports if r[0] >= start)
         if math.hypot(mn - fitted[0], me - fitted[1]) > self.agree_mps:

@@ -98,7 +98,8 @@ class ConvoyEstimate:
     Attributes:
         t: Mission time of the estimate, seconds.
         north, east: Centroid, metres in the mission frame.
-        vn, ve: Velocity estimated from the track, m/s.
+        vn, ve: Velocity, m/s: the vehicles' own reports or the slope of their fixes
+            (``ConvoyTracker``).
         stale: True when no fresh, finite input arrived recently: the numbers
             are the last good estimate held, and an alarm is raised.
     """
