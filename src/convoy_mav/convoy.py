@@ -33,7 +33,6 @@ import bisect
 import math
 import statistics
 from collections import Counter, deque
-from collections.abc import Iterable
 from dataclasses import dataclass, replace
 
 from convoy_mav.plausible import JumpGate
@@ -57,10 +56,12 @@ _REPORT_CHECK_S = 10.0  # over this long, in the median, and only once this much
 _REPORT_MEAN_S = 1.0  # the velocity used is the reports' mean over this long
 
 
-def _mean_velocity(reports: Iterable[tuple[float, float, float, float]]) -> tuple[float, float]:
-    """Mean (vn, ve) of some reports (at least one)."""
+def _mean_velocity(reports: deque[tuple[float, float, float]], since: float) -> tuple[float, float]:
+    """Mean (vn, ve) of the reports (oldest first) from ``since`` on, or of the newest."""
     count = sn = se = 0.0
-    for _, vn, ve, _ in reports:
+    for t, vn, ve in reversed(reports):
+        if t < since and count:
+            break
         count, sn, se = count + 1.0, sn + vn, se + ve
     return sn / count, se / count
 
@@ -115,9 +116,10 @@ class ConvoyTracker:
         self._fixes: dict[Source, _Fix] = {}
         self._active: frozenset[Source] = frozenset()
         self._samples: deque[tuple[float, float, float]] = deque()
-        # (t, vn, ve, change over a second) of the centroid's reported velocity, while
-        # every source reports one
-        self._reports: deque[tuple[float, float, float, float]] = deque()
+        # (t, vn, ve) of the centroid's reported velocity while every source reports
+        # one, and (t, its change from the report a second before)
+        self._reports: deque[tuple[float, float, float]] = deque()
+        self._changes: deque[tuple[float, float]] = deque()
         self._velocity = (0.0, 0.0)
         self._last: ConvoyEstimate | None = None
         self._trusted = False  # the velocity now is the reports', not the slope's
@@ -170,6 +172,7 @@ class ConvoyTracker:
             self._active = active
             self._samples.clear()
             self._reports.clear()
+            self._changes.clear()
         fixes = [self._fixes[s] for s in active]
         # The centroid of fixes taken at different times is where the convoy was
         # at their mean time (exactly, for a constant velocity): sampling it
@@ -191,17 +194,21 @@ class ConvoyTracker:
         """The centroid's reported velocity at ``tc`` (when every source reports one) and
         its change from the report a second before."""
         reported = [f.velocity for f in fixes if f.velocity is not None]
-        reports = self._reports
+        reports, changes = self._reports, self._changes
         if len(reported) < len(fixes):
             reports.clear()
+            changes.clear()
             return
         vn = sum(v[0] for v in reported) / len(reported)
         ve = sum(v[1] for v in reported) / len(reported)
         j = bisect.bisect_right(reports, tc - _REPORT_CHANGE_S, key=lambda r: r[0]) - 1
-        change = math.hypot(vn - reports[j][1], ve - reports[j][2]) if j >= 0 else math.nan
-        reports.append((tc, vn, ve, change))
-        while reports and reports[0][0] < tc - _REPORT_CHECK_S - _REPORT_CHANGE_S:
+        if j >= 0:
+            changes.append((tc, math.hypot(vn - reports[j][1], ve - reports[j][2])))
+        reports.append((tc, vn, ve))
+        while reports[0][0] < tc - _REPORT_CHECK_S - _REPORT_CHANGE_S:
             reports.popleft()
+        while changes and changes[0][0] < tc - _REPORT_CHECK_S:
+            changes.popleft()
 
     def _reported_velocity(self, fitted: tuple[float, float]) -> tuple[float, float] | None:
         """The reports' recent mean, when they are steady and the fixes (whose slope is
@@ -211,15 +218,14 @@ class ConvoyTracker:
         if not reports or reports[-1][0] - reports[0][0] < _REPORT_CHECK_S:
             return None
         newest = reports[-1][0]
-        changes = [r[3] for r in reports if r[0] >= newest - _REPORT_CHECK_S and r[3] == r[3]]
-        if not changes or statistics.median(changes) > self.steady_mps:
+        if not self._changes or statistics.median(c for _, c in self._changes) > self.steady_mps:
             return None
         start = self._samples[0][0] if self._samples else newest
-        mn, me = _mean_velocity(r for r in reports if r[0] >= start)
+        mn, me = _mean_velocity(reports, start)
         if math.hypot(mn - fitted[0], me - fitted[1]) > self.agree_mps:
             return None
         self._trusted = True
-        return _mean_velocity(r for r in reports if r[0] >= newest - _REPORT_MEAN_S)
+        return _mean_velocity(reports, newest - _REPORT_MEAN_S)
 
     def _fit_velocity(self) -> tuple[float, float]:
         """Least-squares slope of the centroid samples, or the held velocity."""
