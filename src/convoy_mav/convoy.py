@@ -122,7 +122,6 @@ class ConvoyTracker:
         self._changes: deque[tuple[float, float]] = deque()
         self._velocity = (0.0, 0.0)
         self._last: ConvoyEstimate | None = None
-        self._trusted = False  # the velocity now is the reports', not the slope's
 
     @property
     def sources(self) -> frozenset[Source]:
@@ -185,8 +184,9 @@ class ConvoyTracker:
             self._samples.popleft()
         self._fold_reports(tc, fixes)
         fitted = self._fit_velocity()
-        vn, ve = self._velocity = self._reported_velocity(fitted) or fitted
-        self.counters["velocity_reported" if self._trusted else "velocity_fitted"] += 1
+        reported = self._reported_velocity(fitted)
+        vn, ve = self._velocity = reported or fitted
+        self.counters["velocity_fitted" if reported is None else "velocity_reported"] += 1
         self._last = ConvoyEstimate(now, n + vn * (now - tc), e + ve * (now - tc), vn, ve)
         return True
 
@@ -213,7 +213,6 @@ class ConvoyTracker:
     def _reported_velocity(self, fitted: tuple[float, float]) -> tuple[float, float] | None:
         """The reports' recent mean, when they are steady and the fixes (whose slope is
         ``fitted``) bear them out."""
-        self._trusted = False
         reports = self._reports
         if not reports or reports[-1][0] - reports[0][0] < _REPORT_CHECK_S:
             return None
@@ -224,7 +223,6 @@ class ConvoyTracker:
         mn, me = _mean_velocity(reports, start)
         if math.hypot(mn - fitted[0], me - fitted[1]) > self.agree_mps:
             return None
-        self._trusted = True
         return _mean_velocity(reports, newest - _REPORT_MEAN_S)
 
     def _fit_velocity(self) -> tuple[float, float]:
