@@ -13,6 +13,7 @@
     .venv/bin/python benchmarks/road_table.py --stop-reach  # could the fleet close them (~1 min)
     .venv/bin/python benchmarks/road_table.py --no-route-count  # 6 or 7 UAVs, no route (~8 min)
     .venv/bin/python benchmarks/road_table.py --deviations  # routes the convoy leaves (~3 min)
+    .venv/bin/python benchmarks/road_table.py --aircraft  # the kinds, other aircraft (~15 min)
     .venv/bin/python benchmarks/road_table.py --spread DIR  # cells kept by --mock --keep DIR
 
 Simulation: the service's ``RoadMission`` fed the convoy's fixes through its own
@@ -32,7 +33,9 @@ import os
 import subprocess
 import sys
 import tempfile
+from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor
+from dataclasses import replace
 from functools import cache
 from pathlib import Path
 
@@ -96,11 +99,14 @@ def _paths(track: GeoTrack, truth: Truth) -> Paths:
     return times, north, east, north, east
 
 
-def _fly(paths: Paths, req: PlanRequest, known: bool, foresight_s: float | None = None) -> RoadRun:
-    """Fly a road in simulation, its fixes reporting the velocity the mock's ground
-    vehicles report when they drive it (``chord_velocity``)."""
+def _fly(
+    paths: Paths, req: PlanRequest, known: bool, foresight_s: float | None = None, more: int = 0
+) -> RoadRun:
+    """Fly a road in simulation (with ``more`` UAVs than the road's count), its fixes
+    reporting the velocity the mock's ground vehicles report when they drive it
+    (``chord_velocity``)."""
     times, north, east, tn, te = paths
-    uavs = road_fleet(req.turn_radius, req.sensor_radius, route=known)
+    uavs = road_fleet(req.turn_radius, req.sensor_radius, route=known) + more
     return fly_road(
         times, north, east, req, uavs, true_north=tn, true_east=te, route_known=known,
         foresight_s=foresight_s, reported=chord_velocity(times, north, east),
@@ -512,6 +518,68 @@ def _no_route_count() -> None:
     )
 
 
+#: Other aircraft on the generated kinds (name: R, r, V), as other fleets may fly them.
+AIRCRAFT = {
+    "demo planes": DEFAULT,
+    "wide camera, r/R 0.8": PlanRequest(100.0, 80.0, 18.0),
+    "narrow camera, r/R 0.5": PlanRequest(150.0, 75.0, 18.0),
+    "tight turns, R 75 m": PlanRequest(75.0, 50.0, 18.0),
+    "large planes, R 300 m": PlanRequest(300.0, 200.0, 30.0),
+    "rehearse_fast_planes.toml": FAST,
+    "multirotor-like, R 40 m, 15 m/s": PlanRequest(40.0, 30.0, 15.0),
+}
+SENSOR_SWEEP_M = (60.0, 75.0, 90.0, 110.0, 135.0)  # r, with the demo's R and V
+
+AircraftJob = tuple[str, PlanRequest, bool, int]  # kind, aircraft, route known, UAVs more
+
+
+def _flown_by(job: AircraftJob) -> float:
+    kind, req, known, more = job
+    rt = road_kind(kind)
+    paths = _paths(rt.geotrack(DEFAULT_ORIGIN), (rt.true_north, rt.true_east))
+    return _fly(paths, req, known, more=more).coverage
+
+
+def _aircraft() -> None:
+    """The generated kinds flown by other aircraft (``AIRCRAFT``), both modes, then the
+    demo's planes with cameras of other radii, route known, with the road's count and
+    one UAV more: whether the road planner holds beyond the aircraft it was tuned on."""
+    named = [
+        (k, req, known, 0) for req in AIRCRAFT.values() for k in KINDS for known in (True, False)
+    ]
+    swept = [
+        (k, replace(DEFAULT, sensor_radius=r), True, more)
+        for r in SENSOR_SWEEP_M for k in KINDS for more in (0, 1)
+    ]  # fmt: skip
+    with ProcessPoolExecutor(os.cpu_count()) as pool:
+        coverage = iter(list(pool.map(_flown_by, named + swept)))
+    rows = [
+        (f"{name}: {req.turn_radius:.0f}, {req.sensor_radius:.0f} m, {req.uav_speed:.0f} m/s",
+         [road_fleet(req.turn_radius, req.sensor_radius, route=k) for k in (True, False)])
+        for name, req in AIRCRAFT.items()
+    ]  # fmt: skip
+    _pairs("aircraft (R, r, V) | UAVs (route / none)", rows, coverage)
+    print()
+    counts = [road_fleet(DEFAULT.turn_radius, r) for r in SENSOR_SWEEP_M]
+    rows = [
+        (f"{r:.0f} m (r/R {r / DEFAULT.turn_radius:.2f})", [n, n + 1])
+        for r, n in zip(SENSOR_SWEEP_M, counts, strict=True)
+    ]
+    _pairs("camera radius, route known | UAVs (road's count / + 1)", rows, coverage)
+
+
+def _pairs(head: str, rows: list[tuple[str, list[int]]], coverage: Iterator[float]) -> None:
+    """A table of ``rows`` (label, UAV counts), each kind's cell a pair of coverages taken
+    in turn from ``coverage``, and the pairs' means."""
+    print(f"| {head} | " + " | ".join(KINDS) + " | mean |")
+    print("|" + "---|" * (len(KINDS) + 3))
+    for label, uavs in rows:
+        pairs = [(next(coverage), next(coverage)) for _ in KINDS]
+        cells = [" · ".join(f"{100 * c:.1f}" for c in pair) + " %" for pair in pairs]
+        mean = " · ".join(f"{100 * np.mean(c):.1f}" for c in zip(*pairs, strict=True)) + " %"
+        print(f"| {label} | {' / '.join(map(str, uavs))} | " + " | ".join([*cells, mean]) + " |")
+
+
 DEVIATION_MODES = ("route given", "no route", "its own path as route")
 
 
@@ -623,6 +691,9 @@ def main() -> None:
         "--deviations", action="store_true", help="the simulation of routes the convoy leaves"
     )
     parser.add_argument(
+        "--aircraft", action="store_true", help="the simulation of the kinds with other aircraft"
+    )
+    parser.add_argument(
         "--keep",
         type=Path,
         metavar="DIR",
@@ -640,6 +711,9 @@ def main() -> None:
         return
     if args.deviations:
         _deviations()
+        return
+    if args.aircraft:
+        _aircraft()
         return
     if args.no_route_count:
         _no_route_count()
