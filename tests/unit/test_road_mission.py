@@ -136,7 +136,7 @@ def test_every_commanded_path_is_flyable_for_any_aircraft(
 ) -> None:
     """The same for aircraft other than the demo's (``road_table.py --aircraft``): any
     turn radius, camera (r/R) and airspeed, the road's count of UAVs for them, a convoy
-    up to 12 m/s (as fast as most of these aircraft's pattern allows, and faster)."""
+    up to 12 m/s (for the slowest of them, faster than their pattern keeps up with)."""
     request = PlanRequest(turn_radius, camera * turn_radius, airspeed)
     road = random_road(np.random.default_rng(seed), pieces=5)
     route = Road.from_points(road.true_east, road.true_north) if known else None
