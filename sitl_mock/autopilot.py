@@ -61,6 +61,14 @@ _G = 9.80665
 _UNIX_AT_SIM_ZERO_US = 1_704_067_200_000_000  # SYSTEM_TIME: sim t=0 is 2024-01-01T00:00Z
 _BATTERY_ENDURANCE_S = 1800.0  # s of armed time from full to empty
 _DEFAULT_AIRFRAME = AirframeParams()
+_AIRFRAME_KNOBS = (
+    Knob.AIRSPEED,
+    Knob.AIRSPEED_MIN,
+    Knob.AIRSPEED_MAX,
+    Knob.TURN_RADIUS,
+    Knob.CLIMB_RATE,
+)
+"""Knobs of the airframe's physics: setting one rebuilds the aircraft around its state."""
 
 SENSORS = (  # SYS_STATUS sensors a healthy mock reports present and healthy
     _R.MAV_SYS_STATUS_SENSOR_3D_GYRO
@@ -568,6 +576,8 @@ class SimVehicle:
         params = fl.aircraft.params if fl.aircraft is not None else self.spec.airframe
         values = {
             Knob.AIRSPEED: params.airspeed,
+            Knob.AIRSPEED_MIN: params.min_airspeed_ratio * params.airspeed,
+            Knob.AIRSPEED_MAX: params.max_airspeed_ratio * params.airspeed,
             Knob.TURN_RADIUS: params.min_turn_radius,
             Knob.CLIMB_RATE: params.max_climb_rate,
             Knob.SETPOINT_TIMEOUT: fl.setpoint_timeout,
@@ -588,12 +598,22 @@ class SimVehicle:
         """
         fl = self.flight
         ac = fl.aircraft
-        if knob in (Knob.AIRSPEED, Knob.TURN_RADIUS, Knob.CLIMB_RATE):
+        if knob in _AIRFRAME_KNOBS:
             assert ac is not None
-            if knob is Knob.AIRSPEED:
-                params = dataclasses.replace(ac.params, airspeed=value)
+            p = ac.params
+            if knob is Knob.AIRSPEED:  # (a plane's minimum and maximum stay as they were)
+                params = dataclasses.replace(
+                    p,
+                    airspeed=value,
+                    min_airspeed_ratio=min(p.min_airspeed_ratio * p.airspeed / value, 1.0),
+                    max_airspeed_ratio=max(p.max_airspeed_ratio * p.airspeed / value, 1.0),
+                )
                 if fl.plane:
                     fl.cruise = None  # the new trim airspeed is the cruise speed
+            elif knob is Knob.AIRSPEED_MIN:
+                params = dataclasses.replace(p, min_airspeed_ratio=value / p.airspeed)
+            elif knob is Knob.AIRSPEED_MAX:
+                params = dataclasses.replace(p, max_airspeed_ratio=value / p.airspeed)
             elif knob is Knob.TURN_RADIUS:
                 params = dataclasses.replace(ac.params, min_turn_radius=value)
             else:

@@ -29,6 +29,8 @@ class Knob(StrEnum):
     """A physical setting of the vehicle that a parameter exposes (SI units)."""
 
     AIRSPEED = "airspeed"  # m/s: plane cruise / copter max horizontal speed
+    AIRSPEED_MIN = "airspeed_min"  # m/s: plane: the slowest airspeed it is commanded
+    AIRSPEED_MAX = "airspeed_max"  # m/s: plane: the fastest
     TURN_RADIUS = "turn_radius"  # m: airframe minimum turn radius
     CLIMB_RATE = "climb_rate"  # m/s: maximum climb rate
     SETPOINT_TIMEOUT = "setpoint_timeout"  # s: offboard / guided setpoint loss

@@ -395,6 +395,8 @@ def _params(personality: Personality, vehicle_class: VehicleClass) -> tuple[Para
     if personality is Personality.PX4 and vehicle_class == "plane":
         own = (
             ParamDef("FW_AIRSPD_TRIM", k.AIRSPEED, minimum=0.5),
+            ParamDef("FW_AIRSPD_MIN", k.AIRSPEED_MIN, minimum=0.5),
+            ParamDef("FW_AIRSPD_MAX", k.AIRSPEED_MAX, minimum=0.5),
             ParamDef("FW_T_CLMB_MAX", k.CLIMB_RATE, minimum=0.1),
             ParamDef("NAV_LOITER_RAD", k.LOITER_RADIUS),
             ParamDef("COM_OF_LOSS_T", k.SETPOINT_TIMEOUT, minimum=0.01),
@@ -412,6 +414,8 @@ def _params(personality: Personality, vehicle_class: VehicleClass) -> tuple[Para
     elif vehicle_class == "plane":
         own = (
             ParamDef("AIRSPEED_CRUISE", k.AIRSPEED, minimum=0.5),
+            ParamDef("AIRSPEED_MIN", k.AIRSPEED_MIN, minimum=0.5),
+            ParamDef("AIRSPEED_MAX", k.AIRSPEED_MAX, minimum=0.5),
             ParamDef("TECS_CLMB_MAX", k.CLIMB_RATE, minimum=0.1),
             ParamDef("WP_LOITER_RAD", k.LOITER_RADIUS),
             ParamDef("TKOFF_ALT", k.TAKEOFF_ALT, minimum=1.0),

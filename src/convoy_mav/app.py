@@ -1507,9 +1507,12 @@ class ConvoyService:
             self._off_slot_since.pop(tel.sysid, None)
 
     def _check_airframes(self, t: float) -> None:
-        """Alarm (once per UAV) when a plane cannot fly what the plan asks of it."""
+        """Alarm (once per UAV) when an airframe cannot fly what the plan asks of it: a
+        plane's loiters, or the plan's speeds outside the range its autopilot flies."""
+        mission = self.mission
+        band = mission.settings.speed_band if isinstance(mission, RoadMission) else (1.0, 1.0)
         for sysid, v in self.vehicles.items():
-            why = None if v.firmware is None else v.firmware.cannot_fly()
+            why = None if v.firmware is None else v.firmware.cannot_fly(self._airspeed, band)
             if why is not None and f"airframe:{sysid}" not in self._vehicle_alarms:
                 self._alarm(Alarm(t, "airframe", True, f"UAV {sysid} {why}"), sysid)
 

@@ -39,6 +39,7 @@ from convoy_mav.errors import PlanningError
 from convoy_mav.geo import GeoPoint, LocalFrame
 from convoy_mav.mavlink.signing import load_key
 from convoy_mav.mission.choose import road_fleet
+from convoy_mav.mission.road import RoadSettings
 from convoy_mav.mockproc import MockProcess
 from convoy_mav.planning import PlanRequest, make_plan
 from convoy_mav.planning.export import compass_to_planner
@@ -258,7 +259,14 @@ def mock_mapping(
     ``signing_key`` (hex or a passphrase): every aircraft signs with it and accepts
     only frames signed with it. ``aircraft``: per-aircraft overrides, the mock's
     ``[[aircraft.vehicle]]`` tables (e.g. ``{"sysid": 5, "warmup": 40.0}``).
+
+    Copters are set up as for this mission: their speed limit (the mock's copter
+    ``airspeed``: WPNAV_SPEED, MPC_XY_VEL_MAX) at the top of the road planner's speed
+    band, which its legs fly at; at the cruise airspeed they fall behind those legs.
     """
+    airspeed = scenario.airspeed_mps
+    if frame == "copter":
+        airspeed *= RoadSettings().speed_band[1]
     mapping: dict[str, Any] = {
         "speedup": speedup,
         "base_port": 0,
@@ -266,7 +274,7 @@ def mock_mapping(
             "count": uavs,
             "personality": personality,
             "frame": frame,
-            "airspeed": scenario.airspeed_mps,
+            "airspeed": airspeed,
             "turn_radius": scenario.turn_radius_m * scenario.turn_margin,
             "warmup": 3.0,
         },

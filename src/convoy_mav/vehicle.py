@@ -72,7 +72,7 @@ from convoy_mav.mavlink.autopilots import (
     autopilot_for,
     firmware_name,
 )
-from convoy_mav.mavlink.autopilots.base import param_set_message
+from convoy_mav.mavlink.autopilots.base import param_request_message, param_set_message
 from convoy_mav.plausible import JumpGate
 from convoy_mav.types import Setpoint, Telemetry, VehicleStatus
 
@@ -584,6 +584,8 @@ class Vehicle:
         name = msg.param_id if isinstance(msg.param_id, str) else bytes(msg.param_id).decode()
         name = name.rstrip("\x00")
         self.params[name] = float(msg.param_value)
+        if self.firmware is not None:
+            self.firmware.on_param(name, float(msg.param_value))
         if name == "SIM_SPEEDUP":  # a simulator says at what rate its clock runs now
             self.clock.rate_set(float(msg.param_value), self.uid)
 
@@ -680,6 +682,8 @@ class Vehicle:
             return
         if self._pad is not None:
             sp = self._climb_out(sp)
+        elif not sp.hold:
+            ap.asked(sp)
         now = self.clock.now()
         if math.isfinite(self._last_sp_t) and now - self._last_sp_t > _STREAM_GAP_S:
             self.stream_resumed_t = now  # (a gap: the autopilot may have failed safe meanwhile)
@@ -728,6 +732,11 @@ class Vehicle:
         rates = self.flight_stream_rates if self.status is _S.FLYING else self.stream_rates
         for msg in self.firmware.stream_requests(rates):
             self._send(msg)
+        speeds = self.firmware.speed_params  # (asked with the streams, so as often as
+        if speeds is not None:  # they are until it answers)
+            for name in (speeds.high, speeds.low):
+                if name is not None and name not in self.params:
+                    self._send(param_request_message(self.sysid, self.firmware.compid, name))
         self._streams_t = self.clock.now()
         self.counters["stream_requests"] += 1
 

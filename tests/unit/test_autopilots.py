@@ -33,13 +33,15 @@ from convoy_mav.mavlink.autopilots.base import (
     FLIGHT_STREAM_RATES,
     SETPOINT_POS_VEL_YAW,
     SETPOINT_POSITION_ONLY,
+    SpeedParams,
     global_setpoint,
+    param_request_message,
 )
 from convoy_mav.types import Setpoint
 from sitl_mock.kinematics import Loiter
 from sitl_mock.messages import Frames, decode_global_setpoint
 from sitl_mock.personality import Personality, firmware_for
-from tests.fakes import AP, WORLD, Gcs, make_vehicle, warm_gcs
+from tests.fakes import AP, WORLD, Gcs, make_vehicle, of_type, warm_gcs
 from tests.fakes import PX4 as MOCK_PX4
 
 M = mavlink
@@ -348,6 +350,77 @@ def test_px4_plane_speeds_up_when_behind_copter_does_not() -> None:
     assert math.hypot(copter_msg.vx, copter_msg.vy) == pytest.approx(18.0)
     (unknown,) = strategy(M.MAV_AUTOPILOT_PX4, FW).setpoint_messages(sp, 1.0, None)
     assert math.hypot(unknown.vx, unknown.vy) == pytest.approx(18.0)
+
+
+@pytest.mark.parametrize(
+    ("autopilot", "personality", "name", "unit"),
+    [
+        (M.MAV_AUTOPILOT_PX4, MOCK_PX4, "MPC_XY_VEL_MAX", 1.0),
+        (M.MAV_AUTOPILOT_ARDUPILOTMEGA, AP, "WPNAV_SPEED", 0.01),  # cm/s
+    ],
+)
+def test_a_copter_learns_its_speed_limit_and_says_when_the_plan_asks_more(
+    autopilot: int, personality: Personality, name: str, unit: float
+) -> None:
+    """The limit is asked for by name and read from the autopilot's answer (the mock's
+    autopilot, through MAVLink bytes); legs faster than it are said, slower are not."""
+    ap = strategy(autopilot, QUAD)
+    assert ap.speed_params == SpeedParams(name, None, unit)
+    gcs = warm_gcs(make_vehicle(personality, "copter", airspeed=18.0))
+    (answer,) = of_type(gcs.send(param_request_message(1, ap.compid, name)), "PARAM_VALUE")
+    ap.asked(circle_setpoint(0.3, speed=18.4))
+    road = (0.85, 1.15)  # the road planner's band, at 18 m/s
+    assert ap.cannot_fly(18.0, road) is None  # (no limit known yet: nothing to say)
+    ap.on_param("RTL_ALT", 50.0)
+    ap.on_param(answer.param_id, answer.param_value)
+    assert ap.speed_limit == pytest.approx(18.0)
+    assert ap.learnt() == {"speed_limit_mps": 18.0}
+    assert ap.cannot_fly(18.0) == (  # the paper's plan at 18 m/s: a setpoint over it says it
+        f"flies no faster than 18.0 m/s ({name}), the plan asks for up to 18.4 m/s: set "
+        f"{name} to at least {math.ceil(18.4 / unit - 1e-9)} or scale airspeed_mps by 0.98"
+    )
+    assert ap.cannot_fly(18.0, road) == (  # the road's top speed before any is sent
+        f"flies no faster than 18.0 m/s ({name}), the plan asks for up to 20.7 m/s: set "
+        f"{name} to at least {math.ceil(20.7 / unit - 1e-9)} or scale airspeed_mps by 0.87"
+    )
+    ap.on_param(name, 2070 if unit < 1.0 else 20.7)  # raised to the plan's top speed
+    assert ap.cannot_fly(18.0, road) is None
+
+
+@pytest.mark.parametrize(
+    ("autopilot", "personality", "low", "high"),
+    [
+        (M.MAV_AUTOPILOT_PX4, MOCK_PX4, "FW_AIRSPD_MIN", "FW_AIRSPD_MAX"),
+        (M.MAV_AUTOPILOT_ARDUPILOTMEGA, AP, "AIRSPEED_MIN", "AIRSPEED_MAX"),
+    ],
+)
+def test_a_plane_learns_its_airspeed_range_and_says_when_the_plan_leaves_it(
+    autopilot: int, personality: Personality, low: str, high: str
+) -> None:
+    """A plane's range is read from the mock's autopilot (its airframe's 0.6-1.5 of
+    cruise); its phase loop flies +-15 % round any plan, so that is checked too."""
+    ap = strategy(autopilot, FW)
+    assert ap.speed_params == SpeedParams(high, low)
+    gcs = warm_gcs(make_vehicle(personality, "plane", airspeed=18.0))
+    for name in (low, high):
+        (answer,) = of_type(gcs.send(param_request_message(1, ap.compid, name)), "PARAM_VALUE")
+        ap.on_param(answer.param_id, answer.param_value)
+    assert (ap.speed_floor, ap.speed_limit) == pytest.approx((10.8, 27.0))
+    assert ap.learnt().items() >= {"speed_limit_mps": 27.0, "speed_floor_mps": 10.8}.items()
+    assert ap.cannot_fly(18.0, (0.85, 1.15)) is None
+    ap.on_param(high, 20.0)  # the top of the phase loop, 20.7 m/s, is out of reach
+    assert ap.cannot_fly(18.0) == (
+        f"flies no faster than 20.0 m/s ({high}), the plan asks for up to 20.7 m/s: "
+        f"set {high} to at least 21 or scale airspeed_mps by 0.97"
+    )
+    ap.on_param(high, 21.0)
+    ap.on_param(low, 16.0)
+    assert ap.cannot_fly(18.0) == (
+        f"flies no slower than 16.0 m/s ({low}), the plan asks for down to 15.3 m/s: "
+        f"set {low} to at most 15 or scale airspeed_mps by 1.05"
+    )
+    ap.on_param(low, 15.0)
+    assert ap.cannot_fly(18.0) is None
 
 
 # ========================================================================= ArduPlane

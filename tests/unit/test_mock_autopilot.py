@@ -314,6 +314,8 @@ def _params(replies: list[Msg]) -> dict[str, Msg]:
         (PX4, "copter", "MPC_XY_VEL_MAX", 18.0),
         (AP, "copter", "WPNAV_SPEED", 1800.0),  # cm/s
         (AP, "plane", "AIRSPEED_CRUISE", 18.0),
+        (PX4, "plane", "FW_AIRSPD_MAX", 27.0),  # the airframe's 1.5 of cruise
+        (AP, "plane", "AIRSPEED_MIN", 10.8),  # ... and 0.6
     ],
 )
 def test_param_list_uses_the_firmware_names_and_units(
@@ -346,6 +348,17 @@ def test_param_read_and_set_round_trip_and_apply_to_the_vehicle() -> None:
     bad = gcs.send(setp(1, 1, b"FW_AIRSPD_TRIM", -3.0, 9))
     assert _params(bad)["FW_AIRSPD_TRIM"].param_value == pytest.approx(22.0)
     assert texts(bad)
+    # the airspeed range (the airframe's bounds on what it is commanded) stays where it
+    # was, 10.8-27 m/s, when the trim moves
+    read = gcs.send(mavlink.MAVLink_param_request_read_message(1, 1, b"FW_AIRSPD_MAX", -1))
+    assert _params(read)["FW_AIRSPD_MAX"].param_value == pytest.approx(27.0)
+    gcs.send(setp(1, 1, b"FW_AIRSPD_MAX", 24.0, 9))
+    gcs.send(setp(1, 1, b"FW_AIRSPD_MIN", 20.0, 9))
+    airframe = vehicle.aircraft.params
+    assert airframe.min_airspeed_ratio * 22.0 == pytest.approx(20.0)
+    assert airframe.max_airspeed_ratio * 22.0 == pytest.approx(24.0)
+    bad = gcs.send(setp(1, 1, b"FW_AIRSPD_MIN", 23.0, 9))  # above the trim: refused
+    assert _params(bad)["FW_AIRSPD_MIN"].param_value == pytest.approx(20.0) and texts(bad)
     (sysid,) = gcs.send(setp(1, 1, b"MAV_SYS_ID", 7.0, 9))  # read-only
     assert sysid.param_value == 1.0
     assert gcs.send(setp(1, 1, b"NO_SUCH_PARAM", 1.0, 9)) == []

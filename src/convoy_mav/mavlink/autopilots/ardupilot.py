@@ -53,6 +53,7 @@ from convoy_mav.mavlink.autopilots.base import (
     Message,
     PhaseLoop,
     SetupStep,
+    SpeedParams,
     VehicleClass,
     global_setpoint,
 )
@@ -192,6 +193,7 @@ class ArduCopter(ArduPilot):
 
     name: ClassVar[str] = "ArduCopter"
     modes: ClassVar[Mapping[int, str]] = _COPTER_MODES
+    speed_params = SpeedParams("WPNAV_SPEED", unit=0.01)  # cm/s: GUIDED's speed limit
     setup_steps: tuple[SetupStep, ...] = (
         SetupStep.MODE,
         SetupStep.ARM,
@@ -230,6 +232,7 @@ class ArduPlane(ArduPilot):
         SetupStep.MODE,
     )
     takeoff_mode: ClassVar[str | None] = "TAKEOFF"
+    speed_params = SpeedParams("AIRSPEED_MAX", "AIRSPEED_MIN")  # (DO_CHANGE_SPEED's clamp)
 
     retry = 1.0
     speed_interval = 1.0
@@ -384,18 +387,22 @@ class ArduPlane(ArduPilot):
 
     def learnt(self) -> dict[str, float]:
         """The loiter overshoot k (m^2) and density scaling, the tightest loiter flown,
-        the speed offset."""
+        the speed offset; the airspeed range."""
         return {
+            **super().learnt(),
             "loiter_overshoot_m2": round(self.model.k, 1),
             "loiter_scale": round(self.scale, 4),
             "tightest_loiter_m": round(self.model.tightest(self.scale), 1),
             "phase_speed_offset": round(self.phase.bias, 4),
         }
 
-    def cannot_fly(self) -> str | None:
-        """The plan's arcs are tighter than any loiter command makes this plane fly."""
+    def cannot_fly(
+        self, airspeed: float = 0.0, band: tuple[float, float] = (1.0, 1.0)
+    ) -> str | None:
+        """The plan's arcs are tighter than any loiter command makes this plane fly, or
+        its speeds outside AIRSPEED_MIN..AIRSPEED_MAX."""
         if self.too_tight is None:
-            return None
+            return super().cannot_fly(airspeed, band)
         tightest = self.model.tightest(self.scale)
         return (
             f"flies no loiter tighter than {tightest:.0f} m (its L1 overshoot), the plan "

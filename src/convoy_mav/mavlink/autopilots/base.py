@@ -39,6 +39,7 @@ from convoy_mav.types import Setpoint
 __all__ = [
     "DEFAULT_STREAM_RATES",
     "FLIGHT_STREAM_RATES",
+    "PHASE_LIMIT",
     "SETPOINT_POSITION_ONLY",
     "SETPOINT_POS_VEL_YAW",
     "Autopilot",
@@ -46,9 +47,11 @@ __all__ = [
     "Message",
     "PhaseLoop",
     "SetupStep",
+    "SpeedParams",
     "VehicleClass",
     "along_track_error",
     "global_setpoint",
+    "param_request_message",
     "param_set_message",
     "phase_corrected_speed",
     "set_message_interval",
@@ -57,6 +60,13 @@ __all__ = [
 
 Message = Any
 """A pymavlink ``MAVLink_message`` (the generated dialect is untyped)."""
+
+_SPEED_LIMIT_TOL = 0.05
+"""m/s: a plan this little outside an airframe's speed range is its rounding, not a
+plan it cannot fly."""
+
+PHASE_LIMIT = 0.15
+"""The largest relative speed change a plane's phase loop commands (+-15 %)."""
 
 _M = mavlink
 
@@ -231,7 +241,7 @@ def phase_corrected_speed(
     east: float,
     *,
     time_constant: float = 20.0,
-    limit: float = 0.15,
+    limit: float = PHASE_LIMIT,
     bias: float = 0.0,
 ) -> float:
     """Speed (m/s) to command a fixed-wing aircraft so it converges in phase.
@@ -282,7 +292,10 @@ class PhaseLoop:
     __slots__ = ("_last_t", "bias", "integral_time", "limit", "time_constant")
 
     def __init__(
-        self, time_constant: float = 20.0, integral_time: float = 400.0, limit: float = 0.15
+        self,
+        time_constant: float = 20.0,
+        integral_time: float = 400.0,
+        limit: float = PHASE_LIMIT,
     ) -> None:
         self.time_constant = time_constant
         self.integral_time = integral_time
@@ -343,10 +356,32 @@ def param_set_message(system: int, component: int, name: str, value: float) -> M
     )
 
 
+def param_request_message(system: int, component: int, name: str) -> Message:
+    """PARAM_REQUEST_READ of ``name`` (by name: index -1); its PARAM_VALUE answers."""
+    return _M.MAVLink_param_request_read_message(system, component, name.encode(), -1)
+
+
 def set_message_interval(rate_hz: float, msg_id: int) -> CommandSpec:
     """MAV_CMD_SET_MESSAGE_INTERVAL for ``msg_id`` at ``rate_hz`` (<= 0: stop)."""
     interval = 1e6 / rate_hz if rate_hz > 0.0 else -1.0
     return CommandSpec.long(_M.MAV_CMD_SET_MESSAGE_INTERVAL, float(msg_id), interval)
+
+
+@dataclass(frozen=True, slots=True)
+class SpeedParams:
+    """The parameters holding the speeds an airframe flies setpoints at.
+
+    Attributes:
+        high: The fastest (a copter's horizontal speed limit, a plane's maximum
+            airspeed): faster setpoints are flown at it, behind their slot.
+        low: The slowest (a plane's minimum airspeed); None for a copter, which
+            slows down to a hover.
+        unit: Metres a second per unit of the parameters (0.01: cm/s).
+    """
+
+    high: str
+    low: str | None = None
+    unit: float = 1.0
 
 
 # ======================================================================= strategy
@@ -365,6 +400,13 @@ class Autopilot(ABC):
         streams_during_setup: Setpoints must flow while setting up (PX4 offboard).
         reports_target: It reports where it is going (POSITION_TARGET_GLOBAL_INT):
             how another controller driving it shows (:mod:`convoy_mav.contest`).
+
+    Attributes:
+        speed_params: Where the firmware keeps the speeds it flies setpoints at in
+            the plan's modes (None: unknown); asked for at set-up.
+        speed_limit: The fastest (m/s), once the autopilot has reported it.
+        speed_floor: The slowest (m/s, planes), once reported.
+        fastest_asked: The fastest horizontal speed the setpoints asked for (m/s).
     """
 
     name: ClassVar[str] = "autopilot"
@@ -373,12 +415,16 @@ class Autopilot(ABC):
     reports_target: ClassVar[bool] = False
     takeoff_mode: ClassVar[str | None] = None
     """The mode that climbs out by itself (ArduPlane TAKEOFF); None: a command does."""
+    speed_params: SpeedParams | None = None
 
     def __init__(self, sysid: int, compid: int, frame: LocalFrame, kind: VehicleClass) -> None:
         self.sysid = sysid
         self.compid = compid
         self.frame = frame
         self.kind = kind
+        self.speed_limit: float | None = None
+        self.speed_floor: float | None = None
+        self.fastest_asked = 0.0
 
     def __str__(self) -> str:
         return f"{self.name} {self.kind}"
@@ -461,10 +507,59 @@ class Autopilot(ABC):
     def reset(self) -> None:  # noqa: B027 - optional hook
         """Forget what was sent: everything is re-sent (after a re-set-up or reboot)."""
 
+    def on_param(self, name: str, value: float) -> None:
+        """A PARAM_VALUE arrived: keep the speed range's ends it reports."""
+        p = self.speed_params
+        if p is None:
+            return
+        if name == p.high:
+            self.speed_limit = value * p.unit
+        elif name == p.low:
+            self.speed_floor = value * p.unit
+
+    def asked(self, sp: Setpoint) -> None:
+        """A plan setpoint was sent: keep the fastest horizontal speed asked for."""
+        speed = math.hypot(sp.vn, sp.ve)
+        self.fastest_asked = max(self.fastest_asked, speed)
+
     def learnt(self) -> dict[str, float]:
         """What the strategy has learnt of the airframe while flying (for the report)."""
-        return {}
+        out = {}
+        if self.speed_limit is not None:
+            out["speed_limit_mps"] = round(self.speed_limit, 2)
+        if self.speed_floor is not None:
+            out["speed_floor_mps"] = round(self.speed_floor, 2)
+        return out
 
-    def cannot_fly(self) -> str | None:
-        """Why the plan asks for more than this airframe gives, if it does."""
+    def cannot_fly(
+        self, airspeed: float = 0.0, band: tuple[float, float] = (1.0, 1.0)
+    ) -> str | None:
+        """Why the plan asks for more than this airframe gives, if it does: speeds
+        outside the range its autopilot reported.
+
+        Args:
+            airspeed: The plan's cruise airspeed (m/s).
+            band: The fractions of it the plan's legs fly at (the road planner's
+                0.85-1.15); a plane's phase loop adds +-``PHASE_LIMIT`` round it.
+        """
+        p = self.speed_params
+        if p is None:
+            return None
+        lo, hi = band
+        if self.kind is VehicleClass.PLANE:
+            lo, hi = min(lo, 1.0 - PHASE_LIMIT), max(hi, 1.0 + PHASE_LIMIT)
+        top, bottom = max(self.fastest_asked, hi * airspeed), lo * airspeed
+        limit, floor = self.speed_limit, self.speed_floor
+        if limit is not None and top > limit + _SPEED_LIMIT_TOL:
+            return (
+                f"flies no faster than {limit:.1f} m/s ({p.high}), the plan asks for up to "
+                f"{top:.1f} m/s: set {p.high} to at least {math.ceil(top / p.unit - 1e-9)} "
+                f"or scale airspeed_mps by {limit / top:.2f}"
+            )
+        if p.low is not None and floor is not None and 0.0 < bottom < floor - _SPEED_LIMIT_TOL:
+            return (
+                f"flies no slower than {floor:.1f} m/s ({p.low}), the plan asks for down to "
+                f"{bottom:.1f} m/s: set {p.low} to at most {math.floor(bottom / p.unit + 1e-9)} "
+                f"or scale airspeed_mps by {floor / bottom:.2f}"
+            )
         return None

@@ -33,6 +33,7 @@ from convoy_mav.mavlink.autopilots.base import (
     Message,
     PhaseLoop,
     SetupStep,
+    SpeedParams,
     VehicleClass,
     global_setpoint,
 )
@@ -98,8 +99,10 @@ class PX4(Autopilot):
                 SetupStep.SETPOINTS,
                 SetupStep.MODE,
             )
+            self.speed_params = SpeedParams("FW_AIRSPD_MAX", "FW_AIRSPD_MIN")
         else:
             self.setup_steps = (SetupStep.SETPOINTS, SetupStep.MODE, SetupStep.ARM, SetupStep.CLIMB)
+            self.speed_params = SpeedParams("MPC_XY_VEL_MAX")  # (OFFBOARD's velocity clamp)
 
     def stream_requests(self, rates: Mapping[int, float]) -> list[Message]:
         """``rates``, and the profile's high-rate streams the service never reads stopped."""
