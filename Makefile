@@ -23,8 +23,9 @@ demo: $(STAMP)
 	  --report out/report.json --plot out/mission.png --tlog out/mission.tlog
 
 # One pytest-xdist worker per core; an idle worker takes tests queued for a busy one
-# (worksteal), so neither waits alone on the long flights at the end. The one test that
-# loads the whole host on purpose runs after them, alone.
+# (worksteal), so neither waits alone on the long flights at the end. The tests that
+# need the whole host (one loads it on purpose, the road flights hold 40x) run after
+# them, alone.
 test: $(STAMP) broker lint typecheck
 	$(BIN)/python -m pytest -n auto --dist worksteal -m "not alone"
 	$(BIN)/python -m pytest -m alone

@@ -29,7 +29,14 @@ from tests.hostspeed import host_speedup
 SPEEDUP = host_speedup(40.0)  # (>= 20 on a host as fast as the reference)
 pytestmark = pytest.mark.integration
 
+# The flights held at a fixed speedup are marked ``alone`` (run after the parallel run):
+# at 40x a road keeps the service and the mock busy on both cores, and beside another
+# flight their re-plans and setpoints came seconds late (a CI run at 19x: setpoint gaps
+# of 2.6 s, re-plans 0.9 s late, the truth 2-4 points off the prediction, 22 m off the
+# paths; the three passed alone on the same host).
 
+
+@pytest.mark.alone
 @pytest.mark.parametrize(
     ("road", "personality", "known"),
     [("bends", "px4", True), ("stop-and-go", "ardupilot", False)],
@@ -80,6 +87,7 @@ def test_a_road_is_protected_as_predicted(
     assert replay.protect_start == pytest.approx(start, abs=1e-6)
 
 
+@pytest.mark.alone
 def test_a_planned_route_the_convoy_drives_out_and_back_is_flown_as_its_route(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
