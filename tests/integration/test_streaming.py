@@ -343,7 +343,9 @@ async def test_a_paused_simulator_steps_the_clock_and_streaming_goes_on() -> Non
     assert streamer.widest_gap_s < 0.5  # (the step back is no gap between rounds)
     walls = [w for w, _ in vehicle.sent]
     gaps = [b - a for a, b in itertools.pairwise(walls)]
-    assert max(gaps) < 0.02  # 8 periods of wall at most: no pause in the stream
+    # no pause in the stream: its rounds came well inside the simulator's 0.2-s pause
+    # (2.5 ms apart; up to 22 ms on a loaded 2-core host beside another flight)
+    assert max(gaps) < 0.1
     times = [sp.t for _, sp in vehicle.sent]
     assert min(times[i + 1] - times[i] for i in range(len(times) - 1)) < -2.0  # it stepped
 
