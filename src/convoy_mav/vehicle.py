@@ -732,11 +732,9 @@ class Vehicle:
         rates = self.flight_stream_rates if self.status is _S.FLYING else self.stream_rates
         for msg in self.firmware.stream_requests(rates):
             self._send(msg)
-        speeds = self.firmware.speed_params  # (asked with the streams, so as often as
-        if speeds is not None:  # they are until it answers)
-            for name in (speeds.high, speeds.low):
-                if name is not None and name not in self.params:
-                    self._send(param_request_message(self.sysid, self.firmware.compid, name))
+        # the speed range, with the streams: as often as they are asked for, until read
+        for name in self.firmware.unread_speed_params():
+            self._send(param_request_message(self.sysid, self.firmware.compid, name))
         self._streams_t = self.clock.now()
         self.counters["stream_requests"] += 1
 

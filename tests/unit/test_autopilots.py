@@ -400,7 +400,8 @@ def test_a_plane_learns_its_airspeed_range_and_says_when_the_plan_leaves_it(
     """A plane's range is read from the mock's autopilot (its airframe's 0.6-1.5 of
     cruise); its phase loop flies +-15 % round any plan, so that is checked too."""
     ap = strategy(autopilot, FW)
-    assert ap.speed_params == SpeedParams(high, low)
+    assert ap.speed_params is not None
+    assert (ap.speed_params.high, ap.speed_params.low) == (high, low)
     gcs = warm_gcs(make_vehicle(personality, "plane", airspeed=18.0))
     for name in (low, high):
         (answer,) = of_type(gcs.send(param_request_message(1, ap.compid, name)), "PARAM_VALUE")
@@ -421,6 +422,25 @@ def test_a_plane_learns_its_airspeed_range_and_says_when_the_plan_leaves_it(
     )
     ap.on_param(low, 15.0)
     assert ap.cannot_fly(18.0) is None
+    assert ap.unread_speed_params() == []  # (read: no more asking)
+
+
+def test_an_arduplane_before_4_5_is_asked_for_its_older_names_and_told_in_them() -> None:
+    """ArduPlane named its airspeed range ARSPD_FBW_MIN/MAX until 4.5: both names are
+    asked for until either answers, and the alarm names the one the autopilot knows."""
+    ap = plane()
+    assert ap.unread_speed_params() == [
+        "AIRSPEED_MAX", "ARSPD_FBW_MAX", "AIRSPEED_MIN", "ARSPD_FBW_MIN"
+    ]  # fmt: skip
+    ap.on_param("ARSPD_FBW_MAX", 20.0)
+    assert ap.unread_speed_params() == ["AIRSPEED_MIN", "ARSPD_FBW_MIN"]
+    assert ap.speed_limit == 20.0
+    assert ap.cannot_fly(18.0) == (
+        "flies no faster than 20.0 m/s (ARSPD_FBW_MAX), the plan asks for up to 20.7 m/s: "
+        "set ARSPD_FBW_MAX to at least 21 or scale airspeed_mps by 0.97"
+    )
+    ap.on_param("AIRSPEED_MIN", 9.0)
+    assert ap.unread_speed_params() == [] and ap.speed_floor == 9.0
 
 
 # ========================================================================= ArduPlane

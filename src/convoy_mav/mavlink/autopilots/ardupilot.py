@@ -232,7 +232,11 @@ class ArduPlane(ArduPilot):
         SetupStep.MODE,
     )
     takeoff_mode: ClassVar[str | None] = "TAKEOFF"
-    speed_params = SpeedParams("AIRSPEED_MAX", "AIRSPEED_MIN")  # (DO_CHANGE_SPEED's clamp)
+    speed_params = SpeedParams(  # (DO_CHANGE_SPEED's clamp; named ARSPD_FBW_* before 4.5)
+        "AIRSPEED_MAX",
+        "AIRSPEED_MIN",
+        older=(("ARSPD_FBW_MAX", "AIRSPEED_MAX"), ("ARSPD_FBW_MIN", "AIRSPEED_MIN")),
+    )
 
     retry = 1.0
     speed_interval = 1.0

@@ -377,11 +377,18 @@ class SpeedParams:
         low: The slowest (a plane's minimum airspeed); None for a copter, which
             slows down to a hover.
         unit: Metres a second per unit of the parameters (0.01: cm/s).
+        older: What older firmware names them, ``(old name, name)`` pairs (ArduPlane
+            before 4.5: ``ARSPD_FBW_MAX``); asked for too until one answers.
     """
 
     high: str
     low: str | None = None
     unit: float = 1.0
+    older: tuple[tuple[str, str], ...] = ()
+
+    def names_of(self, name: str) -> list[str]:
+        """``name`` and what older firmware calls it."""
+        return [name, *(old for old, new in self.older if new == name)]
 
 
 # ======================================================================= strategy
@@ -406,6 +413,7 @@ class Autopilot(ABC):
             the plan's modes (None: unknown); asked for at set-up.
         speed_limit: The fastest (m/s), once the autopilot has reported it.
         speed_floor: The slowest (m/s, planes), once reported.
+        speed_names: The names under which the autopilot reported them.
         fastest_asked: The fastest horizontal speed the setpoints asked for (m/s).
     """
 
@@ -424,6 +432,7 @@ class Autopilot(ABC):
         self.kind = kind
         self.speed_limit: float | None = None
         self.speed_floor: float | None = None
+        self.speed_names: dict[str, str] = {}
         self.fastest_asked = 0.0
 
     def __str__(self) -> str:
@@ -512,10 +521,25 @@ class Autopilot(ABC):
         p = self.speed_params
         if p is None:
             return
-        if name == p.high:
+        current = dict(p.older).get(name, name)
+        if current == p.high:
             self.speed_limit = value * p.unit
-        elif name == p.low:
+        elif current == p.low:
             self.speed_floor = value * p.unit
+        else:
+            return
+        self.speed_names[current] = name
+
+    def unread_speed_params(self) -> list[str]:
+        """The speed parameters to ask the autopilot for: those it has not reported
+        (under any of their names)."""
+        p = self.speed_params
+        if p is None:
+            return []
+        names = p.names_of(p.high) if self.speed_limit is None else []
+        if p.low is not None and self.speed_floor is None:
+            names += p.names_of(p.low)
+        return names
 
     def asked(self, sp: Setpoint) -> None:
         """A plan setpoint was sent: keep the fastest horizontal speed asked for."""
@@ -551,15 +575,17 @@ class Autopilot(ABC):
         top, bottom = max(self.fastest_asked, hi * airspeed), lo * airspeed
         limit, floor = self.speed_limit, self.speed_floor
         if limit is not None and top > limit + _SPEED_LIMIT_TOL:
+            high = self.speed_names.get(p.high, p.high)
             return (
-                f"flies no faster than {limit:.1f} m/s ({p.high}), the plan asks for up to "
-                f"{top:.1f} m/s: set {p.high} to at least {math.ceil(top / p.unit - 1e-9)} "
+                f"flies no faster than {limit:.1f} m/s ({high}), the plan asks for up to "
+                f"{top:.1f} m/s: set {high} to at least {math.ceil(top / p.unit - 1e-9)} "
                 f"or scale airspeed_mps by {limit / top:.2f}"
             )
         if p.low is not None and floor is not None and 0.0 < bottom < floor - _SPEED_LIMIT_TOL:
+            low = self.speed_names.get(p.low, p.low)
             return (
-                f"flies no slower than {floor:.1f} m/s ({p.low}), the plan asks for down to "
-                f"{bottom:.1f} m/s: set {p.low} to at most {math.floor(bottom / p.unit + 1e-9)} "
+                f"flies no slower than {floor:.1f} m/s ({low}), the plan asks for down to "
+                f"{bottom:.1f} m/s: set {low} to at most {math.floor(bottom / p.unit + 1e-9)} "
                 f"or scale airspeed_mps by {floor / bottom:.2f}"
             )
         return None
