@@ -615,9 +615,9 @@ class SimVehicle:
             elif knob is Knob.AIRSPEED_MAX:
                 params = dataclasses.replace(p, max_airspeed_ratio=value / p.airspeed)
             elif knob is Knob.TURN_RADIUS:
-                params = dataclasses.replace(ac.params, min_turn_radius=value)
+                params = dataclasses.replace(p, min_turn_radius=value)
             else:
-                params = dataclasses.replace(ac.params, max_climb_rate=value)
+                params = dataclasses.replace(p, max_climb_rate=value)
             fl.aircraft = Aircraft(params, ac.state, ground_down=ac.ground_down)
             if fl.cruise is not None:
                 fl.aircraft.set_speed(fl.cruise)

@@ -1512,8 +1512,10 @@ class ConvoyService:
         mission = self.mission
         band = mission.settings.speed_band if isinstance(mission, RoadMission) else (1.0, 1.0)
         for sysid, v in self.vehicles.items():
-            why = None if v.firmware is None else v.firmware.cannot_fly(self._airspeed, band)
-            if why is not None and f"airframe:{sysid}" not in self._vehicle_alarms:
+            if v.firmware is None or f"airframe:{sysid}" in self._vehicle_alarms:
+                continue  # (raised already: its text is not built again every step)
+            why = v.firmware.cannot_fly(self._airspeed, band)
+            if why is not None:
                 self._alarm(Alarm(t, "airframe", True, f"UAV {sysid} {why}"), sysid)
 
     def _counted_telemetry(self, t: float) -> dict[int, Telemetry]:
