@@ -403,6 +403,7 @@ class ConvoyService:
         self._stopping = False
         self._stopped = False  # every UAV told how to end: the retained status says so
         self._vehicle_alarms: set[str] = set()  # "uav_lost:3": active per-vehicle alarms
+        self._airframe_range: dict[int, tuple[float | None, float | None]] = {}  # as alarmed
         self._last_est: ConvoyEstimate | None = None
         self._route_t0: float | None = None  # mission time the scripted convoy set off
         self.why_not_counted: dict[int, str | None] = {}  # latest, per UAV
@@ -1508,14 +1509,27 @@ class ConvoyService:
 
     def _check_airframes(self, t: float) -> None:
         """Alarm (once per UAV) when an airframe cannot fly what the plan asks of it: a
-        plane's loiters, or the plan's speeds outside the range its autopilot flies."""
+        plane's loiters, or the plan's speeds outside the range its autopilot flies; the
+        alarm clears when the operator widens that range (its PARAM_VALUE is heard)."""
         mission = self.mission
         band = mission.settings.speed_band if isinstance(mission, RoadMission) else (1.0, 1.0)
         for sysid, v in self.vehicles.items():
-            if v.firmware is None or f"airframe:{sysid}" in self._vehicle_alarms:
-                continue  # (raised already: its text is not built again every step)
-            why = v.firmware.cannot_fly(self._airspeed, band)
+            ap = v.firmware
+            if ap is None:
+                continue
+            ranged = (ap.speed_limit, ap.speed_floor)
+            if f"airframe:{sysid}" in self._vehicle_alarms:
+                # (its text is not built again every step: only once the operator has
+                # changed the range, from another station, does it get another look)
+                if ranged != self._airframe_range.get(sysid):
+                    self._airframe_range[sysid] = ranged
+                    if ap.cannot_fly(self._airspeed, band) is None:
+                        fits = f"UAV {sysid} flies the plan's speeds now ({ap.speed_range()})"
+                        self._alarm(Alarm(t, "airframe", False, fits), sysid)
+                continue
+            why = ap.cannot_fly(self._airspeed, band)
             if why is not None:
+                self._airframe_range[sysid] = ranged
                 self._alarm(Alarm(t, "airframe", True, f"UAV {sysid} {why}"), sysid)
 
     def _counted_telemetry(self, t: float) -> dict[int, Telemetry]:
@@ -1596,6 +1610,8 @@ class ConvoyService:
             key = f"{alarm.kind}:{sysid}"
             if alarm.active:
                 self._vehicle_alarms.add(key)
+            elif alarm.kind == "airframe":  # its parameters changed: that alone is over
+                self._vehicle_alarms.discard(key)
             else:  # heard again: whatever was wrong with it is over
                 self._vehicle_alarms -= {a for a in self._vehicle_alarms if a.endswith(f":{sysid}")}
         entry = {"t": alarm.t, "kind": alarm.kind, "active": alarm.active, "message": alarm.message}

@@ -385,6 +385,7 @@ def test_a_copter_learns_its_speed_limit_and_says_when_the_plan_asks_more(
     )
     ap.on_param(name, 2070 if unit < 1.0 else 20.7)  # raised to the plan's top speed
     assert ap.cannot_fly(18.0, road) is None
+    assert ap.speed_range() == f"up to 20.7 m/s ({name})"
 
 
 @pytest.mark.parametrize(
@@ -422,6 +423,7 @@ def test_a_plane_learns_its_airspeed_range_and_says_when_the_plan_leaves_it(
     )
     ap.on_param(low, 15.0)
     assert ap.cannot_fly(18.0) is None
+    assert ap.speed_range() == f"15.0-21.0 m/s ({low}, {high})"
     assert ap.unread_speed_params() == []  # (read: no more asking)
 
 
@@ -432,8 +434,10 @@ def test_an_arduplane_before_4_5_is_asked_for_its_older_names_and_told_in_them()
     assert ap.unread_speed_params() == [
         "AIRSPEED_MAX", "ARSPD_FBW_MAX", "AIRSPEED_MIN", "ARSPD_FBW_MIN"
     ]  # fmt: skip
+    assert ap.speed_range() == "no speed range reported"
     ap.on_param("ARSPD_FBW_MAX", 20.0)
     assert ap.unread_speed_params() == ["AIRSPEED_MIN", "ARSPD_FBW_MIN"]
+    assert ap.speed_range() == "up to 20.0 m/s (ARSPD_FBW_MAX)"
     assert ap.speed_limit == 20.0
     assert ap.cannot_fly(18.0) == (
         "flies no faster than 20.0 m/s (ARSPD_FBW_MAX), the plan asks for up to 20.7 m/s: "

@@ -546,6 +546,21 @@ class Autopilot(ABC):
         speed = math.hypot(sp.vn, sp.ve)
         self.fastest_asked = max(self.fastest_asked, speed)
 
+    def speed_range(self) -> str:
+        """The speed range the autopilot reported, under the names it answered to (for
+        the operator): e.g. ``10.0-30.0 m/s (AIRSPEED_MIN, AIRSPEED_MAX)``."""
+        p = self.speed_params
+        lo, hi = self.speed_floor, self.speed_limit
+        if p is None or (lo is None and hi is None):
+            return "no speed range reported"
+        high = self.speed_names.get(p.high, p.high)
+        low = self.speed_names.get(p.low, p.low) if p.low is not None else ""
+        if lo is not None and hi is not None:
+            return f"{lo:.1f}-{hi:.1f} m/s ({low}, {high})"
+        if hi is not None:
+            return f"up to {hi:.1f} m/s ({high})"
+        return f"from {lo:.1f} m/s ({low})"
+
     def learnt(self) -> dict[str, float]:
         """What the strategy has learnt of the airframe while flying (for the report)."""
         out = {}
