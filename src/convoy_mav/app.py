@@ -947,7 +947,7 @@ class ConvoyService:
         if not self._slowable(rate):
             return  # (at the floor)
         target = max(floor, rate / 2.0)
-        asked_any = [v.request_param("SIM_SPEEDUP", target) for v in self.vehicles.values()]
+        asked_any = [v.send_param_set("SIM_SPEEDUP", target) for v in self.vehicles.values()]
         if not any(asked_any):
             return
         # The convoy's simulator too, if it is one: the world slows as a whole, and the

@@ -660,7 +660,7 @@ class Vehicle:
         elif kind == _M.MAVLINK_MSG_ID_COMMAND_INT and msg.command == _M.MAV_CMD_DO_REPOSITION:
             self.control.sent(self.clock.now(), msg.x, msg.y)
 
-    def request_param(self, name: str, value: float) -> bool:
+    def send_param_set(self, name: str, value: float) -> bool:
         """Send one PARAM_SET of ``name`` (its PARAM_VALUE lands in ``params``); False if
         the autopilot is not recognised yet."""
         ap = self.firmware
@@ -1124,7 +1124,7 @@ class Vehicle:
         while not confirmed():
             if self.clock.now() >= deadline:
                 raise _SetupFailed(self._gave_up(f"set {name} = {value:g}", attempts, None))
-            self.request_param(name, value)
+            self.send_param_set(name, value)
             attempts += 1
             await self._wait_until(lambda: name in self.params, self.command_retry)
             if name in self.params and not confirmed():
