@@ -18,6 +18,10 @@
 # s in, by PARAM_SET from another MAVLink client (serial2, TCP 5763+10K), as a user would
 # from MAVProxy: the service's mission clock must follow the new rate at once (the
 # report's mission_clock: rate_changes, speedup) and the flight go on covered.
+# SET_PARAM=AFTER_S:NAME=VALUE sets any parameter so, and PARAMS="NAME=VALUE ..." starts
+# every instance with those values over its defaults, e.g. a copter slower than the plan
+# (PARAMS="WPNAV_SPEED=700" SET_PARAM=90:WPNAV_SPEED=1000 ... copter 400 5): the
+# service's airframe alarm is raised at set-up and cleared once the range is raised.
 #
 # With UAVS=N (more than 3), N aircraft fly the scripted convoy: spares beyond the
 # paper's minimum.
@@ -120,10 +124,17 @@ from convoy_mav.geo import GeoPoint, LocalFrame
 g = LocalFrame(GeoPoint($lat, $lon, $alt)).to_geo(0.0, 40.0 * $k)
 print(f'{g.lat:.7f},{g.lon:.7f},$alt,90')")
   (cd "$out/$k" && exec "$exe" --model "$model" --speedup "$speedup" \
-      --defaults "$SITL_DIR/$defaults" -I "$k" --sysid $((k + 1)) --home "$home" \
+      --defaults "$defaults" -I "$k" --sysid $((k + 1)) --home "$home" \
       --serial0 "udpclient:127.0.0.1:$((14560 + k))" >>sitl.log 2>&1) &
   pid=$!
 }
+if [ -n "${SET_SPEEDUP:-}" ]; then SET_PARAM=${SET_SPEEDUP%%:*}:SIM_SPEEDUP=${SET_SPEEDUP#*:}; fi
+if [ -n "${PARAMS:-}" ]; then  # over the frame's defaults, in ArduPilot's parm format
+  for kv in $PARAMS; do echo "${kv%%=*} ${kv#*=}"; done >"$out/extra.parm"
+  defaults="$SITL_DIR/$defaults,$PWD/$out/extra.parm"
+else
+  defaults=$SITL_DIR/$defaults
+fi
 for k in $(seq 0 $((uavs - 1))); do
   mkdir -p "$out/$k"
   start_instance "$k"
@@ -150,24 +161,24 @@ if [ -n "${SECOND_AFTER:-}" ]; then
    echo "second service exit status $?" >>"$out/second.log") &
   pids+=($!)
 fi
-if [ -n "${SET_SPEEDUP:-}" ]; then
-  (sleep "${SET_SPEEDUP%%:*}"
-   "$py" - "${SET_SPEEDUP#*:}" <<'PY' >"$out/set_speedup.log" 2>&1
+if [ -n "${SET_PARAM:-}" ]; then
+  (sleep "${SET_PARAM%%:*}"
+   "$py" - "${SET_PARAM#*:}" "$uavs" <<'PY' >"$out/set_param.log" 2>&1
 import sys, time
 from pymavlink import mavutil
-value = float(sys.argv[1])
-for k in range(3):
+name, value = sys.argv[1].split("=")
+for k in range(int(sys.argv[2])):
     link = mavutil.mavlink_connection(f"tcp:127.0.0.1:{5763 + 10 * k}", source_system=250)
     beat = link.wait_heartbeat(timeout=10)
     if beat is None:
         print(f"instance {k}: no heartbeat on serial2"); continue
     link.mav.param_set_send(
-        link.target_system, link.target_component, b"SIM_SPEEDUP", value,
+        link.target_system, link.target_component, name.encode(), float(value),
         mavutil.mavlink.MAV_PARAM_TYPE_REAL32,
     )
-    answer = link.recv_match(type="PARAM_VALUE", condition="PARAM_VALUE.param_id=='SIM_SPEEDUP'",
+    answer = link.recv_match(type="PARAM_VALUE", condition=f"PARAM_VALUE.param_id=='{name}'",
                              blocking=True, timeout=5)
-    print(f"{time.strftime('%H:%M:%S')} instance {k} (sysid {link.target_system}): SIM_SPEEDUP ->",
+    print(f"{time.strftime('%H:%M:%S')} instance {k} (sysid {link.target_system}): {name} ->",
           None if answer is None else answer.param_value)
     link.close()
 PY
@@ -178,11 +189,17 @@ fi
   --report "$out/report.json" --tlog "$out/mission.tlog" --plot "$out/mission.png" \
   --record-mission "$out/mission.inputs"
 "$py" checks/sitl_report.py "$config" "$out/report.json" "$out/mission.tlog"
-if [ -n "${SET_SPEEDUP:-}" ]; then
-  cat "$out/set_speedup.log"
+if [ -n "${SET_PARAM:-}" ]; then
+  cat "$out/set_param.log"
   "$py" -c "
 import json, sys
-print('mission clock:', json.load(open(sys.argv[1]))['mission_clock'])
+report = json.load(open(sys.argv[1]))
+print('mission clock:', report['mission_clock'])
+for a in report['alarms']:
+    if a['kind'] == 'airframe':
+        print(f\"alarm airframe at {a['t']:.1f} s ({'raised' if a['active'] else 'cleared'}): {a['message']}\")
+for v in report['vehicles']:
+    print(f\"UAV {v['sysid']} speed range:\", {k: x for k, x in v['learnt'].items() if k.startswith('speed')})
 " "$out/report.json"
 fi
 if [ -n "${KILL:-}" ]; then

@@ -218,6 +218,7 @@ class SimVehicle:
         self._params = ParamTable(self.firmware.params)
         self._ground_down = world.to_ned(spec.home)[2]
         self._warmup = spec.warmup_s
+        self._nav_speed: float | None = None  # (as set; None: the airframe's airspeed)
         self._battery_s = 0.0
         self._ground_yaw = 0.0
         aircraft = None
@@ -576,6 +577,7 @@ class SimVehicle:
         params = fl.aircraft.params if fl.aircraft is not None else self.spec.airframe
         values = {
             Knob.AIRSPEED: params.airspeed,
+            Knob.NAV_SPEED: params.airspeed if self._nav_speed is None else self._nav_speed,
             Knob.AIRSPEED_MIN: params.min_airspeed_ratio * params.airspeed,
             Knob.AIRSPEED_MAX: params.max_airspeed_ratio * params.airspeed,
             Knob.TURN_RADIUS: params.min_turn_radius,
@@ -621,6 +623,11 @@ class SimVehicle:
             fl.aircraft = Aircraft(params, ac.state, ground_down=ac.ground_down)
             if fl.cruise is not None:
                 fl.aircraft.set_speed(fl.cruise)
+        elif knob is Knob.NAV_SPEED:  # (ArduCopter: the speed of position moves alone)
+            self._nav_speed = value
+            fl.cruise = value
+            if ac is not None:
+                ac.set_speed(value)
         elif knob is Knob.SETPOINT_TIMEOUT:
             fl.setpoint_timeout = value
         elif knob is Knob.LOITER_RADIUS:

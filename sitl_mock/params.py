@@ -1,7 +1,9 @@
 """The parameter protocol of a simulated vehicle: names, indices and units.
 
 Each firmware names its parameters its own way (PX4 ``FW_AIRSPD_TRIM`` in m/s,
-ArduCopter ``WPNAV_SPEED`` in cm/s); the vehicle underneath keeps physical
+ArduCopter ``WPNAV_SPEED`` in cm/s), and means its own thing by them (PX4's
+``MPC_XY_VEL_MAX`` clamps a copter's every velocity, ArduCopter's ``WPNAV_SPEED``
+only its moves to a position); the vehicle underneath keeps physical
 values in SI units under a small set of *knobs* (``Knob``). A ``ParamTable``
 maps one to the other, keeps the list order (PARAM_VALUE's ``param_index``)
 and builds the PARAM_VALUE replies. Applying a value is the vehicle's business:
@@ -29,6 +31,7 @@ class Knob(StrEnum):
     """A physical setting of the vehicle that a parameter exposes (SI units)."""
 
     AIRSPEED = "airspeed"  # m/s: plane cruise / copter max horizontal speed
+    NAV_SPEED = "nav_speed"  # m/s: copter: speed of moves to a position; velocities fly their own
     AIRSPEED_MIN = "airspeed_min"  # m/s: plane: the slowest airspeed it is commanded
     AIRSPEED_MAX = "airspeed_max"  # m/s: plane: the fastest
     TURN_RADIUS = "turn_radius"  # m: airframe minimum turn radius

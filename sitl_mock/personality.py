@@ -423,7 +423,10 @@ def _params(personality: Personality, vehicle_class: VehicleClass) -> tuple[Para
         )
     else:
         own = (
-            ParamDef("WPNAV_SPEED", k.AIRSPEED, scale=100.0, minimum=0.5),
+            # (GUIDED's speed to a position, and its cap on correcting towards a moving
+            # one; a velocity target is flown at its own speed: mode_guided.cpp's
+            # posvelaccel run shapes with limit_output false)
+            ParamDef("WPNAV_SPEED", k.NAV_SPEED, scale=100.0, minimum=0.5),
             ParamDef("WPNAV_SPEED_UP", k.CLIMB_RATE, scale=100.0, minimum=0.1),
             ParamDef("GUID_TIMEOUT", k.SETPOINT_TIMEOUT, minimum=0.01),
             ParamDef("PILOT_TKOFF_ALT", k.TAKEOFF_ALT, scale=100.0, minimum=1.0),

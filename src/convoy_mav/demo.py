@@ -260,9 +260,9 @@ def mock_mapping(
     only frames signed with it. ``aircraft``: per-aircraft overrides, the mock's
     ``[[aircraft.vehicle]]`` tables (e.g. ``{"sysid": 5, "warmup": 40.0}``).
 
-    Copters are set up as for this mission: their speed limit (the mock's copter
-    ``airspeed``: WPNAV_SPEED, MPC_XY_VEL_MAX) at the top of the road planner's speed
-    band, which its legs fly at; at the cruise airspeed they fall behind those legs.
+    Copters are set up as for this mission: their top speed (the mock's copter
+    ``airspeed``, PX4's MPC_XY_VEL_MAX) at the top of the road planner's speed band,
+    which its legs fly at; at the cruise airspeed they fall behind those legs.
     """
     airspeed = scenario.airspeed_mps
     if frame == "copter":

@@ -1,11 +1,12 @@
 """A copter's speed limit read over real UDP, and the alarm when the plan outruns it.
 
-The road planner's legs reach 1.15 of the airspeed. A multicopter flies no setpoint
-faster than its limit (PX4 ``MPC_XY_VEL_MAX``, ArduCopter ``WPNAV_SPEED``), so a copter
-whose limit is the cruise speed falls behind its slot on every fast leg. The mock's
-copters answer PARAM_REQUEST_READ as the firmware does; ``demo`` builds them with the
-limit at the band's top, and one is built here with it at the cruise speed. Raised
-from another ground station in flight, the autopilot's PARAM_VALUE clears the alarm.
+The road planner's legs reach 1.15 of the airspeed. PX4 flies no OFFBOARD setpoint
+faster than ``MPC_XY_VEL_MAX``, so a copter whose limit is the cruise speed falls
+behind its slot on every fast leg. The mock's copters answer PARAM_REQUEST_READ as the
+firmware does; ``demo`` builds them with the limit at the band's top, and one is built
+here with it at the cruise speed. Raised from another ground station in flight, the
+autopilot's PARAM_VALUE clears the alarm. ArduCopter's ``WPNAV_SPEED`` bounds no
+GUIDED velocity target, so it is neither alarmed nor does it slow the copter.
 """
 
 from __future__ import annotations
@@ -26,14 +27,15 @@ pytestmark = pytest.mark.integration
 SPEEDUP = host_speedup(25.0)
 
 
-@pytest.mark.parametrize(
-    ("personality", "param"), [("px4", "MPC_XY_VEL_MAX"), ("ardupilot", "WPNAV_SPEED")]
-)
-async def test_a_copter_slower_than_the_plan_raises_the_airframe_alarm(
-    personality: str, param: str
-) -> None:
+def _station(fleet: MockFleet, sysid: int) -> mavutil.mavfile:
+    """Another ground station on UAV ``sysid``'s port, as a user's MAVProxy would be."""
+    port = int(fleet.endpoint(sysid).connect.rsplit(":", 1)[1])
+    return mavutil.mavlink_connection(f"udpout:127.0.0.1:{port}", source_system=200)
+
+
+async def test_a_px4_copter_slower_than_the_plan_is_alarmed_until_its_limit_is_raised() -> None:
     scenario = SCENARIOS["turning"]  # the road planner: legs up to 1.15 of 18 m/s
-    fix = 21 if param == "MPC_XY_VEL_MAX" else 2070
+    param = "MPC_XY_VEL_MAX"
     marks: dict[str, object] = {}
 
     async def operator(fleet: MockFleet, service: ConvoyService) -> None:
@@ -41,10 +43,9 @@ async def test_a_copter_slower_than_the_plan_raises_the_airframe_alarm(
         while "airframe:2" not in service._vehicle_alarms:
             await asyncio.sleep(0.01)
         marks["active"] = sorted(service._vehicle_alarms)
-        port = int(fleet.endpoint(2).connect.rsplit(":", 1)[1])
-        gcs = mavutil.mavlink_connection(f"udpout:127.0.0.1:{port}", source_system=200)
+        gcs = _station(fleet, 2)
         try:
-            gcs.mav.param_set_send(2, 1, param.encode(), fix, mavlink.MAV_PARAM_TYPE_REAL32)
+            gcs.mav.param_set_send(2, 1, param.encode(), 21.0, mavlink.MAV_PARAM_TYPE_REAL32)
             while "airframe:2" in service._vehicle_alarms:
                 await asyncio.sleep(0.01)
             marks["cleared"] = True
@@ -52,18 +53,49 @@ async def test_a_copter_slower_than_the_plan_raises_the_airframe_alarm(
             gcs.close()
 
     result = await run_demo(
-        scenario, duration=90.0, speedup=SPEEDUP, personality=personality, frame="copter",
+        scenario, duration=90.0, speedup=SPEEDUP, personality="px4", frame="copter",
         aircraft=[{"sysid": 2, "airspeed": scenario.airspeed_mps}], during=operator,
     )  # fmt: skip
     report = result.report.to_dict()
     assert marks["active"] == ["airframe:2"] and marks.get("cleared"), marks
     limits = {v["sysid"]: v["learnt"].get("speed_limit_mps") for v in report["vehicles"]}
     top = 1.15 * scenario.airspeed_mps
-    raised = 21.0 if fix == 21 else 20.7  # (in m/s)
-    assert limits == {s: (raised if s == 2 else pytest.approx(top)) for s in limits}, limits
+    assert limits == {s: (21.0 if s == 2 else pytest.approx(top)) for s in limits}, limits
     airframe = [(a["active"], a["message"]) for a in report["alarms"] if a["kind"] == "airframe"]
     assert airframe == [
         (True, f"UAV 2 flies no faster than 18.0 m/s ({param}), the plan asks for up to "
-               f"20.7 m/s: set {param} to at least {fix} or scale airspeed_mps by 0.87"),
-        (False, f"UAV 2 flies the plan's speeds now (up to {raised:.1f} m/s ({param}))"),
+               f"20.7 m/s: set {param} to at least 21 or scale airspeed_mps by 0.87"),
+        (False, f"UAV 2 flies the plan's speeds now (up to 21.0 m/s ({param}))"),
     ]  # fmt: skip
+
+
+async def test_an_arducopter_flies_the_plans_speeds_whatever_its_wpnav_speed() -> None:
+    scenario = SCENARIOS["turning"]
+    marks: dict[str, float] = {}
+    speeds: list[float] = []  # UAV 2's true speed, once its WPNAV_SPEED is 7 m/s
+
+    async def operator(fleet: MockFleet, service: ConvoyService) -> None:
+        """Another station sets WPNAV_SPEED to 7 m/s on UAV 2 once the fleet protects."""
+        while service.monitor.protect_start is None:
+            await asyncio.sleep(0.01)
+        gcs = _station(fleet, 2)
+        try:
+            gcs.mav.param_set_send(2, 1, b"WPNAV_SPEED", 700.0, mavlink.MAV_PARAM_TYPE_REAL32)
+            marks["set_at"] = fleet.now
+        finally:
+            gcs.close()
+        await fleet.wait_until(marks["set_at"] + 5.0)
+        while True:  # (cancelled when the flight ends)
+            speeds.append(fleet.truth(2).speed)
+            await asyncio.sleep(0.01)
+
+    result = await run_demo(
+        scenario, duration=120.0, speedup=SPEEDUP, personality="ardupilot", frame="copter",
+        during=operator,
+    )  # fmt: skip
+    report = result.report.to_dict()
+    assert "set_at" in marks
+    assert not [a for a in report["alarms"] if a["kind"] == "airframe"]
+    assert all("speed_limit_mps" not in v["learnt"] for v in report["vehicles"])
+    assert speeds and max(speeds) > 15.0, max(speeds, default=None)  # (not held to 7 m/s)
+    assert result.truth is not None and result.truth.fraction >= 0.99, result.truth

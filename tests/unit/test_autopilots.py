@@ -352,21 +352,13 @@ def test_px4_plane_speeds_up_when_behind_copter_does_not() -> None:
     assert math.hypot(unknown.vx, unknown.vy) == pytest.approx(18.0)
 
 
-@pytest.mark.parametrize(
-    ("autopilot", "personality", "name", "unit"),
-    [
-        (M.MAV_AUTOPILOT_PX4, MOCK_PX4, "MPC_XY_VEL_MAX", 1.0),
-        (M.MAV_AUTOPILOT_ARDUPILOTMEGA, AP, "WPNAV_SPEED", 0.01),  # cm/s
-    ],
-)
-def test_a_copter_learns_its_speed_limit_and_says_when_the_plan_asks_more(
-    autopilot: int, personality: Personality, name: str, unit: float
-) -> None:
+def test_a_px4_copter_learns_its_speed_limit_and_says_when_the_plan_asks_more() -> None:
     """The limit is asked for by name and read from the autopilot's answer (the mock's
     autopilot, through MAVLink bytes); legs faster than it are said, slower are not."""
-    ap = strategy(autopilot, QUAD)
+    name, unit = "MPC_XY_VEL_MAX", 1.0
+    ap = strategy(M.MAV_AUTOPILOT_PX4, QUAD)
     assert ap.speed_params == SpeedParams(name, None, unit)
-    gcs = warm_gcs(make_vehicle(personality, "copter", airspeed=18.0))
+    gcs = warm_gcs(make_vehicle(MOCK_PX4, "copter", airspeed=18.0))
     (answer,) = of_type(gcs.send(param_request_message(1, ap.compid, name)), "PARAM_VALUE")
     ap.asked(circle_setpoint(0.3, speed=18.4))
     road = (0.85, 1.15)  # the road planner's band, at 18 m/s
@@ -386,6 +378,17 @@ def test_a_copter_learns_its_speed_limit_and_says_when_the_plan_asks_more(
     ap.on_param(name, 2070 if unit < 1.0 else 20.7)  # raised to the plan's top speed
     assert ap.cannot_fly(18.0, road) is None
     assert ap.speed_range() == f"up to 20.7 m/s ({name})"
+
+
+def test_an_arducopter_has_no_speed_limit_on_guided_targets_to_read() -> None:
+    """GUIDED flies a position + velocity target's velocity whatever WPNAV_SPEED is
+    (it caps only the correction): nothing is asked for, no plan speed is refused."""
+    ap = strategy(M.MAV_AUTOPILOT_ARDUPILOTMEGA, QUAD)
+    assert ap.speed_params is None and ap.unread_speed_params() == []
+    ap.on_param("WPNAV_SPEED", 700.0)
+    ap.asked(circle_setpoint(0.3, speed=25.0))
+    assert ap.cannot_fly(18.0, (0.85, 1.15)) is None
+    assert ap.speed_limit is None and "speed_limit_mps" not in ap.learnt()
 
 
 @pytest.mark.parametrize(

@@ -330,6 +330,23 @@ def test_param_list_uses_the_firmware_names_and_units(
     assert {m.param_type for m in values} == {mavlink.MAV_PARAM_TYPE_REAL32}
 
 
+def test_a_copters_speed_parameters_bound_what_each_firmware_bounds() -> None:
+    """PX4's MPC_XY_VEL_MAX clamps every horizontal velocity (the copter's airspeed);
+    ArduCopter's WPNAV_SPEED is only the speed of moves to a position: a velocity
+    target is flown at its own speed, up to the airframe's."""
+    setp = mavlink.MAVLink_param_set_message
+    px4 = make_vehicle(PX4, "copter", airspeed=20.0)
+    Gcs(px4).send(setp(1, 1, b"MPC_XY_VEL_MAX", 12.0, mavlink.MAV_PARAM_TYPE_REAL32))
+    assert px4.aircraft is not None and px4.aircraft.params.airspeed == 12.0
+    ap = make_vehicle(AP, "copter", airspeed=20.0)
+    (reply,) = Gcs(ap).send(setp(1, 1, b"WPNAV_SPEED", 700.0, mavlink.MAV_PARAM_TYPE_REAL32))
+    assert reply.param_value == pytest.approx(700.0)
+    assert ap.aircraft is not None and ap.aircraft.params.airspeed == 20.0
+    assert ap.flight.cruise == pytest.approx(7.0)
+    read = Gcs(ap).send(mavlink.MAVLink_param_request_read_message(1, 1, b"WPNAV_SPEED", -1))
+    assert _params(read)["WPNAV_SPEED"].param_value == pytest.approx(700.0)
+
+
 def test_param_read_and_set_round_trip_and_apply_to_the_vehicle() -> None:
     vehicle = make_vehicle(PX4, "plane")
     gcs = Gcs(vehicle)

@@ -189,11 +189,17 @@ class ArduPilot(Autopilot):
 
 
 class ArduCopter(ArduPilot):
-    """ArduCopter in GUIDED: position + velocity + yaw targets after NAV_TAKEOFF."""
+    """ArduCopter in GUIDED: position + velocity + yaw targets after NAV_TAKEOFF.
+
+    No speed parameter bounds these targets: GUIDED shapes a position + velocity
+    target with ``limit_output`` false (``mode_guided.cpp``, ``posvelaccel_control_run``),
+    so ``WPNAV_SPEED`` caps only the correction towards the position, not the
+    velocity fed forward. In SITL (4.7.0-dev) three copters with WPNAV_SPEED 700 flew
+    the plan's 8 m/s at 8.2 m/s. So its speed range is not asked for or checked.
+    """
 
     name: ClassVar[str] = "ArduCopter"
     modes: ClassVar[Mapping[int, str]] = _COPTER_MODES
-    speed_params = SpeedParams("WPNAV_SPEED", unit=0.01)  # cm/s: GUIDED's speed limit
     setup_steps: tuple[SetupStep, ...] = (
         SetupStep.MODE,
         SetupStep.ARM,
