@@ -522,8 +522,19 @@ class FlightController:
         if self.aircraft is None:
             return _R.MAV_RESULT_UNSUPPORTED, []
         fw = self.firmware
-        if fw.is_ardupilot and self.plane and self.mode.behaviour is not Behaviour.EXTERNAL:
-            return _R.MAV_RESULT_FAILED, []  # ArduPlane: only in GUIDED (or AUTO)
+        if fw.is_ardupilot and self.plane:
+            if self.mode.behaviour is not Behaviour.EXTERNAL:
+                return _R.MAV_RESULT_FAILED, []  # ArduPlane: only in GUIDED (or AUTO)
+            p = self._ac().params
+            if c.p2 == -2.0:  # back to the default airspeed
+                self.cruise = None
+                self._ac().set_speed(p.airspeed)
+                return _R.MAV_RESULT_ACCEPTED, []
+            # Plane::do_change_speed takes an airspeed only inside AIRSPEED_MIN..MAX;
+            # another is refused and the one in force kept (not clamped)
+            lo, hi = p.min_airspeed_ratio * p.airspeed, p.max_airspeed_ratio * p.airspeed
+            if not lo - 1e-6 <= c.p2 <= hi + 1e-6:
+                return _R.MAV_RESULT_FAILED, []
         if math.isfinite(c.p2) and c.p2 > 0.0:
             self._set_speed(c.p2)
         return _R.MAV_RESULT_ACCEPTED, []

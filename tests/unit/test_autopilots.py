@@ -508,6 +508,21 @@ def test_arduplane_speed_changes_are_rate_limited() -> None:
     assert len(ap.setpoint_messages(sp, 3.6, behind)) == 1  # refused: sent again
 
 
+def test_arduplane_speed_changes_stay_inside_its_airspeed_range() -> None:
+    """ArduPlane refuses a DO_CHANGE_SPEED outside AIRSPEED_MIN..MAX (and keeps the
+    speed in force): once the range is read, the phase loop's speed is sent inside it."""
+    ap = plane()
+    sp = circle_setpoint(1.0)
+    ap.on_param("AIRSPEED_MAX", 19.0)
+    ap.on_param("AIRSPEED_MIN", 17.5)
+    behind = (100 * math.cos(0.5), 100 * math.sin(0.5))  # the loop asks 1.15 x 18
+    msgs = ap.setpoint_messages(sp, 0.0, behind)
+    assert [m.param2 for m in msgs if m.command == M.MAV_CMD_DO_CHANGE_SPEED] == [19.0]
+    ahead = (100 * math.cos(1.5), 100 * math.sin(1.5))
+    msgs = ap.setpoint_messages(sp, 2.0, ahead)  # ... and 0.85 x 18
+    assert [m.param2 for m in msgs if m.command == M.MAV_CMD_DO_CHANGE_SPEED] == [17.5]
+
+
 def test_arduplane_straight_is_a_moving_carrot() -> None:
     ap = plane()
     sp = Setpoint(0.0, 0.0, 0.0, -40.0, 0.0, 18.0, 0.0, math.pi / 2, 0.0)  # due east

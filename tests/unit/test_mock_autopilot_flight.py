@@ -272,6 +272,15 @@ def test_ardupilot_plane_flow_guided_arm_reposition_loiters_as_told() -> None:
     assert gcs.truth().down == pytest.approx(hd - 30.0, abs=1.0)  # TKOFF_ALT 30 m
     assert vehicle.mode == "TAKEOFF"  # ArduPlane stays in TAKEOFF, loitering
     assert gcs.set_mode(15).result == mavlink.MAV_RESULT_ACCEPTED
+    # DO_CHANGE_SPEED only inside AIRSPEED_MIN..MAX (10.8-27 m/s): another is refused
+    # and the airspeed in force kept, as Plane::do_change_speed does; -2 is the default
+    speed = mavlink.MAV_CMD_DO_CHANGE_SPEED
+    assert gcs.command(speed, 0, 30.0, -1)[0].result == mavlink.MAV_RESULT_FAILED
+    assert gcs.command(speed, 0, 20.0, -1)[0].result == mavlink.MAV_RESULT_ACCEPTED
+    assert gcs.command(speed, 0, 9.0, -1)[0].result == mavlink.MAV_RESULT_FAILED
+    assert vehicle.flight.cruise == 20.0
+    assert gcs.command(speed, 0, -2.0, -1)[0].result == mavlink.MAV_RESULT_ACCEPTED
+    assert vehicle.flight.cruise is None
     # Horizontal setpoints are ignored by ArduPlane; only the altitude is taken.
     rel = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
     out = gcs.send(global_sp(vehicle, rel, POS, (hn + 3000.0, he), 45.0))

@@ -365,7 +365,7 @@ class ArduPlane(ArduPilot):
             self.counters["reposition"] += 1
         if sp.hold or position is None or t - self.speed_t < self.speed_interval:
             return out
-        speed = self.phase.speed(sp, *position, t)
+        speed = self.within_range(self.phase.speed(sp, *position, t))
         if speed > 0.0 and (self.speed is None or abs(speed - self.speed) >= self.speed_step):
             out.append(self.change_speed(speed))
             self.speed, self.speed_t = speed, t

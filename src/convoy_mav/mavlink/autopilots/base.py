@@ -546,6 +546,16 @@ class Autopilot(ABC):
         speed = math.hypot(sp.vn, sp.ve)
         self.fastest_asked = max(self.fastest_asked, speed)
 
+    def within_range(self, speed: float) -> float:
+        """``speed`` (m/s) inside the range the autopilot reported, where it has: ArduPlane
+        refuses a DO_CHANGE_SPEED outside AIRSPEED_MIN..MAX and keeps the speed in
+        force, so the nearest it takes is sent instead (the airframe alarm says why)."""
+        if self.speed_floor is not None and speed < self.speed_floor:
+            speed = self.speed_floor
+        if self.speed_limit is not None and speed > self.speed_limit:
+            speed = self.speed_limit
+        return speed
+
     def speed_range(self) -> str:
         """The speed range the autopilot reported, under the names it answered to (for
         the operator): e.g. ``10.0-30.0 m/s (AIRSPEED_MIN, AIRSPEED_MAX)``."""
