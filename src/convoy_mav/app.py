@@ -43,7 +43,11 @@ from convoy_mav.geo import GeoPoint, LocalFrame, no_position_yet
 from convoy_mav.history import History
 from convoy_mav.launch import Craft, LaunchSequence
 from convoy_mav.mavlink import MavLink
-from convoy_mav.mavlink.autopilots.base import param_set_message, set_message_interval
+from convoy_mav.mavlink.autopilots.base import (
+    along_track_error,
+    param_set_message,
+    set_message_interval,
+)
 from convoy_mav.mavlink.codec import GCS_COMPONENT, GCS_SYSTEM, MavCodec
 from convoy_mav.mavlink.signing import Signing, load_key
 from convoy_mav.mission import (
@@ -403,7 +407,7 @@ class ConvoyService:
         self._stopping = False
         self._stopped = False  # every UAV told how to end: the retained status says so
         self._vehicle_alarms: set[str] = set()  # "uav_lost:3": active per-vehicle alarms
-        self._airframe_range: dict[int, tuple[float | None, float | None]] = {}  # as alarmed
+        self._airframe_range: dict[int, tuple[float | None, ...]] = {}  # as alarmed
         self._last_est: ConvoyEstimate | None = None
         self._route_t0: float | None = None  # mission time the scripted convoy set off
         self.why_not_counted: dict[int, str | None] = {}  # latest, per UAV
@@ -1506,6 +1510,11 @@ class ConvoyService:
             self._off_slot_since.setdefault(tel.sysid, tel.t)
         else:
             self._off_slot_since.pop(tel.sysid, None)
+        ap = self.vehicles[tel.sysid].firmware
+        if ap is not None and ap.top_speed is not None and not planned.hold:
+            asked = math.hypot(planned.vn, planned.ve)  # (the setpoint has moved on since)
+            behind = along_track_error(planned, tel.north, tel.east) + asked * (tel.t - planned.t)
+            ap.observe_flight(tel.t, math.hypot(tel.vn, tel.ve), asked, behind)
 
     def _check_airframes(self, t: float) -> None:
         """Alarm (once per UAV) when an airframe cannot fly what the plan asks of it: a
@@ -1517,10 +1526,11 @@ class ConvoyService:
             ap = v.firmware
             if ap is None:
                 continue
-            ranged = (ap.speed_limit, ap.speed_floor)
+            ranged = ap.speed_seen()
             if f"airframe:{sysid}" in self._vehicle_alarms:
                 # (its text is not built again every step: only once the operator has
-                # changed the range, from another station, does it get another look)
+                # changed the range, from another station, or it flew faster than its
+                # top speed seen, does it get another look)
                 if ranged != self._airframe_range.get(sysid):
                     self._airframe_range[sysid] = ranged
                     if ap.cannot_fly(self._airspeed, band) is None:

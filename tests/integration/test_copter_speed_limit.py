@@ -99,3 +99,23 @@ async def test_an_arducopter_flies_the_plans_speeds_whatever_its_wpnav_speed() -
     assert all("speed_limit_mps" not in v["learnt"] for v in report["vehicles"])
     assert speeds and max(speeds) > 15.0, max(speeds, default=None)  # (not held to 7 m/s)
     assert result.truth is not None and result.truth.fraction >= 0.99, result.truth
+
+
+async def test_an_arducopter_slower_than_the_plan_is_seen_so_in_flight() -> None:
+    """No parameter says how fast an ArduCopter flies (its lean at ANGLE_MAX does):
+    one built with a top speed of 12 m/s, asked for the road planner's 20.7, is seen
+    saturated behind its slot, and alarmed with that speed; the others are not."""
+    scenario = SCENARIOS["turning"]
+    result = await run_demo(
+        scenario, duration=150.0, speedup=SPEEDUP, personality="ardupilot", frame="copter",
+        aircraft=[{"sysid": 2, "airspeed": 12.0}],
+    )  # fmt: skip
+    report = result.report.to_dict()
+    tops = {v["sysid"]: v["learnt"].get("top_speed_mps") for v in report["vehicles"]}
+    assert tops == {s: (pytest.approx(12.0, abs=0.2) if s == 2 else None) for s in tops}, tops
+    raised = [a["message"] for a in report["alarms"] if a["kind"] == "airframe"]
+    assert len(raised) == 1 and raised[0].startswith("UAV 2 flies no faster than 1"), raised
+    assert raised[0].endswith(
+        "m/s (seen in flight, behind its slot), the plan asks for up to 20.7 m/s: let it "
+        "lean further (ANGLE_MAX) or scale airspeed_mps by 0.58"
+    ), raised

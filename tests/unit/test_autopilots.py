@@ -367,17 +367,19 @@ def test_a_px4_copter_learns_its_speed_limit_and_says_when_the_plan_asks_more() 
     ap.on_param(answer.param_id, answer.param_value)
     assert ap.speed_limit == pytest.approx(18.0)
     assert ap.learnt() == {"speed_limit_mps": 18.0}
-    assert ap.cannot_fly(18.0) == (  # the paper's plan at 18 m/s: a setpoint over it says it
-        f"flies no faster than 18.0 m/s ({name}), the plan asks for up to 18.4 m/s: set "
-        f"{name} to at least {math.ceil(18.4 / unit - 1e-9)} or scale airspeed_mps by 0.98"
+    assert ap.cannot_fly(18.0) == (  # the paper's plan at 18 m/s, and 15 % to catch up
+        f"flies no faster than 18.0 m/s ({name}), the plan asks for up to 20.7 m/s: set "
+        f"{name} to at least {math.ceil(20.7 / unit - 1e-9)} or scale airspeed_mps by 0.87"
     )
     assert ap.cannot_fly(18.0, road) == (  # the road's top speed before any is sent
         f"flies no faster than 18.0 m/s ({name}), the plan asks for up to 20.7 m/s: set "
         f"{name} to at least {math.ceil(20.7 / unit - 1e-9)} or scale airspeed_mps by 0.87"
     )
-    ap.on_param(name, 2070 if unit < 1.0 else 20.7)  # raised to the plan's top speed
+    ap.asked(circle_setpoint(0.3, speed=22.0))  # (a setpoint faster still says so)
+    assert "asks for up to 22.0 m/s" in (ap.cannot_fly(18.0, road) or "")
+    ap.on_param(name, 2200 if unit < 1.0 else 22.0)  # raised to the plan's top speed
     assert ap.cannot_fly(18.0, road) is None
-    assert ap.speed_range() == f"up to 20.7 m/s ({name})"
+    assert ap.speed_range() == f"up to 22.0 m/s ({name})"
 
 
 def test_an_arducopter_has_no_speed_limit_on_guided_targets_to_read() -> None:

@@ -195,11 +195,13 @@ class ArduCopter(ArduPilot):
     target with ``limit_output`` false (``mode_guided.cpp``, ``posvelaccel_control_run``),
     so ``WPNAV_SPEED`` caps only the correction towards the position, not the
     velocity fed forward. In SITL (4.7.0-dev) three copters with WPNAV_SPEED 700 flew
-    the plan's 8 m/s at 8.2 m/s. So its speed range is not asked for or checked.
+    the plan's 8 m/s at 8.2 m/s. So its speed range is not asked for; its top speed,
+    where its lean at ANGLE_MAX holds it (11.5 m/s in SITL), is seen in flight.
     """
 
     name: ClassVar[str] = "ArduCopter"
     modes: ClassVar[Mapping[int, str]] = _COPTER_MODES
+    lean_param = "ANGLE_MAX"  # (its top speed, where drag balances that lean: seen in flight)
     setup_steps: tuple[SetupStep, ...] = (
         SetupStep.MODE,
         SetupStep.ARM,

@@ -34,6 +34,7 @@ from typing import Any, ClassVar
 from pymavlink.dialects.v20 import common as mavlink
 
 from convoy_mav.geo import LocalFrame
+from convoy_mav.mavlink.autopilots.topspeed import TopSpeed
 from convoy_mav.types import Setpoint
 
 __all__ = [
@@ -415,6 +416,9 @@ class Autopilot(ABC):
         speed_floor: The slowest (m/s, planes), once reported.
         speed_names: The names under which the autopilot reported them.
         fastest_asked: The fastest horizontal speed the setpoints asked for (m/s).
+        top_speed: A copter's top speed as seen in flight (:mod:`.topspeed`).
+        lean_param: What bounds how far a copter leans, so how fast it flies (for
+            the alarm's advice; None: unknown).
     """
 
     name: ClassVar[str] = "autopilot"
@@ -424,6 +428,7 @@ class Autopilot(ABC):
     takeoff_mode: ClassVar[str | None] = None
     """The mode that climbs out by itself (ArduPlane TAKEOFF); None: a command does."""
     speed_params: SpeedParams | None = None
+    lean_param: str | None = None
 
     def __init__(self, sysid: int, compid: int, frame: LocalFrame, kind: VehicleClass) -> None:
         self.sysid = sysid
@@ -434,6 +439,7 @@ class Autopilot(ABC):
         self.speed_floor: float | None = None
         self.speed_names: dict[str, str] = {}
         self.fastest_asked = 0.0
+        self.top_speed = TopSpeed() if kind is VehicleClass.COPTER else None
 
     def __str__(self) -> str:
         return f"{self.name} {self.kind}"
@@ -523,6 +529,8 @@ class Autopilot(ABC):
             return
         current = dict(p.older).get(name, name)
         if current == p.high:
+            if self.top_speed is not None and self.speed_limit != value * p.unit:
+                self.top_speed.forget()  # (seen held back by the old limit, maybe)
             self.speed_limit = value * p.unit
         elif current == p.low:
             self.speed_floor = value * p.unit
@@ -571,6 +579,13 @@ class Autopilot(ABC):
             return f"up to {hi:.1f} m/s ({high})"
         return f"from {lo:.1f} m/s ({low})"
 
+    def observe_flight(self, t: float, flown: float, asked: float, behind: float) -> bool:
+        """A position update on its slot: ``flown`` and ``asked`` horizontal speeds
+        (m/s), how far (m) it trails its setpoint. True when a copter's top speed was
+        learnt or moved (:class:`.TopSpeed`)."""
+        learner = self.top_speed
+        return learner is not None and learner.observe(t, flown, asked, behind) is not None
+
     def learnt(self) -> dict[str, float]:
         """What the strategy has learnt of the airframe while flying (for the report)."""
         out = {}
@@ -578,27 +593,46 @@ class Autopilot(ABC):
             out["speed_limit_mps"] = round(self.speed_limit, 2)
         if self.speed_floor is not None:
             out["speed_floor_mps"] = round(self.speed_floor, 2)
+        if self.top_speed is not None and self.top_speed.top is not None:
+            out["top_speed_mps"] = round(self.top_speed.top, 2)
         return out
+
+    def speed_seen(self) -> tuple[float | None, float | None, float | None]:
+        """The speeds known of the airframe (limit, floor, top seen): when they change,
+        an alarm on them is looked at again."""
+        seen = None if self.top_speed is None else self.top_speed.top
+        return self.speed_limit, self.speed_floor, seen
 
     def cannot_fly(
         self, airspeed: float = 0.0, band: tuple[float, float] = (1.0, 1.0)
     ) -> str | None:
         """Why the plan asks for more than this airframe gives, if it does: speeds
-        outside the range its autopilot reported.
+        outside the range its autopilot reported, or above a copter's top speed seen.
 
         Args:
             airspeed: The plan's cruise airspeed (m/s).
             band: The fractions of it the plan's legs fly at (the road planner's
-                0.85-1.15); a plane's phase loop adds +-``PHASE_LIMIT`` round it.
+                0.85-1.15); a plane's phase loop adds +-``PHASE_LIMIT`` round it, and
+                a copter needs that much over the plan's speed too, to catch up once
+                behind its slot (SITL ArduCopters whose top speed was the plan's trailed
+                it 70-110 m for good).
         """
+        lo, hi = band[0], max(band[1], 1.0 + PHASE_LIMIT)
+        if self.kind is VehicleClass.PLANE:
+            lo = min(lo, 1.0 - PHASE_LIMIT)
+        top, bottom = max(self.fastest_asked, hi * airspeed), lo * airspeed
+        limit, floor = self.speed_limit, self.speed_floor
+        seen = None if self.top_speed is None else self.top_speed.top
+        if seen is not None and (limit is None or seen < limit) and top > seen + _SPEED_LIMIT_TOL:
+            lean = f"let it lean further ({self.lean_param}) or " if self.lean_param else ""
+            return (
+                f"flies no faster than {seen:.1f} m/s (seen in flight, behind its slot), "
+                f"the plan asks for up to {top:.1f} m/s: {lean}scale airspeed_mps by "
+                f"{seen / top:.2f}"
+            )
         p = self.speed_params
         if p is None:
             return None
-        lo, hi = band
-        if self.kind is VehicleClass.PLANE:
-            lo, hi = min(lo, 1.0 - PHASE_LIMIT), max(hi, 1.0 + PHASE_LIMIT)
-        top, bottom = max(self.fastest_asked, hi * airspeed), lo * airspeed
-        limit, floor = self.speed_limit, self.speed_floor
         if limit is not None and top > limit + _SPEED_LIMIT_TOL:
             high = self.speed_names.get(p.high, p.high)
             return (

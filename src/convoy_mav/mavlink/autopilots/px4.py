@@ -103,6 +103,7 @@ class PX4(Autopilot):
         else:
             self.setup_steps = (SetupStep.SETPOINTS, SetupStep.MODE, SetupStep.ARM, SetupStep.CLIMB)
             self.speed_params = SpeedParams("MPC_XY_VEL_MAX")  # (OFFBOARD's velocity clamp)
+            self.lean_param = "MPC_TILTMAX_AIR"
 
     def stream_requests(self, rates: Mapping[int, float]) -> list[Message]:
         """``rates``, and the profile's high-rate streams the service never reads stopped."""
