@@ -19,9 +19,13 @@
 # from MAVProxy: the service's mission clock must follow the new rate at once (the
 # report's mission_clock: rate_changes, speedup) and the flight go on covered.
 # SET_PARAM=AFTER_S:NAME=VALUE sets any parameter so, and PARAMS="NAME=VALUE ..." starts
-# every instance with those values over its defaults, e.g. a copter slower than the plan
-# (PARAMS="WPNAV_SPEED=700" SET_PARAM=90:WPNAV_SPEED=1000 ... copter 400 5): the
+# every instance with those values over its defaults, e.g. a plane slower than the plan
+# (PARAMS="AIRSPEED_MAX=24" SET_PARAM=80:AIRSPEED_MAX=30 ... plane 600 5): the
 # service's airframe alarm is raised at set-up and cleared once the range is raised.
+#
+# CONFIG=FILE flies another mission config on the same three ports, e.g.
+# CONFIG=checks/sitl_copter_fast.toml (copters asked for 18 m/s, faster than SITL's quad
+# flies at ANGLE_MAX 30 degrees: the service sees its top speed and alarms).
 #
 # With UAVS=N (more than 3), N aircraft fly the scripted convoy: spares beyond the
 # paper's minimum.
@@ -66,22 +70,23 @@ cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done; wait 
 trap cleanup EXIT INT TERM
 # Homes 40 m apart along a line east of the mission origin (CMAC, ArduPilot's default).
 lat=-35.363262 lon=149.165237 alt=584
-config=checks/sitl_$frame.toml
+base=${CONFIG:-checks/sitl_$frame.toml}  # (the three UAVs, the aircraft and the convoy)
+config=$base
 uavs=3
 if [ -z "${ROAD:-}" ] && [ "${UAVS:-3}" -gt 3 ]; then  # more than the paper's minimum: spares
   uavs=$UAVS config=$out/fleet.toml
-  { sed -n '/^\[convoy\]/q;p' "checks/sitl_$frame.toml"
+  { sed -n '/^\[convoy\]/q;p' "$base"
     for k in $(seq 4 "$uavs"); do
       printf '[[uav]]\nconnection = "udpin:127.0.0.1:%d"\nsysid = %d\n\n' $((14560 + k - 1)) "$k"
     done
-    sed -n '/^\[convoy\]/,$p' "checks/sitl_$frame.toml"; } >"$config"
+    sed -n '/^\[convoy\]/,$p' "$base"; } >"$config"
 fi
 if [ -n "${ROAD:-}" ]; then
   config=$out/road.toml
   # The road as the mock's CSV track, and the config: the aircraft past the base
   # config's three, the rovers' links. The mock's own aircraft (idle) keep the rovers'
   # ids past the service's UAVs. Prints the fleet's size.
-  uavs=$("$py" - "$ROAD" "$out" "checks/sitl_$frame.toml" "${UAVS:-0}" $lat $lon $alt <<'PY'
+  uavs=$("$py" - "$ROAD" "$out" "$base" "${UAVS:-0}" $lat $lon $alt <<'PY'
 import sys
 from convoy_mav.config import load_config
 from convoy_mav.geo import GeoPoint, LocalFrame
@@ -154,7 +159,7 @@ echo "SITL: $uavs x $bin (speedup $speedup), logs in $out/K/sitl.log${ROAD:+; ro
 if [ -n "${SECOND_AFTER:-}" ]; then
   sed -e 's/udpin:127.0.0.1:14560/tcp:127.0.0.1:5762/' \
     -e 's/udpin:127.0.0.1:14561/tcp:127.0.0.1:5772/' \
-    -e 's/udpin:127.0.0.1:14562/tcp:127.0.0.1:5782/' "checks/sitl_$frame.toml" >"$out/second.toml"
+    -e 's/udpin:127.0.0.1:14562/tcp:127.0.0.1:5782/' "$base" >"$out/second.toml"
   (sleep "$SECOND_AFTER"
    .venv/bin/convoy-mav run --config "$out/second.toml" --duration "$duration" \
      --report "$out/second.json" --quiet >"$out/second.log" 2>&1

@@ -368,8 +368,9 @@ def test_a_px4_copter_learns_its_speed_limit_and_says_when_the_plan_asks_more() 
     assert ap.speed_limit == pytest.approx(18.0)
     assert ap.learnt() == {"speed_limit_mps": 18.0}
     assert ap.cannot_fly(18.0) == (  # the paper's plan at 18 m/s, and 15 % to catch up
-        f"flies no faster than 18.0 m/s ({name}), the plan asks for up to 20.7 m/s: set "
-        f"{name} to at least {math.ceil(20.7 / unit - 1e-9)} or scale airspeed_mps by 0.87"
+        f"flies no faster than 18.0 m/s ({name}), the plan asks for up to 20.7 m/s (18.0 "
+        f"and 15 % to catch up): set {name} to at least {math.ceil(20.7 / unit - 1e-9)} or "
+        "scale airspeed_mps by 0.87"
     )
     assert ap.cannot_fly(18.0, road) == (  # the road's top speed before any is sent
         f"flies no faster than 18.0 m/s ({name}), the plan asks for up to 20.7 m/s: set "
@@ -417,8 +418,8 @@ def test_a_plane_learns_its_airspeed_range_and_says_when_the_plan_leaves_it(
     assert ap.cannot_fly(18.0, (0.85, 1.15)) is None
     ap.on_param(high, 20.0)  # the top of the phase loop, 20.7 m/s, is out of reach
     assert ap.cannot_fly(18.0) == (
-        f"flies no faster than 20.0 m/s ({high}), the plan asks for up to 20.7 m/s: "
-        f"set {high} to at least 21 or scale airspeed_mps by 0.97"
+        f"flies no faster than 20.0 m/s ({high}), the plan asks for up to 20.7 m/s (18.0 "
+        f"and 15 % to catch up): set {high} to at least 21 or scale airspeed_mps by 0.97"
     )
     ap.on_param(high, 21.0)
     ap.on_param(low, 16.0)
@@ -445,8 +446,9 @@ def test_an_arduplane_before_4_5_is_asked_for_its_older_names_and_told_in_them()
     assert ap.speed_range() == "up to 20.0 m/s (ARSPD_FBW_MAX)"
     assert ap.speed_limit == 20.0
     assert ap.cannot_fly(18.0) == (
-        "flies no faster than 20.0 m/s (ARSPD_FBW_MAX), the plan asks for up to 20.7 m/s: "
-        "set ARSPD_FBW_MAX to at least 21 or scale airspeed_mps by 0.97"
+        "flies no faster than 20.0 m/s (ARSPD_FBW_MAX), the plan asks for up to 20.7 m/s "
+        "(18.0 and 15 % to catch up): set ARSPD_FBW_MAX to at least 21 or scale "
+        "airspeed_mps by 0.97"
     )
     ap.on_param("AIRSPEED_MIN", 9.0)
     assert ap.unread_speed_params() == [] and ap.speed_floor == 9.0

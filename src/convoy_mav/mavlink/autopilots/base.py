@@ -621,14 +621,16 @@ class Autopilot(ABC):
         if self.kind is VehicleClass.PLANE:
             lo = min(lo, 1.0 - PHASE_LIMIT)
         top, bottom = max(self.fastest_asked, hi * airspeed), lo * airspeed
+        asks = f"the plan asks for up to {top:.1f} m/s"
+        if band[1] < hi and top == hi * airspeed:  # (the margin, not the plan, sets it)
+            asks += f" ({airspeed:.1f} and {100 * PHASE_LIMIT:.0f} % to catch up)"
         limit, floor = self.speed_limit, self.speed_floor
         seen = None if self.top_speed is None else self.top_speed.top
         if seen is not None and (limit is None or seen < limit) and top > seen + _SPEED_LIMIT_TOL:
             lean = f"let it lean further ({self.lean_param}) or " if self.lean_param else ""
             return (
                 f"flies no faster than {seen:.1f} m/s (seen in flight, behind its slot), "
-                f"the plan asks for up to {top:.1f} m/s: {lean}scale airspeed_mps by "
-                f"{seen / top:.2f}"
+                f"{asks}: {lean}scale airspeed_mps by {seen / top:.2f}"
             )
         p = self.speed_params
         if p is None:
@@ -636,9 +638,9 @@ class Autopilot(ABC):
         if limit is not None and top > limit + _SPEED_LIMIT_TOL:
             high = self.speed_names.get(p.high, p.high)
             return (
-                f"flies no faster than {limit:.1f} m/s ({high}), the plan asks for up to "
-                f"{top:.1f} m/s: set {high} to at least {math.ceil(top / p.unit - 1e-9)} "
-                f"or scale airspeed_mps by {limit / top:.2f}"
+                f"flies no faster than {limit:.1f} m/s ({high}), {asks}: set {high} to at "
+                f"least {math.ceil(top / p.unit - 1e-9)} or scale airspeed_mps by "
+                f"{limit / top:.2f}"
             )
         if p.low is not None and floor is not None and 0.0 < bottom < floor - _SPEED_LIMIT_TOL:
             low = self.speed_names.get(p.low, p.low)
