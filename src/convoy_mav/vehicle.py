@@ -300,6 +300,12 @@ class Vehicle:
         self.reflying_t = -math.inf  # mission time it flew again after a new set-up
         self.foreign_mode_t = -math.inf  # mission time another station's mode change was taken
         self._stream_loss_text_t = -math.inf  # mission time of the last stream-loss STATUSTEXT
+        # The autopilot's own time (s since boot) of its latest stamp, of that text and of
+        # its last fall from our mode: no step of mission time falls between them (a
+        # simulator paused, a fleet-wide silence heard out), so they are compared so too.
+        self._boot_s = -math.inf
+        self._stream_loss_text_boot = -math.inf
+        self._left_mode_boot = -math.inf
         self._flown = False
         self.first_heard_t: float | None = None
         self._statustext_t = -math.inf
@@ -429,15 +435,13 @@ class Vehicle:
             return
         boot_ms = getattr(msg, "time_boot_ms", None)
         # (a camera or companion has a boot clock of its own)
-        if (
-            boot_ms is not None
-            and msg.get_srcComponent() == self._compid
-            and self._observe_boot(boot_ms) is Observed.REJECTED
-        ):
-            self._reject(
-                "clock_jump", f"time_boot_ms {boot_ms} is ahead of its clock; frame dropped"
-            )
-            return
+        if boot_ms is not None and msg.get_srcComponent() == self._compid:
+            if self._observe_boot(boot_ms) is Observed.REJECTED:
+                self._reject(
+                    "clock_jump", f"time_boot_ms {boot_ms} is ahead of its clock; frame dropped"
+                )
+                return
+            self._boot_s = boot_ms / 1000.0
         now = self.clock.now()
         self._heard_t = now
         self.received += 1
@@ -474,6 +478,7 @@ class Vehicle:
         seen = self.clock.observe(boot_ms, self.uid)  # (it tells a reboot from reordering)
         if seen is Observed.REBOOTED:
             self.counters["reboots"] += 1
+            self._stream_loss_text_boot = self._left_mode_boot = -math.inf  # (another boot)
             self.home = None  # (set anew by the estimator)
             self._emit(EventKind.REBOOTED, "autopilot rebooted", _M.MAV_SEVERITY_WARNING)
             if self.firmware is not None:
@@ -506,6 +511,7 @@ class Vehicle:
         self.armed = bool(msg.base_mode & _ARMED)
         mode, self.mode = self.mode, ap.mode_name(msg.custom_mode)
         if self.status is _S.FLYING and mode == ap.external_mode != self.mode:
+            self._left_mode_boot = self._boot_s
             self._emit(
                 EventKind.MODE,
                 f"autopilot left {mode} for {self.mode} (failsafe or pilot); "
@@ -549,6 +555,7 @@ class Vehicle:
         self._statustext_t = now
         if _is_stream_loss_failsafe(text):
             self._stream_loss_text_t = now
+            self._stream_loss_text_boot = self._boot_s
         self._emit(EventKind.STATUSTEXT, text, int(msg.severity))
 
     def handle_GLOBAL_POSITION_INT(self, msg: Message, now: float) -> None:
@@ -1224,6 +1231,9 @@ class Vehicle:
             return False
         return (
             abs(t - self._stream_loss_text_t) < _FAILSAFE_TEXT_S
+            # (the same by the autopilot's clock: mission time may have stepped between
+            # the text and the hold, on a loaded host after a simulator's pause)
+            or abs(self._left_mode_boot - self._stream_loss_text_boot) < _FAILSAFE_TEXT_S
             or 0.0 <= t - self.recovered_t < _OWN_FAILSAFE_S
             or 0.0 <= t - self.stream_resumed_t < _OWN_FAILSAFE_S
             # (a UAV set up again may report the hold of its outage late: the known

@@ -10,6 +10,7 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from convoy_mav.clock import MissionClock
 from convoy_mav.geo import GeoPoint, LocalFrame
+from convoy_mav.types import VehicleStatus
 from convoy_mav.vehicle import Vehicle
 
 OURS, STRANGER = 255, 200
@@ -86,3 +87,44 @@ def test_only_a_strangers_accepted_mode_command_counts() -> None:
     _mode_ack(v, 99.0, to=OURS)  # (our own mode command's answer)
     assert v.hold_is_ours(100.0)
     assert v.counters["foreign_mode"] == 0
+
+
+def test_a_failsafe_across_a_step_of_mission_time_is_ours_by_the_autopilots_clock() -> None:
+    """On a loaded host after a simulator's pause, mission time can step between the
+    stream-loss text and the HEARTBEAT showing the hold (14 s here): the autopilot's own
+    clock, on the messages around them, still puts them a second apart."""
+    uav = mavlink.MAVLink(None, srcSystem=2, srcComponent=1)
+
+    def heard(msg: Any) -> None:
+        v.handle(uav.decode(bytearray(msg.pack(uav))))
+
+    def position(boot_ms: int) -> Any:
+        return mavlink.MAVLink_global_position_int_message(
+            boot_ms, 473977420, 85455940, 538000, 50000, 0, 0, 0, 0
+        )
+
+    offboard, loiter = 6 << 16, (4 << 16) | (3 << 24)  # PX4 OFFBOARD, AUTO.LOITER
+    armed = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mavlink.MAV_MODE_FLAG_SAFETY_ARMED
+
+    def beat(mode: int) -> Any:
+        return mavlink.MAVLink_heartbeat_message(
+            mavlink.MAV_TYPE_QUADROTOR, mavlink.MAV_AUTOPILOT_PX4, armed, mode, 4, 3
+        )
+
+    v = _vehicle()
+    heard(beat(offboard))
+    v._set_status(VehicleStatus.FLYING)
+    heard(position(300_000))
+    _text(v, FAILSAFE_TEXT, 100.0)  # (mission time before the step)
+    heard(position(301_000))
+    heard(beat(loiter))
+    assert v.status is VehicleStatus.HOLDING
+    assert v.hold_is_ours(114.0)  # (mission time after it)
+    v = _vehicle()  # the same text 60 s of its own clock before the hold: no explanation
+    heard(beat(offboard))
+    v._set_status(VehicleStatus.FLYING)
+    heard(position(300_000))
+    _text(v, FAILSAFE_TEXT, 100.0)
+    heard(position(360_000))
+    heard(beat(loiter))
+    assert not v.hold_is_ours(160.0)
