@@ -593,15 +593,19 @@ class Autopilot(ABC):
             out["speed_limit_mps"] = round(self.speed_limit, 2)
         if self.speed_floor is not None:
             out["speed_floor_mps"] = round(self.speed_floor, 2)
-        if self.top_speed is not None and self.top_speed.top is not None:
-            out["top_speed_mps"] = round(self.top_speed.top, 2)
+        if (top := self.seen_top) is not None:
+            out["top_speed_mps"] = round(top, 2)
         return out
 
     def speed_seen(self) -> tuple[float | None, float | None, float | None]:
         """The speeds known of the airframe (limit, floor, top seen): when they change,
         an alarm on them is looked at again."""
-        seen = None if self.top_speed is None else self.top_speed.top
-        return self.speed_limit, self.speed_floor, seen
+        return self.speed_limit, self.speed_floor, self.seen_top
+
+    @property
+    def seen_top(self) -> float | None:
+        """A copter's top speed as seen in flight (m/s); None until seen, or a plane."""
+        return None if self.top_speed is None else self.top_speed.top
 
     def cannot_fly(
         self, airspeed: float = 0.0, band: tuple[float, float] = (1.0, 1.0)
@@ -625,7 +629,7 @@ class Autopilot(ABC):
         if band[1] < hi and top == hi * airspeed:  # (the margin, not the plan, sets it)
             asks += f" ({airspeed:.1f} and {100 * PHASE_LIMIT:.0f} % to catch up)"
         limit, floor = self.speed_limit, self.speed_floor
-        seen = None if self.top_speed is None else self.top_speed.top
+        seen = self.seen_top
         if seen is not None and (limit is None or seen < limit) and top > seen + _SPEED_LIMIT_TOL:
             lean = f"let it lean further ({self.lean_param}) or " if self.lean_param else ""
             return (
