@@ -43,6 +43,13 @@
 # count with a route, as the README's first SITL road rows were). The score is the
 # rovers' own positions in the tlog.
 #
+# With ROVER=1 as well, the convoy is one real rover instead: an ArduRover SITL (sysid
+# 60, instance 20, its home at the road's start) sent down the road as its mission in
+# AUTO at ROVER_SPEED m/s (8; checks/rover_mission.py drive, through its serial1) once its
+# position estimate is good, and the service reads that mission as the route
+# ([convoy] route = "mission"), with the count for a road with one (the stationary
+# minimum + 1). Its speeds and its corners are the firmware's, not the road's.
+#
 # SITL_DIR is an ArduPilot tree with build/sitl/bin/arducopter and arduplane built
 # (see the project's notes on building SITL; it is not part of `make test`).
 # Each instance pushes MAVLink to udpin:127.0.0.1:1456K (its --serial0) and writes
@@ -86,16 +93,16 @@ if [ -n "${ROAD:-}" ]; then
   # The road as the mock's CSV track, and the config: the aircraft past the base
   # config's three, the rovers' links. The mock's own aircraft (idle) keep the rovers'
   # ids past the service's UAVs. Prints the fleet's size.
-  uavs=$("$py" - "$ROAD" "$out" "$base" "${UAVS:-0}" $lat $lon $alt <<'PY'
+  uavs=$("$py" - "$ROAD" "$out" "$base" "${UAVS:-0}" $lat $lon $alt "${ROVER:-}" <<'PY'
 import sys
 from convoy_mav.config import load_config
 from convoy_mav.geo import GeoPoint, LocalFrame
 from convoy_mav.mission.choose import road_fleet
 from convoy_mav.tracks.roads import road_kind
 kind, out, base = sys.argv[1:4]
-asked, (lat, lon, alt) = int(sys.argv[4]), (float(x) for x in sys.argv[5:])
+asked, (lat, lon, alt), rover = int(sys.argv[4]), (float(x) for x in sys.argv[5:8]), sys.argv[8]
 plan = load_config(base).plan_request()
-fleet = asked or road_fleet(plan.turn_radius, plan.sensor_radius, route=False)
+fleet = asked or road_fleet(plan.turn_radius, plan.sensor_radius, route=bool(rover))
 road, frame = road_kind(kind), LocalFrame(GeoPoint(lat, lon, alt))
 with open(f"{out}/road.csv", "w") as fh:
     fh.write("time,lat,lon\n")
@@ -112,15 +119,33 @@ more = "".join(
     f'[[uav]]\nconnection = "udpin:127.0.0.1:{14560 + k - 1}"\nsysid = {k}\n\n'
     for k in range(4, fleet + 1)
 )
+convoy = '[convoy]\nsource = "mavlink"\n\n'
+if rover:  # the real rover's own link, and its mission as the route
+    convoy = '[convoy]\nsource = "mavlink"\nroute = "mission"\n\n'
+    links = '[[convoy.vehicle]]\nconnection = "udpin:127.0.0.1:14600"\nsysid = 60\n\n'
 with open(f"{out}/road.toml", "w") as fh:
-    fh.write(head + more + '[convoy]\nsource = "mavlink"\n\n' + links)
+    fh.write(head + more + convoy + links)
 print(fleet)
 PY
 )
-  .venv/bin/sitl-mock --aircraft $((uavs + 1)) --ground 2 --personality ardupilot --frame "$frame" \
-    --speedup "$speedup" --base-port 14640 --origin="$lat,$lon,$alt" \
-    --ground-route csv --ground-csv "$out/road.csv" >"$out/mock.log" 2>&1 &
-  pids+=($!)
+  if [ -n "${ROVER:-}" ]; then
+    rover_home=$(sed -n 2p "$out/road.csv" | cut -d, -f2,3)
+    mkdir -p "$out/rover"
+    printf 'WP_SPEED %s\nCRUISE_SPEED %s\n' "${ROVER_SPEED:-8}" "${ROVER_SPEED:-8}" >"$out/rover.parm"
+    (cd "$out/rover" && exec "$SITL_DIR/build/sitl/bin/ardurover" --model rover \
+        --speedup "$speedup" -I 20 --sysid 60 --home "$rover_home,$alt,0" \
+        --defaults "$SITL_DIR/Tools/autotest/default_params/rover.parm,$PWD/../rover.parm" \
+        --serial0 udpclient:127.0.0.1:14600 >sitl.log 2>&1) &
+    pids+=($!)
+    "$py" checks/rover_mission.py drive tcp:127.0.0.1:5962 "$out/road.csv" "${ROVER_SPEED:-8}" \
+      >"$out/rover_drive.log" 2>&1 &
+    pids+=($!)
+  else
+    .venv/bin/sitl-mock --aircraft $((uavs + 1)) --ground 2 --personality ardupilot \
+      --frame "$frame" --speedup "$speedup" --base-port 14640 --origin="$lat,$lon,$alt" \
+      --ground-route csv --ground-csv "$out/road.csv" >"$out/mock.log" 2>&1 &
+    pids+=($!)
+  fi
 fi
 start_instance() {  # start_instance K: SITL instance K (UAV K+1) on its pad; sets $pid
   local k=$1 home
@@ -205,6 +230,14 @@ for a in report['alarms']:
         print(f\"alarm airframe at {a['t']:.1f} s ({'raised' if a['active'] else 'cleared'}): {a['message']}\")
 for v in report['vehicles']:
     print(f\"UAV {v['sysid']} speed range:\", {k: x for k, x in v['learnt'].items() if k.startswith('speed')})
+" "$out/report.json"
+fi
+if [ -n "${ROVER:-}" ]; then
+  cat "$out/rover_drive.log"
+  "$py" -c "
+import json, sys
+planner = json.load(open(sys.argv[1]))['planner']
+print('route:', planner.get('route_source'), planner.get('route_length_m'), 'm; mission reads:', planner.get('mission_reads'))
 " "$out/report.json"
 fi
 if [ -n "${KILL:-}" ]; then

@@ -57,6 +57,12 @@ def _parser() -> argparse.ArgumentParser:
     g.add_argument("--ground-points", metavar="N,E;N,E;...", help="polyline vertices")
     g.add_argument("--ground-csv", metavar="FILE", help="track with columns time,lat,lon")
     g.add_argument("--ground-spacing", type=float, metavar="M", help="metres between vehicles")
+    g.add_argument(
+        "--ground-mission",
+        action="store_true",
+        default=None,
+        help="the lead serves its road as its mission (a rover in AUTO)",
+    )
     f = p.add_argument_group("faults")
     f.add_argument("--loss-to-vehicle", type=float, metavar="P", help="datagram loss probability")
     f.add_argument("--loss-from-vehicle", type=float, metavar="P", help="datagram loss probability")
@@ -109,6 +115,7 @@ def _overrides(ns: argparse.Namespace) -> dict[str, Any]:
         "heading": ns.ground_heading,
         "spacing": ns.ground_spacing,
         "csv": os.path.abspath(ns.ground_csv) if ns.ground_csv else None,
+        "mission": ns.ground_mission,
     }
     if ns.ground_start:
         ground["start"] = _pairs("--ground-start", ns.ground_start)[0]

@@ -48,6 +48,7 @@ from sitl_mock.messages import (
     autopilot_version,
     statustext,
 )
+from sitl_mock.mission import RoverMission, as_float_item
 from sitl_mock.params import Knob, ParamTable
 from sitl_mock.personality import Firmware, Personality, firmware_for
 from sitl_mock.streams import AIRCRAFT_DEFAULT_INTERVALS, GROUND_DEFAULT_INTERVALS, StreamScheduler
@@ -116,6 +117,8 @@ class VehicleSpec:
             habit (PX4 yes, ArduPilot no: HEARTBEAT only until requested).
         signing_key: MAVLink 2 signing key (32 bytes): it signs what it sends and
             accepts only signed frames (None: unsigned until a SETUP_SIGNING).
+        mission: Ground vehicles: serve the route's road as the mission it drives
+            (``sitl_mock.mission``), readable over the mission protocol.
 
     Raises:
         ValueError: A field is out of range; the message names it.
@@ -132,6 +135,7 @@ class VehicleSpec:
     compid: int = 1
     streams_on_boot: bool | None = None
     signing_key: bytes | None = None
+    mission: bool = False
 
     def __post_init__(self) -> None:
         if not 1 <= self.sysid <= 255:
@@ -142,8 +146,10 @@ class VehicleSpec:
             raise ValueError(f"compid must be in 1..255, got {self.compid!r}")
         if self.kind not in ("aircraft", "ground"):
             raise ValueError(f"kind must be 'aircraft' or 'ground', got {self.kind!r}")
-        if self.kind == "aircraft" and self.route is not None:
-            raise ValueError(f"route: sysid {self.sysid} is an aircraft; only ground vehicles")
+        if self.kind == "aircraft" and (self.route is not None or self.mission):
+            raise ValueError(
+                f"route, mission: sysid {self.sysid} is an aircraft; only ground vehicles"
+            )
         if not (math.isfinite(self.warmup_s) and self.warmup_s >= 0.0):
             raise ValueError(f"warmup_s must be finite and >= 0, got {self.warmup_s!r}")
         if not (math.isfinite(self.setpoint_timeout_s) and self.setpoint_timeout_s > 0.0):
@@ -253,7 +259,14 @@ class SimVehicle:
             "MISSION_REQUEST_LIST": self._on_mission_request_list,
             "MISSION_COUNT": self._on_mission_count,
             "MISSION_ITEM_INT": self._on_mission_item_int,
+            "MISSION_REQUEST_INT": self._on_mission_request,
+            "MISSION_REQUEST": self._on_mission_request,
+            "MISSION_ACK": self._on_mission_ack,
         }
+        # A rover's mission: its route's road, served to a ground station that reads it.
+        self.mission = (
+            RoverMission.of(spec.route, world) if spec.mission and spec.route is not None else None
+        )
         self.fence: list[Message] = []  # the geofence items last uploaded (MISSION_ITEM_INT)
         self._fence_upload: list[Message | None] | None = None
         self._commands: dict[int, Callable[[Command, float], Outcome]] = {
@@ -422,7 +435,19 @@ class SimVehicle:
             battery_consumed_mah=self._battery_s * 15.0 / 3.6,
             landed_state=fl.landed_state(),
             target=None if target is None else self.world.to_geo(*target),
+            **self._mission_progress(now),
         )
+
+    def _mission_progress(self, now: float) -> dict[str, int]:
+        mission = self.mission
+        if mission is None:
+            return {}
+        home_first = self.firmware.is_ardupilot
+        return {
+            "mission_seq": mission.current(now, home_first=home_first),
+            # (ArduPilot leaves its home item out of the total: GCS_MAVLINK)
+            "mission_total": mission.count(home_first=False),
+        }
 
     def truth(self, now: float) -> TruthRow:
         """The vehicle's true state at sim time ``now`` (world NED, SI units)."""
@@ -476,8 +501,36 @@ class SimVehicle:
         return [_R.MAVLink_ping_message(msg.time_usec, msg.seq, src, comp)]
 
     def _on_mission_request_list(self, msg: Message, now: float) -> list[Message]:
+        """How many items a read will get: a rover's mission, else none of any type."""
         src, comp = msg.get_srcSystem(), msg.get_srcComponent()
-        return [_R.MAVLink_mission_count_message(src, comp, 0, msg.mission_type)]
+        count = 0
+        if self.mission is not None and msg.mission_type == _R.MAV_MISSION_TYPE_MISSION:
+            count = self.mission.count(home_first=self.firmware.is_ardupilot)
+            self.counters["mission_reads"] += 1
+        return [_R.MAVLink_mission_count_message(src, comp, count, msg.mission_type)]
+
+    def _on_mission_request(self, msg: Message, now: float) -> list[Message]:
+        """One item of a read: MISSION_ITEM_INT, or MISSION_ITEM to the float form's
+        MISSION_REQUEST (as ArduPilot answers it); an item it does not hold is a MISSION_ACK
+        error."""
+        src, comp = msg.get_srcSystem(), msg.get_srcComponent()
+        kind = msg.mission_type
+        item = None
+        if self.mission is not None and kind == _R.MAV_MISSION_TYPE_MISSION:
+            item = self.mission.item(
+                msg.seq, self.flight.home, (src, comp), home_first=self.firmware.is_ardupilot
+            )
+        if item is None:
+            bad = _R.MAV_MISSION_INVALID_SEQUENCE
+            return [_R.MAVLink_mission_ack_message(src, comp, bad, kind)]
+        if msg.get_type() == "MISSION_REQUEST":
+            return [as_float_item(item)]
+        return [item]
+
+    def _on_mission_ack(self, msg: Message, now: float) -> list[Message]:
+        """A reader closing its read (or cancelling it): nothing to answer."""
+        self.counters["mission_read_acks"] += 1
+        return []
 
     def _on_mission_count(self, msg: Message, now: float) -> list[Message]:
         """A geofence upload begins (mission protocol, MAV_MISSION_TYPE_FENCE): ask for item 0.

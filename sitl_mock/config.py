@@ -46,6 +46,8 @@ Schema (every key optional)::
     csv = "track.csv"                 # time,lat,lon (relative to this file)
     track = [[0.0, 47.3977, 8.5456], [60.0, 47.4019, 8.5456]]  # the csv's rows, inline
     spacing = 20.0                    # m between successive ground vehicles
+    mission = false                   # the lead serves its road as its mission (polyline,
+                                      #   csv, track: a rover in AUTO), read over MAVLink
 
     [faults]
     loss_to_vehicle = 0.0
@@ -132,6 +134,7 @@ _AIRCRAFT_KEYS = {
 _VEHICLE_KEYS = _AIRCRAFT_KEYS | {"sysid", "home", "home_ned"}
 _GROUND_KEYS = {
     "count",
+    "mission",
     "route",
     "start",
     "speed",
@@ -556,6 +559,11 @@ def _ground_specs(
     else:
         raise ConfigError(g.key("route"), kind, "must be stationary, line, polyline, csv or track")
     lead_speed = speed if kind not in ("csv", "track") else _track_speed(route)
+    mission = g.flag("mission", False)
+    if mission and kind not in ("polyline", "csv", "track"):
+        raise ConfigError(
+            g.key("mission"), True, f"needs a road: route polyline, csv or track, not {kind}"
+        )
     specs: list[VehicleSpec] = []
     for j in range(count):
         member: Route = route
@@ -572,6 +580,7 @@ def _ground_specs(
                 home=world.to_geo(north, east, 0.0),
                 route=member,
                 warmup_s=g.number("warmup", 3.0, lo=0.0),
+                mission=mission and j == 0,
             )
         )
     return specs

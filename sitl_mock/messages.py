@@ -288,6 +288,8 @@ class Snapshot:
     battery_consumed_mah: float
     landed_state: int
     target: GeoPoint | None = None  # the position target the firmware reports, if any
+    mission_seq: int = 0  # a rover's mission: the item it drives to ...
+    mission_total: int = 0  # ... of this many (0: no mission, no MISSION_CURRENT)
 
     @property
     def groundspeed(self) -> float:
@@ -459,6 +461,15 @@ def _position_target_global_int(s: Snapshot) -> mavlink.MAVLink_message | None:
     )  # fmt: skip
 
 
+def _mission_current(s: Snapshot) -> mavlink.MAVLink_message | None:
+    """A rover's progress along its mission (nothing when it holds none)."""
+    if s.mission_total == 0:
+        return None
+    return mavlink.MAVLink_mission_current_message(
+        s.mission_seq, s.mission_total, mavlink.MISSION_STATE_ACTIVE, 0
+    )
+
+
 TELEMETRY_BUILDERS: dict[int, Callable[[Snapshot], mavlink.MAVLink_message | None]] = {
     mavlink.MAVLINK_MSG_ID_HEARTBEAT: _heartbeat,
     mavlink.MAVLINK_MSG_ID_SYS_STATUS: _sys_status,
@@ -472,6 +483,7 @@ TELEMETRY_BUILDERS: dict[int, Callable[[Snapshot], mavlink.MAVLink_message | Non
     mavlink.MAVLINK_MSG_ID_BATTERY_STATUS: _battery_status,
     mavlink.MAVLINK_MSG_ID_HOME_POSITION: _home_position,
     mavlink.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT: _position_target_global_int,
+    mavlink.MAVLINK_MSG_ID_MISSION_CURRENT: _mission_current,
 }
 """Message id -> builder; a builder returns None when it has nothing to say yet
 (HOME_POSITION before home is set)."""

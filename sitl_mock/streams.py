@@ -56,14 +56,17 @@ GROUND_DEFAULT_INTERVALS: Mapping[int, float] = {
     mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: 0.1,
     mavlink.MAVLINK_MSG_ID_LOCAL_POSITION_NED: 0.1,
     mavlink.MAVLINK_MSG_ID_HOME_POSITION: 2.0,
+    mavlink.MAVLINK_MSG_ID_MISSION_CURRENT: 1.0,
 }
-"""Default intervals (s) of a ground vehicle: a convoy member only reports where it is."""
+"""Default intervals (s) of a ground vehicle: a convoy member reports where it is (and
+a rover driving a mission which item it drives to)."""
 
 ARDUPILOT_STREAM_GROUPS: Mapping[int, tuple[int, ...]] = {
     mavlink.MAV_DATA_STREAM_EXTENDED_STATUS: (
         mavlink.MAVLINK_MSG_ID_SYS_STATUS,
         mavlink.MAVLINK_MSG_ID_GPS_RAW_INT,
         mavlink.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT,
+        mavlink.MAVLINK_MSG_ID_MISSION_CURRENT,
     ),
     mavlink.MAV_DATA_STREAM_POSITION: (
         mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT,

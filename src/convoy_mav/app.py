@@ -49,6 +49,7 @@ from convoy_mav.mavlink.autopilots.base import (
     set_message_interval,
 )
 from convoy_mav.mavlink.codec import GCS_COMPONENT, GCS_SYSTEM, MavCodec
+from convoy_mav.mavlink.missionread import MissionWatch
 from convoy_mav.mavlink.signing import Signing, load_key
 from convoy_mav.mission import (
     Mission,
@@ -73,6 +74,7 @@ from convoy_mav.schedule import POSITION_AT_HORIZON_S, position_at
 from convoy_mav.separation import conflicts
 from convoy_mav.streaming import SetpointStreamer
 from convoy_mav.tracks import load_route
+from convoy_mav.tracks.missionroute import mission_route
 from convoy_mav.types import ConvoyEstimate, Setpoint, Telemetry, VehicleStatus
 from convoy_mav.vehicle import EventKind, Vehicle, VehicleEvent
 
@@ -373,7 +375,9 @@ class ConvoyService:
             len(uav_ids),
             request.turn_radius,
             request.sensor_radius,
-            route=route is not None or config.convoy.route_file is not None,
+            route=route is not None
+            or config.convoy.route_file is not None
+            or config.convoy.route_from_mission,
         )
         self.mission: Mission | RoadMission
         if self.planner == "road":
@@ -390,6 +394,17 @@ class ConvoyService:
             self.mission = Mission(request, uav_ids, down=self._down, thresholds=thresholds)
         self._planner_why = why
         self._new_route: Road | None = None  # from MQTT, for the next mission step
+        self._route_source = (
+            "file"
+            if config.convoy.route_file is not None
+            else ("given" if self.route is not None else None)  # (replay --route-known)
+        )
+        # The lead ground vehicle's own mission, read as the convoy's route.
+        self._mission_watch = (
+            MissionWatch(config.convoy.vehicles[0].sysid)
+            if config.convoy.route_from_mission
+            else None
+        )
         # The mission step running in its worker thread, if one is.
         self._mission_job: (
             asyncio.Future[tuple[list[Any], MissionView, list[tuple[int, Setpoint]], int]] | None
@@ -445,7 +460,11 @@ class ConvoyService:
         vehicle = self.vehicles.get(sysid)
         if vehicle is not None:
             vehicle.handle(msg)
-        elif sysid in self._ground_ids and msg.get_type() == "PARAM_VALUE":
+            return
+        watch = self._mission_watch
+        if watch is not None and sysid == watch.target[0]:
+            self._mission_sends(watch.handle(msg, time.monotonic()))
+        if sysid in self._ground_ids and msg.get_type() == "PARAM_VALUE":
             if msg.param_id == "SIM_SPEEDUP":  # (a simulated convoy slowed with the UAVs)
                 self.clock.rate_set(float(msg.param_value), sysid)
         elif sysid in self._ground_ids and msg.get_type() == "GLOBAL_POSITION_INT":
@@ -462,6 +481,27 @@ class ConvoyService:
             velocity = (msg.vx * 0.01, msg.vy * 0.01)
             self.tracker.update(t, north, east, source=sysid, velocity=velocity)
             self._ground_heard[sysid] = t
+
+    def _mission_sends(self, out: Sequence[Any]) -> None:
+        """Send a mission read's requests to the lead ground vehicle; take a finished read."""
+        for msg in out:
+            self._ground_links[0].send(msg)
+        watch = self._mission_watch
+        read = None if watch is None else watch.take()
+        if watch is None or read is None:
+            return
+        sysid = watch.target[0]
+        if read.error is not None:
+            self._note(f"ground vehicle {sysid}'s mission not read: it {read.error}")
+            return
+        try:
+            route = mission_route(read.items or [], home_first=watch.ardupilot)
+        except ValueError as exc:
+            self._note(f"ground vehicle {sysid}'s mission is no route yet: {exc}")
+            return
+        remarks = route.remarks()
+        source = f"ground vehicle {sysid}'s mission" + (f" ({remarks})" if remarks else "")
+        self.set_route(route.points, source=source)
 
     def _on_mqtt_convoy(self, fix: Mapping[str, Any]) -> None:
         """A convoy position from ``<prefix>/convoy/position`` (already validated)."""
@@ -1264,10 +1304,18 @@ class ConvoyService:
             _GROUND_POSITION_HZ, mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT
         )
         unread = set_message_interval(0.0, mavlink.MAVLINK_MSG_ID_LOCAL_POSITION_NED)
+        # A mission read as the route: its progress says when it changes (ArduPilot
+        # streams MISSION_CURRENT only when asked).
+        progress = set_message_interval(1.0, mavlink.MAVLINK_MSG_ID_MISSION_CURRENT)
+        watch = self._mission_watch
         while True:
             now = self.clock.now() if self.clock.synced else 0.0
-            for link, g in zip(links, self.config.convoy.vehicles, strict=True):
+            if watch is not None:
+                self._mission_sends(watch.poll(time.monotonic()))
+            for i, (link, g) in enumerate(zip(links, self.config.convoy.vehicles, strict=True)):
                 if now - self._ground_heard.get(g.sysid, -math.inf) > _GROUND_STREAM_RETRY:
+                    if watch is not None and i == 0:
+                        link.send(progress.message(g.sysid, 1))
                     # Firmware unknown here: the modern request, and ArduPilot's stream group.
                     link.send(interval.message(g.sysid, 1))
                     link.send(
@@ -1813,8 +1861,11 @@ class ConvoyService:
             "reboots": c.reboots,
         }
 
-    def set_route(self, points: Sequence[tuple[float, float]]) -> None:
-        """A new route for the convoy, (lat, lon) in order (MQTT ``convoy/route``).
+    def set_route(
+        self, points: Sequence[tuple[float, float]], *, source: str = "MQTT convoy/route"
+    ) -> None:
+        """A new route for the convoy, (lat, lon) in order (MQTT ``convoy/route``, or the
+        lead ground vehicle's mission).
 
         Taken in at the next mission step (the mission lives in its worker thread);
         the paper's planner has no use for one, which the log says.
@@ -1825,10 +1876,13 @@ class ConvoyService:
         try:
             road = Road.from_geo(points, self.frame)
         except PlanningError as exc:
-            self._note(f"route of {len(points)} points refused: {exc}")
+            self._note(f"route of {len(points)} points from {source} refused: {exc}")
             return
         self._new_route = road
-        self._note(f"convoy route received: {len(points)} points, {road.length:.0f} m")
+        self._route_source = source
+        self._note(
+            f"convoy route received from {source}: {len(points)} points, {road.length:.0f} m"
+        )
 
     @property
     def route(self) -> Road | None:
@@ -1837,6 +1891,9 @@ class ConvoyService:
 
     def _planner_report(self) -> dict[str, Any]:
         out: dict[str, Any] = {"name": self.planner, "why": self._planner_why}
+        out["route_source"] = self._route_source
+        if self._mission_watch is not None:
+            out["mission_reads"] = self._mission_watch.reads
         # Convoy estimates whose velocity was the vehicles' own, and the fixes' slope.
         out["convoy_velocity"] = {k: self.tracker.counters[k] for k in _VELOCITY_SOURCES}
         if isinstance(self.mission, RoadMission):

@@ -166,6 +166,13 @@ def _build_parser() -> argparse.ArgumentParser:
         "without it the service sees only the ground vehicles' telemetry",
     )
     replay.add_argument(
+        "--route-mission",
+        action="store_true",
+        help="the lead ground vehicle drives the track's path as its mission (a rover in "
+        "AUTO); the service reads that mission over MAVLink as the convoy's route "
+        '([convoy] route = "mission")',
+    )
+    replay.add_argument(
         "--route", metavar="FILE",
         help="give the service this planned route (GPX trk/rte, CSV lat,lon, GeoJSON, KML/KMZ), "
         "as [convoy] route does for run, while the convoy drives TRACK, which need not keep "
@@ -629,9 +636,12 @@ async def _cmd_replay(args: argparse.Namespace) -> int:
             raise ConvoyError(f"{args.track}: cannot read the track: {e.strerror or e}") from e
         except ValueError as e:  # the message names the file and the line
             raise ConvoyError(str(e)) from e
+    if args.route_known and args.route_mission:
+        raise ConfigError("--route-mission", True, "give it or --route-known, not both")
     if args.route is not None:
-        if args.route_known:
-            raise ConfigError("--route", args.route, "give --route FILE or --route-known, not both")
+        if args.route_known or args.route_mission:
+            other = "--route-known" if args.route_known else "--route-mission"
+            raise ConfigError("--route", args.route, f"give --route FILE or {other}, not both")
         try:
             load_route(args.route)
         except OSError as e:
@@ -647,6 +657,7 @@ async def _cmd_replay(args: argparse.Namespace) -> int:
     if not args.quiet:
         uavs = args.uavs or scenario.fleet(route_known=_has_route(args))
         known = ", route known" if args.route_known else ""
+        known += ", route from the lead vehicle's mission" if args.route_mission else ""
         known += f", route {args.route}" if args.route is not None else ""
         print(
             f"replaying {args.track}: {len(track.times)} fixes over {track.duration:.1f} s, "
@@ -674,7 +685,11 @@ async def _cmd_replay(args: argparse.Namespace) -> int:
 
 def _has_route(args: argparse.Namespace) -> bool:
     """``replay`` gives the service a route: the track's path, or a route file."""
-    return bool(getattr(args, "route_known", False) or getattr(args, "route", None))
+    return bool(
+        getattr(args, "route_known", False)
+        or getattr(args, "route_mission", False)
+        or getattr(args, "route", None)
+    )
 
 
 async def _fly_mock(args: argparse.Namespace, scenario: Scenario, duration: float) -> int:
@@ -704,6 +719,7 @@ async def _fly_mock(args: argparse.Namespace, scenario: Scenario, duration: floa
         history=services,
         configure=configure,
         route_known=getattr(args, "route_known", False),
+        route_mission=getattr(args, "route_mission", False),
         signing_key_file=args.signing_key_file,
         mock_process=True,
         speedup_floor=None if args.fixed_speedup else DEMO_SPEEDUP_FLOOR,

@@ -57,6 +57,9 @@ times <= a day)::
                                   #   CSV lat,lon[,time], GeoJSON LineString or KML/KMZ path;
                                   #   relative to this file); the road
                                   #   planner predicts along it (the convoy may still leave it)
+                                  #   route = "mission": the first [[convoy.vehicle]]'s own
+                                  #   mission (a rover in AUTO), read over MAVLink, again
+                                  #   whenever it changes
     [[convoy.vehicle]]            # source = "mavlink": the ground vehicles' autopilots
     connection = "udpout:127.0.0.1:14544"
     sysid = 5
@@ -100,7 +103,7 @@ import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any, Literal, cast, get_args
+from typing import Any, Final, Literal, cast, get_args
 
 from convoy_mav.errors import ConfigError
 from convoy_mav.geo import GeoPoint
@@ -109,6 +112,7 @@ from convoy_mav.planning.export import compass_to_planner
 from convoy_mav.planning.plan import PlanRequest
 
 __all__ = [
+    "ROUTE_FROM_MISSION",
     "AircraftConfig",
     "ConvoyConfig",
     "ConvoyVehicleConfig",
@@ -176,6 +180,8 @@ class ConvoyVehicleConfig:
 
 
 ConvoySource = Literal["route", "mavlink", "mqtt"]
+ROUTE_FROM_MISSION: Final = "mission"
+"""``[convoy] route``'s value for the lead ground vehicle's own mission."""
 EndAction = Literal["loiter", "rtl", "land"]
 Planner = Literal["auto", "road", "paper"]
 
@@ -192,6 +198,7 @@ class ConvoyConfig:
     stale_after_s: float = 3.0
     vehicles: tuple[ConvoyVehicleConfig, ...] = ()
     route_file: str | None = None  # the road it will drive (GPX/CSV), if known
+    route_from_mission: bool = False  # ... or the lead ground vehicle's own mission
 
 
 @dataclass(frozen=True, slots=True)
@@ -471,7 +478,8 @@ def _convoy(data: Mapping[str, Any]) -> ConvoyConfig:
     )
     route = table.get("route")
     if route is not None and (not isinstance(route, str) or not route):
-        raise ConfigError("convoy.route", route, "must be the path of a GPX or CSV route file")
+        raise ConfigError("convoy.route", route, 'must be the path of a route file, or "mission"')
+    from_mission = route == ROUTE_FROM_MISSION
     source = table.get("source", "route")
     if source not in ("route", "mavlink", "mqtt"):
         raise ConfigError("convoy.source", source, "must be 'route', 'mavlink' or 'mqtt'")
@@ -491,6 +499,12 @@ def _convoy(data: Mapping[str, Any]) -> ConvoyConfig:
         raise ConfigError(
             "convoy.vehicle", [], "source 'mavlink' needs at least one [[convoy.vehicle]]"
         )
+    if from_mission and source != "mavlink":
+        raise ConfigError(
+            "convoy.route",
+            route,
+            'reads the first [[convoy.vehicle]]\'s mission: it needs source = "mavlink"',
+        )
     return ConvoyConfig(
         speed_mps=_number(
             table, "convoy", "speed_mps", 0.0, non_negative=True, at_most=MAX_SPEED_MPS
@@ -507,7 +521,8 @@ def _convoy(data: Mapping[str, Any]) -> ConvoyConfig:
             table, "convoy", "stale_after_s", 3.0, positive=True, at_most=MAX_WAIT_S
         ),
         vehicles=tuple(vehicles),
-        route_file=route,
+        route_file=None if from_mission else route,
+        route_from_mission=from_mission,
     )
 
 

@@ -253,8 +253,12 @@ def mock_mapping(
     faults: dict[str, Any] | None = None,
     signing_key: str | None = None,
     aircraft: Sequence[Mapping[str, Any]] = (),
+    ground_mission: bool = False,
 ) -> dict[str, Any]:
     """The sitl_mock configuration (as a mapping) for a scenario.
+
+    ``ground_mission``: the lead ground vehicle serves its road as its mission (a rover
+    in AUTO), for the service to read as the convoy's route.
 
     ``signing_key`` (hex or a passphrase): every aircraft signs with it and accepts
     only frames signed with it. ``aircraft``: per-aircraft overrides, the mock's
@@ -280,6 +284,8 @@ def mock_mapping(
         },
         "ground": {"count": ground, "spacing": 20.0, **scenario.ground_route(duration)},
     }
+    if ground_mission:
+        mapping["ground"]["mission"] = True
     if signing_key is not None:
         mapping["aircraft"]["signing_key"] = signing_key
     if aircraft:
@@ -336,6 +342,7 @@ async def run_demo(
     history: list[ConvoyService] | None = None,
     during: Callable[[MockFleet, ConvoyService], Coroutine[Any, Any, None]] | None = None,
     route_known: bool = False,
+    route_mission: bool = False,
     signing_key_file: str | None = None,
     faults: dict[str, Any] | None = None,
     mock_process: bool = False,
@@ -361,6 +368,9 @@ async def run_demo(
             cancelled when the flight ends.
         route_known: Replay: the service is given the track's path (not its
             timing) as the convoy's route.
+        route_mission: The lead ground vehicle drives its road as a mission (a rover in
+            AUTO), which the service reads over MAVLink as the route (``[convoy] route =
+            "mission"``).
         signing_key_file: MAVLink 2 signing: the mock's aircraft and the service's
             links sign with the key in this file (hex or a passphrase).
         faults: The mock's ``[faults]`` table (loss, latency, reboots...), ``kill`` added.
@@ -386,6 +396,7 @@ async def run_demo(
         frame=frame,
         faults=faults or None,
         aircraft=aircraft,
+        ground_mission=route_mission,
         # (the mock takes the key as 64 hex digits: the very key the service reads)
         signing_key=None
         if signing_key_file is None
@@ -400,6 +411,8 @@ async def run_demo(
         cfg = mission_for(scenario, fleet, tlog=tlog, signing_key_file=signing_key_file)
         if uavs is not None:
             cfg = replace(cfg, uav_count=uavs)
+        if route_mission:
+            cfg = replace(cfg, convoy=replace(cfg.convoy, route_from_mission=True))
         if configure is not None:
             cfg = configure(cfg)
         if speedup_floor is not None:

@@ -161,3 +161,38 @@ async def test_mavsdk_offboard_circle_with_a_pymavlink_watcher(
     assert last
     assert all(abs(circle.radial_error(m.x, m.y)) < 0.05 * radius for m in last)
     assert any(m.command == mavlink.MAV_CMD_COMPONENT_ARM_DISARM for m in watcher.of("COMMAND_ACK"))
+
+
+@pytest.mark.parametrize("personality", ["px4", "ardupilot"])
+async def test_mavsdk_downloads_the_mock_rovers_mission(
+    start_mock: StartMock, personality: str
+) -> None:
+    """An independent client reads the mission the service reads as the convoy's route:
+    MAVSDK's MissionRaw against a rover of the mock, over real UDP."""
+    from mavsdk.asyncio import ComponentType, Configuration, Mavsdk
+    from mavsdk.asyncio.plugins.mission_raw import MissionRawAsync
+
+    corners = [[0.0, 0.0], [400.0, 0.0], [400.0, 300.0], [0.0, 300.0]]
+    config = MockConfig.simple(
+        0, ground=1, speedup=SPEEDUP, base_port=0, ground_route="polyline",
+        ground_points=corners, ground_speed=8.0, ground_mission=True, personality=personality,
+    )  # fmt: skip
+    fleet = await start_mock(config)
+    (rover,) = fleet.endpoints
+    sdk_config = Configuration.create_with_component_type(ComponentType.GROUND_STATION)
+    async with asyncio.timeout(60), Mavsdk(sdk_config) as sdk:
+        await sdk.add_any_connection(rover.mavsdk)
+        system = await sdk.first_autopilot(timeout_s=10.0)
+        assert system is not None
+        items = await MissionRawAsync(system).download_mission()
+    world = fleet.world
+    expected = [world.to_geo(n, e) for n, e in corners]
+    if personality == "ardupilot":  # item 0 is home, where the rover booted
+        home, *items = items
+        assert (home.seq, home.frame) == (0, mavlink.MAV_FRAME_GLOBAL)
+    assert [i.seq for i in items] == [1, 2, 3, 4] if personality == "ardupilot" else [0, 1, 2, 3]
+    assert all(i.command == mavlink.MAV_CMD_NAV_WAYPOINT for i in items)
+    assert [(i.x, i.y) for i in items] == [
+        (round(g.lat * 1e7), round(g.lon * 1e7)) for g in expected
+    ]
+    assert fleet.counters(rover.sysid)["mission_reads"] >= 1

@@ -209,3 +209,25 @@ async def test_a_convoy_whose_feed_falls_silent_while_parked_is_held_in_sight() 
     )
     assert silence.fraction >= 0.95 and silence.longest_gap_s <= 6.0
     assert result.truth.fraction >= 0.92
+
+
+def test_the_lead_rovers_mission_is_read_as_the_convoys_route(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``replay --route-mission``: the mock's lead rover (ArduPilot: its mission's item 0
+    is home) drives the road as its mission; the service reads that mission over MAVLink
+    and flies it as the route, with the route's count of UAVs."""
+    report_path = tmp_path / "r.json"
+    argv = ["replay", "--road", "bends", "--route-mission", "--duration", "200"]
+    argv += ["--personality", "ardupilot", "--speedup", str(SPEEDUP), "--quiet"]
+    assert main([*argv, "--report", str(report_path)]) == 0
+    assert "ground truth" in capsys.readouterr().out
+    report = json.loads(report_path.read_text())
+    planner = report["planner"]
+    assert report["uav_count"] == 6  # (the count with a route)
+    assert planner["route_source"] == "ground vehicle 7's mission"
+    assert planner["mission_reads"] == 1  # (its MISSION_CURRENT says it did not change)
+    assert planner["route_known"]
+    # The whole road, its arcs as the chords of the waypoints it was thinned to.
+    assert planner["route_length_m"] == pytest.approx(road_kind("bends").length_m, rel=0.02)
+    assert any("route received from ground vehicle 7's mission" in e for e in report["events"])

@@ -229,6 +229,24 @@ def test_planner_and_route_keys(tmp_path: Path) -> None:
     assert load_config(path).convoy.route_file == str(tmp_path / "sub" / "r.gpx")
 
 
+def test_the_route_may_be_the_lead_ground_vehicles_mission(tmp_path: Path) -> None:
+    convoy = {
+        "source": "mavlink",
+        "route": "mission",
+        "vehicle": [{"connection": "udpin:127.0.0.1:14600", "sysid": 201}],
+    }
+    cfg = parse_config({"mission": {"sensor_radius_m": 100.0}, "convoy": convoy})
+    assert (cfg.convoy.route_from_mission, cfg.convoy.route_file) == (True, None)
+    path = tmp_path / "m.toml"  # (not a file beside the config)
+    path.write_text(
+        '[mission]\nsensor_radius_m = 100.0\n[convoy]\nsource = "mavlink"\nroute = "mission"\n'
+        '[[convoy.vehicle]]\nconnection = "udpin:127.0.0.1:14600"\nsysid = 201\n'
+    )
+    assert load_config(path).convoy.route_file is None
+    with pytest.raises(ConfigError, match=r'convoy.route = .mission.: .*needs source = "mavlink"'):
+        parse_config({"mission": {"sensor_radius_m": 100.0}, "convoy": {"route": "mission"}})
+
+
 def test_a_bad_route_file_is_a_config_error(tmp_path: Path) -> None:
     from convoy_mav.app import ConvoyService
 

@@ -408,4 +408,6 @@ async def test_a_route_over_mqtt_reaches_the_road_planner() -> None:
     assert service.route is None  # taken in at the next mission step, in its thread
     service._mission_step(0.0, None, [], [], {}, set(), (0.0, 0.0))
     assert service.route is not None and service.route.length == pytest.approx(1860, rel=0.05)
-    assert any("convoy route received: 3 points" in e for e in service.events)
+    assert any(
+        "convoy route received from MQTT convoy/route: 3 points" in e for e in service.events
+    )

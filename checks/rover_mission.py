@@ -1,0 +1,253 @@
+"""A rover's mission, from a real autopilot: read as the service reads it, and driven.
+
+    .venv/bin/python checks/rover_mission.py read udpin:127.0.0.1:14550   # ArduRover SITL
+    .venv/bin/python checks/rover_mission.py read --mock ardupilot        # the mock's rover
+    .venv/bin/python checks/rover_mission.py drive tcp:127.0.0.1:5962 road.csv 8
+
+``read`` checks that the service's reader (``mavlink.missionread``) and the road it
+makes of the items (``tracks.missionroute``) work with the firmware, and that
+``sitl_mock`` serves the same. Against an autopilot it acts as two ground stations on one
+link: the operator's uploads a mission (waypoints, a DO_CHANGE_SPEED, a hold "here", a
+return to launch), the service's ``MissionWatch`` reads it and prints the route it makes;
+the operator then uploads a longer one, and the watch must see MISSION_CURRENT's total
+change and read it again. Against the mock (whose rover serves its own road and takes no
+upload), the first read alone. Exit 0 when every read gave the mission uploaded.
+
+``drive`` sends a rover down a road as its operator would: the road's corners (a CSV
+time,lat,lon, as ``checks/ardupilot_sitl.sh`` writes for ROAD=KIND, thinned as the
+mock's rovers thin theirs, ``sitl_mock.mission.thin``) as waypoints after a
+DO_CHANGE_SPEED to the speed given (m/s), then AUTO and arming, retried until the
+firmware accepts. Run beside ``convoy-mav run`` with ``[convoy] route = "mission"``.
+
+Not part of ``make test``: it needs a running autopilot (ArduPilot SITL, see the
+project's notes on building it).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import subprocess
+import sys
+import time
+from typing import Any
+
+from pymavlink import mavutil
+from pymavlink.dialects.v20 import common as mavlink
+
+from convoy_mav.geo import GeoPoint, LocalFrame
+from convoy_mav.mavlink.missionread import MissionWatch
+from convoy_mav.tracks.missionroute import MissionRoute, mission_route
+from sitl_mock.mission import DEFAULT_TOLERANCE_M, thin
+
+MISSION = mavlink.MAV_MISSION_TYPE_MISSION
+ROVER_AUTO = 10  # ArduRover's custom mode
+REL = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
+FIRST = ((-35.3620, 149.1650), (-35.3600, 149.1650), (-35.3600, 149.1680))
+SECOND = (*FIRST, (-35.3620, 149.1680), (-35.3630, 149.1660))
+
+
+def items(target: tuple[int, int], road: tuple[tuple[float, float], ...]) -> list[Any]:
+    """Home (seq 0, replaced by the autopilot's), the road's waypoints with a speed change
+    after the first and a hold "here" after the second, then a return to launch."""
+
+    def wp(lat: float, lon: float, command: int = mavlink.MAV_CMD_NAV_WAYPOINT) -> list[Any]:
+        return [REL, command, 0, 1, 0.0, 0.0, 0.0, 0.0, round(lat * 1e7), round(lon * 1e7), 0.0]
+
+    rows = [[mavlink.MAV_FRAME_GLOBAL, *wp(*road[0])[1:]]]
+    for k, point in enumerate(road):
+        rows.append(wp(*point))
+        if k == 0:
+            speed = [mavlink.MAV_FRAME_MISSION, mavlink.MAV_CMD_DO_CHANGE_SPEED, 0, 1]
+            rows.append([*speed, 1.0, 6.0, -1.0, 0.0, 0, 0, 0.0])
+        if k == 1:
+            rows.append([REL, mavlink.MAV_CMD_NAV_WAYPOINT, 0, 1, 5.0, 0, 0, 0, 0, 0, 0.0])
+    rows.append([mavlink.MAV_FRAME_MISSION, mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH, 0, 1,
+                 0.0, 0.0, 0.0, 0.0, 0, 0, 0.0])  # fmt: skip
+    return [
+        mavlink.MAVLink_mission_item_int_message(*target, seq, *row, MISSION)
+        for seq, row in enumerate(rows)
+    ]
+
+
+def upload(link: Any, target: tuple[int, int], mission: list[Any]) -> str:
+    """The operator's upload; the autopilot's final answer."""
+    link.mav.send(mavlink.MAVLink_mission_count_message(*target, len(mission), MISSION))
+    deadline = time.monotonic() + 10.0
+    while time.monotonic() < deadline:
+        msg = link.recv_match(
+            type=["MISSION_REQUEST", "MISSION_REQUEST_INT", "MISSION_ACK"], blocking=True,
+            timeout=0.5,
+        )  # fmt: skip
+        if msg is None or getattr(msg, "mission_type", MISSION) != MISSION:
+            continue
+        if msg.get_type() == "MISSION_ACK":
+            return str(mavlink.enums["MAV_MISSION_RESULT"][msg.type].name)
+        link.mav.send(mission[msg.seq])
+    return "no answer"
+
+
+def watch_read(link: Any, watch: MissionWatch, wait: float) -> MissionRoute | str:
+    """Run the watch on the link until a read finishes; its route, or why not."""
+    deadline = time.monotonic() + wait
+    while time.monotonic() < deadline:
+        for out in watch.poll(time.monotonic()):
+            link.mav.send(out)
+        msg = link.recv_match(blocking=True, timeout=0.05)
+        if msg is not None and msg.get_srcSystem() == watch.target[0]:
+            for out in watch.handle(msg, time.monotonic()):
+                link.mav.send(out)
+        read = watch.take()
+        if read is None:
+            continue
+        if read.error is not None:
+            return f"read failed: it {read.error}"
+        try:
+            return mission_route(read.items or [], home_first=watch.ardupilot)
+        except ValueError as exc:
+            return f"no route: {exc}"
+    return f"no read finished in {wait:.0f} s"
+
+
+def report(name: str, got: MissionRoute | str, road: tuple[tuple[float, float], ...]) -> bool:
+    if isinstance(got, str):
+        print(f"{name}: {got}", flush=True)
+        return False
+    points = [(round(a, 6), round(b, 6)) for a, b in got.points]
+    print(f"{name}: {len(points)} points {points}", flush=True)
+    if got.remarks():
+        print(f"{name}: {got.remarks()}", flush=True)
+    return points[: len(road)] == [(round(a, 6), round(b, 6)) for a, b in road]
+
+
+def road_items(target: tuple[int, int], path: str, speed: float) -> list[Any]:
+    with open(path, newline="") as fh:
+        rows = [(float(r["lat"]), float(r["lon"])) for r in csv.DictReader(fh)]
+    frame = LocalFrame(GeoPoint(rows[0][0], rows[0][1], 0.0))
+    xy = [frame.to_ned(GeoPoint(lat, lon, 0.0))[:2] for lat, lon in rows]
+    corners = [rows[i] for i in thin(xy, DEFAULT_TOLERANCE_M)]
+    rel = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
+    wp = mavlink.MAV_CMD_NAV_WAYPOINT
+    first = [mavlink.MAV_FRAME_GLOBAL, wp, 0, 1, 0.0, 0.0, 0.0, 0.0]
+    rows_out = [[*first, round(corners[0][0] * 1e7), round(corners[0][1] * 1e7), 0.0]]
+    rows_out.append([mavlink.MAV_FRAME_MISSION, mavlink.MAV_CMD_DO_CHANGE_SPEED, 0, 1,
+                     1.0, speed, -1.0, 0.0, 0, 0, 0.0])  # fmt: skip
+    for lat, lon in corners:
+        rows_out.append(
+            [rel, wp, 0, 1, 0.0, 0.0, 0.0, 0.0, round(lat * 1e7), round(lon * 1e7), 0.0]
+        )
+    return [
+        mavlink.MAVLink_mission_item_int_message(*target, seq, *row, MISSION)
+        for seq, row in enumerate(rows_out)
+    ]
+
+
+def drive(connection: str, path: str, speed: float) -> int:
+    """Upload the road, AUTO, arm (see the module's ``drive``)."""
+    link = mavutil.mavlink_connection(connection, source_system=250, source_component=190)
+    hb = link.wait_heartbeat(timeout=60)
+    if hb is None:
+        print(f"no heartbeat on {connection}")
+        return 2
+    target = (link.target_system, link.target_component)
+    # Home is set once the rover's position estimate is good: then it can be sent off.
+    deadline = time.monotonic() + 120.0
+    while time.monotonic() < deadline:
+        home = mavlink.MAVLINK_MSG_ID_HOME_POSITION
+        link.mav.command_long_send(
+            *target, mavlink.MAV_CMD_REQUEST_MESSAGE, 0, home, 0, 0, 0, 0, 0, 0
+        )
+        if link.recv_match(type="HOME_POSITION", blocking=True, timeout=2.0) is not None:
+            break
+    items = road_items(target, path, speed)
+    print(f"{time.strftime('%H:%M:%S')} upload {len(items) - 2} waypoints: "
+          f"{upload(link, target, items)}", flush=True)  # fmt: skip
+    link.mav.set_mode_send(target[0], mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, ROVER_AUTO)
+    for _ in range(60):
+        link.mav.command_long_send(*target, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0,
+                                   1, 0, 0, 0, 0, 0, 0)  # fmt: skip
+        ack = link.recv_match(type="COMMAND_ACK", blocking=True, timeout=2.0)
+        arm = mavlink.MAV_CMD_COMPONENT_ARM_DISARM
+        if ack is not None and ack.command == arm and ack.result == mavlink.MAV_RESULT_ACCEPTED:
+            print(f"{time.strftime('%H:%M:%S')} armed in AUTO", flush=True)
+            return 0
+        time.sleep(1.0)
+    print("the rover refused to arm")
+    return 1
+
+
+def read(args: argparse.Namespace) -> int:
+    """Upload, read, upload again, read again (see the module's ``read``)."""
+    mock = None
+    connection = args.connection
+    if args.mock:
+        corners = "0,0;220,0;220,270"
+        mock = subprocess.Popen(
+            [sys.executable, "-m", "sitl_mock", "--aircraft", "0", "--ground", "1",
+             "--personality", args.mock, "--base-port", "14790", "--ground-route", "polyline",
+             "--ground-points", corners, "--ground-speed", "5", "--ground-mission"],
+        )  # fmt: skip
+        connection = "udpout:127.0.0.1:14790"
+        args.sysid = 1
+    if connection is None:
+        print("give a connection or --mock", file=sys.stderr)
+        return 2
+    try:
+        link = mavutil.mavlink_connection(connection, source_system=255, source_component=190)
+        if mock is not None:
+            time.sleep(1.0)
+        for _ in range(60):
+            link.mav.heartbeat_send(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+            hb = link.recv_match(type="HEARTBEAT", blocking=True, timeout=0.5)
+            if hb is not None and hb.get_srcSystem() == args.sysid:
+                break
+        else:
+            print(f"no HEARTBEAT from system {args.sysid} on {connection}", file=sys.stderr)
+            return 2
+        target = (args.sysid, hb.get_srcComponent())
+        # MISSION_CURRENT, as the service asks for it.
+        link.mav.command_long_send(
+            *target, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, 0,
+            mavlink.MAVLINK_MSG_ID_MISSION_CURRENT, 1e6, 0, 0, 0, 0, 0,
+        )  # fmt: skip
+        watch = MissionWatch(*target)
+        watch.handle(hb, time.monotonic())
+        if mock is not None:
+            got = watch_read(link, watch, 20.0)
+            return 0 if not isinstance(got, str) and len(got.points) == 3 else 1
+        print(f"upload 1 ({len(FIRST)} waypoints): {upload(link, target, items(target, FIRST))}")
+        ok = report("read 1", watch_read(link, watch, 20.0), FIRST)
+        print(f"upload 2 ({len(SECOND)} waypoints): {upload(link, target, items(target, SECOND))}")
+        ok = (
+            report(
+                "read 2 (MISSION_CURRENT's total changed)", watch_read(link, watch, 20.0), SECOND
+            )
+            and ok
+        )
+        print(f"reads: {watch.reads}", flush=True)
+        return 0 if ok else 1
+    finally:
+        if mock is not None:
+            mock.terminate()
+            mock.wait()
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+    r = sub.add_parser("read", help="read a mission as the service does")
+    r.add_argument("connection", nargs="?", help="the rover's MAVLink endpoint")
+    r.add_argument("--mock", choices=("px4", "ardupilot"), help="start sitl_mock instead")
+    r.add_argument("--sysid", type=int, default=1)
+    d = sub.add_parser("drive", help="send a rover down a road as its mission")
+    d.add_argument("connection", help="the rover's MAVLink endpoint (another than the service's)")
+    d.add_argument("road", help="CSV time,lat,lon")
+    d.add_argument("speed", type=float, help="m/s")
+    args = parser.parse_args()
+    if args.command == "drive":
+        return drive(args.connection, args.road, args.speed)
+    return read(args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

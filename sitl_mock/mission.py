@@ -1,0 +1,131 @@
+"""A mock rover's mission: the road its route drives, as AUTO would drive it (pure).
+
+A ground vehicle whose route is a polyline or a recorded track can serve that road as
+its mission (``[ground] mission = true``), as an ArduRover or PX4 rover in AUTO holds
+the waypoints it drives: a ground station reads it over the mission protocol
+(MISSION_REQUEST_LIST, MISSION_REQUEST_INT, MISSION_ITEM_INT, MISSION_ACK) and follows
+its progress in MISSION_CURRENT.
+
+Design rules:
+    * The waypoints are the route's vertices; a recorded track is thinned
+      (Douglas-Peucker, ``tolerance`` metres) to the corners a planner would have
+      clicked, so GPS jitter along a straight is not a waypoint.
+    * The timing is not in the mission (no holds, no speeds): a mission says where the
+      rover goes, the route's timing how it drives there.
+    * Numbering follows the firmware: ArduPilot's item 0 is home (a NAV_WAYPOINT in
+      MAV_FRAME_GLOBAL), PX4's items are the waypoints alone.
+"""
+
+from __future__ import annotations
+
+import bisect
+import itertools
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from pymavlink.dialects.v20 import common as mavlink
+
+from convoy_mav.geo import GeoPoint, LocalFrame
+from sitl_mock.ground import Polyline, Route, Track
+
+__all__ = ["RoverMission", "as_float_item", "thin"]
+
+DEFAULT_TOLERANCE_M = 3.0
+
+
+def thin(points: Sequence[tuple[float, float]], tolerance: float) -> list[int]:
+    """Indices of the points Douglas-Peucker keeps (first and last always)."""
+    n = len(points)
+    if n <= 2:
+        return list(range(n))
+    keep = [False] * n
+    keep[0] = keep[-1] = True
+    stack = [(0, n - 1)]
+    while stack:
+        a, b = stack.pop()
+        (ax, ay), (bx, by) = points[a], points[b]
+        dx, dy = bx - ax, by - ay
+        length = math.hypot(dx, dy)
+        worst, at = -1.0, -1
+        for i in range(a + 1, b):
+            px, py = points[i][0] - ax, points[i][1] - ay
+            d = abs(px * dy - py * dx) / length if length > 0.0 else math.hypot(px, py)
+            if d > worst:
+                worst, at = d, i
+        if at >= 0 and worst > tolerance:
+            keep[at] = True
+            stack += [(a, at), (at, b)]
+    return [i for i in range(n) if keep[i]]
+
+
+@dataclass(frozen=True, slots=True)
+class RoverMission:
+    """Waypoints (geodetic) in order, and the sim time the route passes each."""
+
+    waypoints: tuple[GeoPoint, ...]
+    times: tuple[float, ...]
+    laps: bool = False  # a looping polyline: driven again from the first once at the last
+
+    @classmethod
+    def of(
+        cls, route: Route, world: LocalFrame, tolerance: float = DEFAULT_TOLERANCE_M
+    ) -> RoverMission | None:
+        """The mission driving ``route``'s road (None: a route with no road to give)."""
+        if isinstance(route, Track):
+            points = list(zip(route.norths, route.easts, strict=True))
+            keep = thin(points, tolerance)
+            times = [route.times[i] for i in keep]
+            points = [points[i] for i in keep]
+        elif isinstance(route, Polyline) and route.speed > 0.0:
+            points = [p for i, p in enumerate(route.points) if i == 0 or p != route.points[i - 1]]
+            if route.loop and points[-1] != points[0]:
+                points.append(points[0])
+            times, run = [0.0], 0.0
+            for (n0, e0), (n1, e1) in itertools.pairwise(points):
+                run += math.hypot(n1 - n0, e1 - e0)
+                times.append(run / route.speed)
+        else:
+            return None
+        if len(points) < 2:
+            return None
+        geo = tuple(world.to_geo(n, e, 0.0) for n, e in points)
+        return cls(geo, tuple(times), laps=isinstance(route, Polyline) and route.loop)
+
+    def count(self, *, home_first: bool) -> int:
+        return len(self.waypoints) + home_first
+
+    def item(
+        self, seq: int, home: GeoPoint, target: tuple[int, int], *, home_first: bool
+    ) -> mavlink.MAVLink_mission_item_int_message | None:
+        """Item ``seq`` as MISSION_ITEM_INT (None: out of range)."""
+        if not 0 <= seq < self.count(home_first=home_first):
+            return None
+        if home_first and seq == 0:
+            where, frame = home, mavlink.MAV_FRAME_GLOBAL
+        else:
+            where = self.waypoints[seq - home_first]
+            frame = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
+        return mavlink.MAVLink_mission_item_int_message(
+            target[0], target[1], seq, frame, mavlink.MAV_CMD_NAV_WAYPOINT,
+            0, 1, 0.0, 0.0, 0.0, 0.0,
+            round(where.lat * 1e7), round(where.lon * 1e7),
+            where.alt if frame == mavlink.MAV_FRAME_GLOBAL else 0.0,
+            mavlink.MAV_MISSION_TYPE_MISSION,
+        )  # fmt: skip
+
+    def current(self, t: float, *, home_first: bool) -> int:
+        """The item being driven to at sim time ``t`` (the last once arrived)."""
+        if self.laps and t > 0.0:
+            t %= self.times[-1]
+        i = min(bisect.bisect_right(self.times, t), len(self.times) - 1)
+        return i + home_first
+
+
+def as_float_item(item: mavlink.MAVLink_mission_item_int_message) -> mavlink.MAVLink_message:
+    """The same item as MISSION_ITEM (degrees as floats), the float form's answer."""
+    return mavlink.MAVLink_mission_item_message(
+        item.target_system, item.target_component, item.seq, item.frame, item.command,
+        item.current, item.autocontinue, item.param1, item.param2, item.param3, item.param4,
+        item.x * 1e-7, item.y * 1e-7, item.z, item.mission_type,
+    )  # fmt: skip

@@ -1,0 +1,226 @@
+"""Reading a vehicle's mission over MAVLink's mission protocol (sans-I/O).
+
+A ground vehicle driving a mission (an ArduRover or PX4 rover in AUTO) knows the road it
+will take; its mission is the convoy's route. :class:`MissionRead` is the download side
+of the protocol (https://mavlink.io/en/services/mission.html) as a state machine:
+messages in, messages to send out, no sockets and no clock of its own.
+
+Design rules:
+    * MISSION_REQUEST_LIST, then MISSION_REQUEST_INT for each item in turn, then a
+      MISSION_ACK that closes the transfer on the vehicle's side. An item out of turn (a
+      late duplicate) is ignored; a MISSION_ACK with an error ends the read with the
+      vehicle's reason.
+    * Timeouts are the protocol's (1.5 s, five tries for each request) and run on the
+      caller's ``now``: a network wait is a wall-clock wait whatever the mission's speedup.
+    * A MISSION_ITEM (the float form) in answer is taken as well: firmware older than
+      MAVLink 2's INT requests answers so.
+    * The items are kept as sent; what they mean for the convoy is
+      :func:`convoy_mav.tracks.missionroute.mission_route`'s.
+"""
+
+from __future__ import annotations
+
+from pymavlink.dialects.v20 import common as mavlink
+
+from convoy_mav.mavlink.codec import Message
+
+__all__ = ["MissionItem", "MissionRead", "MissionWatch"]
+
+TIMEOUT_S = 1.5
+TRIES = 5
+MAX_ITEMS = 2000  # more than any autopilot stores (ArduPilot on SITL: 700 on flash boards)
+
+
+class MissionItem:
+    """One mission item in the INT form's units: ``lat``/``lon`` degrees (0, 0: none)."""
+
+    __slots__ = ("command", "frame", "lat", "lon", "param1", "param2", "seq")
+
+    def __init__(self, msg: Message) -> None:
+        self.seq: int = int(msg.seq)
+        self.command: int = int(msg.command)
+        self.frame: int = int(msg.frame)
+        self.param1: float = float(msg.param1)
+        self.param2: float = float(msg.param2)
+        if msg.get_type() == "MISSION_ITEM_INT":
+            self.lat: float = msg.x * 1e-7
+            self.lon: float = msg.y * 1e-7
+        else:
+            self.lat, self.lon = float(msg.x), float(msg.y)
+
+    def __repr__(self) -> str:
+        return f"MissionItem({self.seq}, cmd {self.command}, {self.lat:.7f}, {self.lon:.7f})"
+
+
+class MissionRead:
+    """One download of a vehicle's mission (MAV_MISSION_TYPE_MISSION).
+
+    Drive it with :meth:`start`, :meth:`handle` for every message from that vehicle, and
+    :meth:`poll` now and then; each returns the messages to send. It ends ``done`` with
+    :attr:`items`, or with :attr:`error` in words.
+    """
+
+    def __init__(self, target_system: int, target_component: int = 1) -> None:
+        self.target = (target_system, target_component)
+        self.items: list[MissionItem] | None = None  # when done and read
+        self.error: str | None = None  # when done and failed
+        self.busy = False  # ... refused as another transfer was under way
+        self._count: int | None = None
+        self._got: list[MissionItem] = []
+        self._sent_at = 0.0
+        self._tries = 0
+        self.started = False
+
+    @property
+    def done(self) -> bool:
+        return self.items is not None or self.error is not None
+
+    @property
+    def count(self) -> int | None:
+        """Items the vehicle said it holds (None before its MISSION_COUNT)."""
+        return self._count
+
+    def start(self, now: float) -> list[Message]:
+        self.started = True
+        return self._ask(now, first=True)
+
+    def handle(self, msg: Message, now: float) -> list[Message]:
+        """A message from the vehicle; what to send in answer (often nothing)."""
+        if self.done or not self.started:
+            return []
+        kind = msg.get_type()
+        if getattr(msg, "mission_type", 0) != mavlink.MAV_MISSION_TYPE_MISSION:
+            return []
+        if kind == "MISSION_COUNT" and self._count is None:
+            if msg.count > MAX_ITEMS:
+                return self._fail(f"says it holds {msg.count} items (at most {MAX_ITEMS} read)")
+            self._count = int(msg.count)
+            if self._count == 0:
+                self.items = []
+                return [self._ack(mavlink.MAV_MISSION_ACCEPTED)]
+            return self._ask(now, first=True)
+        if kind in ("MISSION_ITEM_INT", "MISSION_ITEM") and self._count is not None:
+            if msg.seq != len(self._got):
+                return []  # a late duplicate, or one we did not ask for yet
+            self._got.append(MissionItem(msg))
+            if len(self._got) < self._count:
+                return self._ask(now, first=True)
+            self.items = self._got
+            return [self._ack(mavlink.MAV_MISSION_ACCEPTED)]
+        if kind == "MISSION_ACK" and msg.type != mavlink.MAV_MISSION_ACCEPTED:
+            entry = mavlink.enums["MAV_MISSION_RESULT"].get(msg.type)
+            why = f"refused the read: {entry.name if entry else msg.type}"
+            # ArduPilot denies a read while another ground station uploads (the
+            # operator's own, say): MissionItemProtocol's "transfer in progress".
+            self.busy = msg.type == mavlink.MAV_MISSION_DENIED
+            return self._fail(why + (" (another transfer under way)" if self.busy else ""))
+        return []
+
+    def poll(self, now: float) -> list[Message]:
+        """Ask again when an answer is overdue; give up after the protocol's tries."""
+        if self.done or not self.started or now - self._sent_at < TIMEOUT_S:
+            return []
+        if self._tries >= TRIES:
+            what = (
+                "MISSION_REQUEST_LIST"
+                if self._count is None
+                else f"MISSION_REQUEST_INT {len(self._got)} of {self._count}"
+            )
+            return self._fail(f"did not answer {what} ({TRIES} tries, {TIMEOUT_S} s apart)")
+        return self._ask(now, first=False)
+
+    def _ask(self, now: float, *, first: bool) -> list[Message]:
+        self._sent_at = now
+        self._tries = 1 if first else self._tries + 1
+        system, component = self.target
+        kind = mavlink.MAV_MISSION_TYPE_MISSION
+        if self._count is None:
+            return [mavlink.MAVLink_mission_request_list_message(system, component, kind)]
+        seq = len(self._got)
+        return [mavlink.MAVLink_mission_request_int_message(system, component, seq, kind)]
+
+    def _ack(self, result: int) -> Message:
+        system, component = self.target
+        kind = mavlink.MAV_MISSION_TYPE_MISSION
+        return mavlink.MAVLink_mission_ack_message(system, component, result, kind)
+
+    def _fail(self, why: str) -> list[Message]:
+        self.error = why
+        if self._count is None:
+            return []
+        return [self._ack(mavlink.MAV_MISSION_OPERATION_CANCELLED)]
+
+
+RETRY_S = 30.0  # after a failed read, or an empty mission, before asking again
+BUSY_RETRY_S = 3.0  # ... after one refused while another transfer was under way
+
+
+class MissionWatch:
+    """Keeps a vehicle's mission read: once heard, again whenever it changes.
+
+    A change is what MISSION_CURRENT says: its ``total`` differs from the items read (an
+    upload from another ground station, a mission cleared; ArduPilot's ``total`` leaves
+    its home item out, ``GCS_MAVLINK::send_mission_current``). A failed read is tried
+    again after ``RETRY_S`` (``BUSY_RETRY_S`` when refused during another station's
+    transfer, as the operator's upload); so is an empty mission, which a rover has
+    before its operator uploads one. :meth:`take` hands over each finished read once.
+    """
+
+    def __init__(self, target_system: int, target_component: int = 1) -> None:
+        self.target = (target_system, target_component)
+        self.read: MissionRead | None = None
+        self.reads = 0  # finished, good or not
+        self.ardupilot = False  # (its item 0 is home)
+        self._heard = False
+        self._total: int | None = None  # as MISSION_CURRENT last said
+        self._held: int | None = None  # items of the last read, as MISSION_CURRENT counts
+        self._next_try = 0.0
+        self._finished: MissionRead | None = None
+
+    def handle(self, msg: Message, now: float) -> list[Message]:
+        """A message from the vehicle; what to send in answer."""
+        kind = msg.get_type()
+        if kind == "HEARTBEAT":
+            self._heard = True
+            self.ardupilot = msg.autopilot == mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA
+        elif kind == "MISSION_CURRENT":
+            self._heard = True
+            if msg.total != self._total and self._total is not None:
+                self._next_try = 0.0  # changed: read it now
+            self._total = int(msg.total)
+        read = self.read
+        if read is None:
+            return []
+        out = read.handle(msg, now)
+        self._finish_if_done(now)
+        return out
+
+    def poll(self, now: float) -> list[Message]:
+        """Start a read when one is due; time the one under way out."""
+        read = self.read
+        if read is not None:
+            out = read.poll(now)
+            self._finish_if_done(now)
+            return out
+        changed = self._total is not None and self._total != self._held
+        due = not self._held or changed
+        if self._heard and due and now >= self._next_try:
+            self.read = MissionRead(*self.target)
+            return self.read.start(now)
+        return []
+
+    def take(self) -> MissionRead | None:
+        """The read finished since the last call (with its items or its error), once."""
+        done, self._finished = self._finished, None
+        return done
+
+    def _finish_if_done(self, now: float) -> None:
+        read = self.read
+        if read is None or not read.done:
+            return
+        self.read, self._finished = None, read
+        self.reads += 1
+        # Failed, or nothing uploaded yet (home alone): ask again later, or when it changes.
+        held = None if read.items is None else max(0, len(read.items) - self.ardupilot)
+        self._held = held
+        self._next_try = 0.0 if held else now + (BUSY_RETRY_S if read.busy else RETRY_S)

@@ -1,0 +1,113 @@
+"""A ground vehicle's mission as the convoy's route (pure).
+
+An ArduRover or PX4 rover in AUTO drives its mission's waypoints in order: that
+polyline is the road the convoy will take, known ahead as a route file is. Which items
+count, per the MAVLink mission commands a rover flies:
+
+- Positions in a global frame (``MAV_FRAME_GLOBAL*``, relative and terrain altitudes
+  alike: a ground vehicle's altitude is the ground's) of NAV_WAYPOINT, NAV_SPLINE_WAYPOINT
+  and the loiters (NAV_LOITER_UNLIM/TURNS/TIME, a rover holds at their point); a point at
+  (0, 0) is "no position" (ArduPilot's "here" for some commands) and is skipped.
+- NAV_RETURN_TO_LAUNCH drives back to home.
+- ArduPilot's item 0 is home (``home_first``): where the rover was armed, not where AUTO
+  sets off from (a rover driven to its start by hand), so it is no point of the road
+  but the end of a return to launch. AUTO drives from wherever the rover is to the
+  first waypoint, which the road model takes as a convoy joining its route.
+- DO_JUMP repeats items: the route is driven as laps (``laps``), which the road model
+  finds on the whole route whichever lap the convoy is on; the route itself is one lap.
+- Items in a local frame, and commands with a position a rover does not drive to, are
+  counted in ``skipped`` and left out.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from pymavlink.dialects.v20 import common as mavlink
+
+from convoy_mav.mavlink.missionread import MissionItem
+
+__all__ = ["MissionRoute", "mission_route"]
+
+_GLOBAL_FRAMES = frozenset(
+    {
+        mavlink.MAV_FRAME_GLOBAL,
+        mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT,
+        mavlink.MAV_FRAME_GLOBAL_INT,
+        mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+        mavlink.MAV_FRAME_GLOBAL_TERRAIN_ALT,
+        mavlink.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT,
+    }
+)
+_DRIVEN_TO = frozenset(
+    {
+        mavlink.MAV_CMD_NAV_WAYPOINT,
+        mavlink.MAV_CMD_NAV_SPLINE_WAYPOINT,
+        mavlink.MAV_CMD_NAV_LOITER_UNLIM,
+        mavlink.MAV_CMD_NAV_LOITER_TURNS,
+        mavlink.MAV_CMD_NAV_LOITER_TIME,
+    }
+)
+_SAME_POINT_DEG = 5e-6  # ~0.5 m: a waypoint repeated in place is one point of the road
+
+
+@dataclass(frozen=True, slots=True)
+class MissionRoute:
+    """The road a mission drives: (lat, lon) in order, and what was left out."""
+
+    points: tuple[tuple[float, float], ...]
+    skipped: int  # items with a position the road leaves out (local frames, landings)
+    laps: bool  # a DO_JUMP repeats part of it
+
+    def remarks(self) -> str:
+        """What the points alone do not say ("" when nothing)."""
+        said = ["driven in laps (DO_JUMP)"] if self.laps else []
+        if self.skipped:
+            said.append(f"{self.skipped} items left out (local frames, landings)")
+        return ", ".join(said)
+
+
+def mission_route(items: Sequence[MissionItem], *, home_first: bool) -> MissionRoute:
+    """The polyline a rover's mission drives (see the module's rules).
+
+    Raises:
+        ValueError: Fewer than two distinct points to drive: no road to speak of.
+    """
+    points: list[tuple[float, float]] = []
+    home: tuple[float, float] | None = None
+    skipped = 0
+    laps = False
+
+    def add(lat: float, lon: float) -> None:
+        if points and max(abs(lat - points[-1][0]), abs(lon - points[-1][1])) < _SAME_POINT_DEG:
+            return
+        points.append((lat, lon))
+
+    for item in items:
+        here = (item.lat, item.lon)
+        has_point = math.isfinite(item.lat) and math.isfinite(item.lon) and here != (0.0, 0.0)
+        valid = has_point and abs(item.lat) <= 90.0 and abs(item.lon) <= 180.0
+        if home_first and item.seq == 0:
+            home = here if valid else None
+            continue
+        if item.command == mavlink.MAV_CMD_DO_JUMP:
+            laps = True
+        elif item.command == mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH:
+            if home is not None:
+                add(*home)
+        elif item.command in _DRIVEN_TO:
+            if not has_point:
+                continue  # "here": the rover holds where it is, no new point
+            if not valid or item.frame not in _GLOBAL_FRAMES:
+                skipped += 1
+                continue
+            add(*here)
+        elif valid:
+            skipped += 1
+    if len(points) < 2:
+        raise ValueError(
+            f"the mission drives to {len(points)} distinct point(s) of {len(items)} items: no route"
+        )
+    return MissionRoute(tuple(points), skipped, laps)

@@ -1,0 +1,305 @@
+"""Reading a rover's mission (``mavlink.missionread``) and the road it drives
+(``tracks.missionroute``): the protocol's turns, time-outs and refusals, when the
+watch reads again, and which items make the route."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+from pymavlink.dialects.v20 import common as mavlink
+
+from convoy_mav.mavlink.codec import MavCodec
+from convoy_mav.mavlink.missionread import (
+    BUSY_RETRY_S,
+    RETRY_S,
+    TIMEOUT_S,
+    TRIES,
+    MissionItem,
+    MissionRead,
+    MissionWatch,
+)
+from convoy_mav.tracks.missionroute import mission_route
+
+ROVER = 201
+MISSION = mavlink.MAV_MISSION_TYPE_MISSION
+REL_INT = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
+WP = mavlink.MAV_CMD_NAV_WAYPOINT
+
+
+def wire(msg: Any, sysid: int = ROVER) -> Any:
+    """``msg`` as the rover sends it: packed and parsed by pymavlink."""
+    sender, receiver = MavCodec(sysid, 1), MavCodec(255, 190)
+    (out,) = receiver.feed_datagram(sender.pack(msg))
+    return out
+
+
+def item(
+    seq: int, lat: float, lon: float, command: int = WP, frame: int = REL_INT, p1: float = 0.0
+) -> Any:
+    x, y = round(lat * 1e7), round(lon * 1e7)
+    msg = mavlink.MAVLink_mission_item_int_message(
+        255, 190, seq, frame, command, 0, 1, p1, 0, 0, 0, x, y, 0.0, MISSION
+    )
+    return wire(msg)
+
+
+def count(n: int, kind: int = MISSION) -> Any:
+    return wire(mavlink.MAVLink_mission_count_message(255, 190, n, kind))
+
+
+def heartbeat(autopilot: int) -> Any:
+    return wire(
+        mavlink.MAVLink_heartbeat_message(
+            mavlink.MAV_TYPE_GROUND_ROVER, autopilot, 0, 0, mavlink.MAV_STATE_ACTIVE, 3
+        )
+    )
+
+
+def current(seq: int, total: int) -> Any:
+    return wire(mavlink.MAVLink_mission_current_message(seq, total, 3, 0))
+
+
+def only(out: list[Any], kind: str) -> Any:
+    assert [m.get_type() for m in out] == [kind]
+    return out[0]
+
+
+POINTS = [(47.40, 8.54), (47.401, 8.54), (47.401, 8.542)]
+
+
+def test_a_mission_is_read_item_by_item_and_the_transfer_closed() -> None:
+    read = MissionRead(ROVER)
+    ask = only(read.start(0.0), "MISSION_REQUEST_LIST")
+    assert (ask.target_system, ask.target_component, ask.mission_type) == (ROVER, 1, MISSION)
+    assert only(read.handle(count(3), 0.1), "MISSION_REQUEST_INT").seq == 0
+    assert only(read.handle(item(0, *POINTS[0]), 0.2), "MISSION_REQUEST_INT").seq == 1
+    assert read.handle(item(0, *POINTS[0]), 0.25) == []  # a late duplicate
+    assert read.handle(item(2, *POINTS[2]), 0.26) == []  # one not asked for yet
+    assert only(read.handle(item(1, *POINTS[1]), 0.3), "MISSION_REQUEST_INT").seq == 2
+    ack = only(read.handle(item(2, *POINTS[2]), 0.4), "MISSION_ACK")
+    assert (ack.type, ack.mission_type) == (mavlink.MAV_MISSION_ACCEPTED, MISSION)
+    assert read.done and read.error is None and read.items is not None
+    assert [(i.seq, round(i.lat, 7), round(i.lon, 7)) for i in read.items] == [
+        (k, *p) for k, p in enumerate(POINTS)
+    ]
+    assert read.handle(item(2, *POINTS[2]), 0.5) == []  # done: nothing more
+
+
+def test_an_empty_mission_is_read_as_no_items() -> None:
+    read = MissionRead(ROVER)
+    read.start(0.0)
+    assert only(read.handle(count(0), 0.1), "MISSION_ACK").type == mavlink.MAV_MISSION_ACCEPTED
+    assert read.items == [] and read.done
+
+
+def test_the_float_form_answer_is_taken() -> None:
+    read = MissionRead(ROVER)
+    read.start(0.0)
+    read.handle(count(1), 0.0)
+    float_form = mavlink.MAVLink_mission_item_message(
+        255, 190, 0, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, WP, 0, 1, 0, 0, 0, 0, 47.25, 8.5, 0,
+        MISSION,
+    )  # fmt: skip
+    legacy = wire(float_form)
+    read.handle(legacy, 0.1)
+    assert read.items is not None
+    assert (read.items[0].lat, read.items[0].lon) == pytest.approx((47.25, 8.5))
+
+
+def test_other_mission_types_and_strangers_messages_are_not_the_read() -> None:
+    read = MissionRead(ROVER)
+    assert read.handle(count(2), 0.0) == []  # not started
+    read.start(0.0)
+    assert read.handle(count(4, mavlink.MAV_MISSION_TYPE_FENCE), 0.0) == []
+    assert read.count is None
+    assert read.handle(current(1, 3), 0.0) == []
+
+
+def test_an_unanswered_request_is_sent_again_then_given_up_on() -> None:
+    read = MissionRead(ROVER)
+    read.start(0.0)
+    assert read.poll(TIMEOUT_S * 0.9) == []
+    t = 0.0
+    for _ in range(TRIES - 1):
+        t += TIMEOUT_S
+        only(read.poll(t), "MISSION_REQUEST_LIST")
+    assert not read.done
+    assert read.poll(t + TIMEOUT_S) == []  # nothing was opened: nothing to cancel
+    assert read.done and read.items is None
+    assert read.error == f"did not answer MISSION_REQUEST_LIST ({TRIES} tries, 1.5 s apart)"
+
+
+def test_a_read_given_up_half_way_is_cancelled_on_the_vehicle() -> None:
+    read = MissionRead(ROVER)
+    read.start(0.0)
+    read.handle(count(3), 0.0)
+    read.handle(item(0, *POINTS[0]), 0.0)
+    t = 0.0
+    for _ in range(TRIES - 1):
+        t += TIMEOUT_S
+        assert only(read.poll(t), "MISSION_REQUEST_INT").seq == 1
+    ack = only(read.poll(t + TIMEOUT_S), "MISSION_ACK")
+    assert ack.type == mavlink.MAV_MISSION_OPERATION_CANCELLED
+    assert read.error is not None and "MISSION_REQUEST_INT 1 of 3" in read.error
+
+
+def test_an_answer_resets_the_tries() -> None:
+    read = MissionRead(ROVER)
+    read.start(0.0)
+    for k in range(1, TRIES):
+        read.poll(k * TIMEOUT_S)
+    read.handle(count(1), TRIES * TIMEOUT_S)
+    for k in range(1, TRIES):
+        assert read.poll((TRIES + k) * TIMEOUT_S) != []
+    assert not read.done
+
+
+def test_a_refusal_ends_the_read_with_its_reason() -> None:
+    read = MissionRead(ROVER)
+    read.start(0.0)
+    refusal = wire(
+        mavlink.MAVLink_mission_ack_message(255, 190, mavlink.MAV_MISSION_DENIED, MISSION)
+    )
+    assert read.handle(refusal, 0.1) == []
+    assert read.error == "refused the read: MAV_MISSION_DENIED (another transfer under way)"
+    assert read.busy
+
+
+def test_a_mission_counted_past_any_autopilot_is_refused() -> None:
+    read = MissionRead(ROVER)
+    read.start(0.0)
+    read.handle(count(60000), 0.0)
+    assert read.error is not None and "60000" in read.error
+
+
+# ------------------------------------------------------------------------- the watch
+
+
+def drive(watch: MissionWatch, points: list[tuple[float, float]], now: float) -> list[Any]:
+    """Answer the watch's read as a rover holding ``points`` would; what it sent."""
+    sent = watch.poll(now)
+    log = list(sent)
+    while sent:
+        reply: list[Any] = []
+        for msg in sent:
+            if msg.get_type() == "MISSION_REQUEST_LIST":
+                reply.append(count(len(points)))
+            elif msg.get_type() == "MISSION_REQUEST_INT":
+                reply.append(item(msg.seq, *points[msg.seq]))
+        sent = [out for r in reply for out in watch.handle(r, now)]
+        log += sent
+    return log
+
+
+def test_the_watch_reads_once_heard_then_again_only_when_the_mission_changes() -> None:
+    watch = MissionWatch(ROVER)
+    assert watch.poll(0.0) == []  # not heard yet
+    watch.handle(heartbeat(mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA), 0.0)
+    assert watch.ardupilot
+    drive(watch, POINTS, 1.0)
+    read = watch.take()
+    assert read is not None and read.items is not None and len(read.items) == 3
+    assert watch.take() is None  # handed over once
+    # ArduPilot's MISSION_CURRENT leaves home out of its total: 2 is the same mission.
+    watch.handle(current(1, 2), 2.0)
+    assert watch.poll(3.0) == [] and watch.reads == 1
+    watch.handle(current(1, 4), 4.0)  # another ground station uploaded one
+    assert only(watch.poll(4.0), "MISSION_REQUEST_LIST")
+    assert watch.poll(4.1) == []  # (one read at a time)
+
+
+def test_the_watch_asks_again_later_when_a_read_fails_or_finds_nothing() -> None:
+    watch = MissionWatch(ROVER)
+    watch.handle(heartbeat(mavlink.MAV_AUTOPILOT_PX4), 0.0)
+    drive(watch, [], 0.0)
+    read = watch.take()
+    assert read is not None and read.items == []
+    assert watch.poll(RETRY_S - 1.0) == []
+    only(watch.poll(RETRY_S), "MISSION_REQUEST_LIST")
+    for k in range(1, TRIES + 1):  # silence: the read fails
+        watch.poll(RETRY_S + k * TIMEOUT_S)
+    failed = watch.take()
+    assert failed is not None and failed.error is not None
+    t = RETRY_S + TRIES * TIMEOUT_S
+    assert watch.poll(t + 1.0) == []
+    assert only(watch.poll(t + RETRY_S), "MISSION_REQUEST_LIST")
+    assert watch.reads == 2
+
+
+def test_a_read_refused_during_another_stations_upload_is_tried_again_soon() -> None:
+    """ArduRover SITL denied the service's first read while the operator uploaded."""
+    watch = MissionWatch(ROVER)
+    watch.handle(heartbeat(mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA), 0.0)
+    only(watch.poll(0.0), "MISSION_REQUEST_LIST")
+    denied = mavlink.MAVLink_mission_ack_message(255, 190, mavlink.MAV_MISSION_DENIED, MISSION)
+    watch.handle(wire(denied), 0.1)
+    assert watch.take() is not None
+    assert watch.poll(0.1 + BUSY_RETRY_S - 0.5) == []
+    assert only(watch.poll(0.1 + BUSY_RETRY_S), "MISSION_REQUEST_LIST")
+
+
+def test_a_px4_mission_counted_whole_is_not_read_again() -> None:
+    watch = MissionWatch(ROVER)
+    watch.handle(heartbeat(mavlink.MAV_AUTOPILOT_PX4), 0.0)
+    drive(watch, POINTS, 0.0)
+    watch.handle(current(0, 3), 1.0)
+    assert watch.poll(2.0) == []
+
+
+# ------------------------------------------------------------------------- the route
+
+
+def items(*rows: tuple[int, int, float, float]) -> list[MissionItem]:
+    """(command, frame, lat, lon) in order, numbered from 0."""
+    return [
+        MissionItem(item(k, lat, lon, cmd, frame)) for k, (cmd, frame, lat, lon) in enumerate(rows)
+    ]
+
+
+GLOBAL = mavlink.MAV_FRAME_GLOBAL
+MISSION_FRAME = mavlink.MAV_FRAME_MISSION
+LOCAL = mavlink.MAV_FRAME_LOCAL_NED
+
+
+def test_an_ardupilot_mission_drives_its_waypoints_and_back_home() -> None:
+    route = mission_route(
+        items(
+            (WP, GLOBAL, 47.400, 8.540),  # home: where it was armed
+            (WP, REL_INT, 47.401, 8.540),
+            (mavlink.MAV_CMD_DO_CHANGE_SPEED, MISSION_FRAME, 0.0, 0.0),
+            (WP, REL_INT, 0.0, 0.0),  # "here": a hold where it is
+            (mavlink.MAV_CMD_NAV_SPLINE_WAYPOINT, REL_INT, 47.401, 8.542),
+            (WP, REL_INT, 47.401, 8.542),  # the same point again
+            (mavlink.MAV_CMD_NAV_LOITER_TIME, REL_INT, 47.402, 8.542),
+            (WP, LOCAL, 120.0, 30.0),  # metres, not degrees
+            (mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH, MISSION_FRAME, 0.0, 0.0),
+        ),
+        home_first=True,
+    )
+    assert [(round(lat, 6), round(lon, 6)) for lat, lon in route.points] == [
+        (47.401, 8.540), (47.401, 8.542), (47.402, 8.542), (47.400, 8.540)
+    ]  # fmt: skip
+    assert (route.skipped, route.laps) == (1, False)
+    assert route.remarks() == "1 items left out (local frames, landings)"
+
+
+def test_a_px4_mission_has_no_home_item_and_a_jump_makes_laps() -> None:
+    route = mission_route(
+        items(
+            (WP, REL_INT, 47.400, 8.540),
+            (WP, REL_INT, 47.401, 8.540),
+            (WP, REL_INT, 47.401, 8.541),
+            (mavlink.MAV_CMD_DO_JUMP, MISSION_FRAME, 0.0, 0.0),
+        ),
+        home_first=False,
+    )
+    assert len(route.points) == 3 and route.laps
+    assert route.remarks() == "driven in laps (DO_JUMP)"
+
+
+def test_a_mission_going_nowhere_is_no_route() -> None:
+    with pytest.raises(ValueError, match=r"1 distinct point\(s\) of 2 items: no route"):
+        mission_route(items((WP, GLOBAL, 47.4, 8.54), (WP, REL_INT, 47.4, 8.54)), home_first=True)
+    with pytest.raises(ValueError, match="0 distinct"):
+        mission_route([], home_first=False)
