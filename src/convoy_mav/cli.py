@@ -174,7 +174,8 @@ def _build_parser() -> argparse.ArgumentParser:
     )
     replay.add_argument(
         "--route", metavar="FILE",
-        help="give the service this planned route (GPX trk/rte, CSV lat,lon, GeoJSON, KML/KMZ), "
+        help="give the service this planned route (GPX trk/rte, CSV lat,lon, GeoJSON, KML/KMZ, "
+        "a rover mission saved as .plan or .waypoints), "
         "as [convoy] route does for run, while the convoy drives TRACK, which need not keep "
         "to it: a detour, the route driven back, a circuit lapped",
     )  # fmt: skip

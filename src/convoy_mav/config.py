@@ -54,7 +54,8 @@ times <= a day)::
     start = { north = 0.0, east = 0.0 }   # route: start point in the mission frame
     stale_after_s = 3.0           # no fresh convoy fix this long: hold + alarm
     route = "route.gpx"           # optional: the road the convoy will drive (GPX trk/rte,
-                                  #   CSV lat,lon[,time], GeoJSON LineString or KML/KMZ path;
+                                  #   CSV lat,lon[,time], GeoJSON LineString, KML/KMZ path,
+                                  #   a rover's mission saved as .plan or .waypoints;
                                   #   relative to this file); the road
                                   #   planner predicts along it (the convoy may still leave it)
                                   #   route = "mission": the first [[convoy.vehicle]]'s own

@@ -24,6 +24,7 @@ from convoy_mav.publish import topics
 from convoy_mav.tracks.csvfile import parse_csv_track
 from convoy_mav.tracks.gpx import parse_gpx_track
 from convoy_mav.tracks.kml import kmz_document, parse_kml_points, parse_kml_track
+from convoy_mav.tracks.missionfile import WPL_HEADER, parse_plan, parse_waypoints
 from convoy_mav.tracks.tlog import parse_tlog_track
 
 FUZZ = settings(max_examples=300, deadline=None)
@@ -67,6 +68,9 @@ def test_track_readers_refuse_with_a_value_error(data: bytes | str) -> None:
         lambda: parse_kml_points(raw, "fuzz.kml"),
         lambda: parse_kml_track(raw, "fuzz.kml"),
         lambda: kmz_document(raw, "fuzz.kmz"),
+        lambda: parse_waypoints(text, "fuzz.waypoints"),
+        lambda: parse_waypoints(WPL_HEADER + "\n" + text, "fuzz.waypoints"),
+        lambda: parse_plan(raw, "fuzz.plan"),
     ]
     for parse in parsers:
         with contextlib.suppress(ValueError):  # (a named refusal: the CLI prints one line)
@@ -108,6 +112,20 @@ def test_a_mangled_kml_route_is_read_or_refused(at: int, insert: str, cut: int) 
     with contextlib.suppress(ValueError):
         lats, lons = parse_kml_points(text, "fuzz.kml")
         assert len(lats) == len(lons) >= 2
+
+
+@FUZZ
+@given(_json)
+def test_a_plan_of_any_shape_is_read_or_refused(mission: Any) -> None:
+    """QGroundControl plans as JSON of any shape where the mission and its items go."""
+    for doc in (
+        {"mission": mission},
+        {"mission": {"items": mission}},
+        {"mission": {"items": [mission]}},
+    ):
+        with contextlib.suppress(ValueError):
+            route = parse_plan(json.dumps(doc).encode(), "fuzz.plan")
+            assert len(route.points) >= 2
 
 
 @FUZZ

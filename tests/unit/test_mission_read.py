@@ -253,7 +253,8 @@ def test_a_px4_mission_counted_whole_is_not_read_again() -> None:
 def items(*rows: tuple[int, int, float, float]) -> list[MissionItem]:
     """(command, frame, lat, lon) in order, numbered from 0."""
     return [
-        MissionItem(item(k, lat, lon, cmd, frame)) for k, (cmd, frame, lat, lon) in enumerate(rows)
+        MissionItem.from_message(item(k, lat, lon, cmd, frame))
+        for k, (cmd, frame, lat, lon) in enumerate(rows)
     ]
 
 
@@ -281,7 +282,7 @@ def test_an_ardupilot_mission_drives_its_waypoints_and_back_home() -> None:
         (47.401, 8.540), (47.401, 8.542), (47.402, 8.542), (47.400, 8.540)
     ]  # fmt: skip
     assert (route.skipped, route.laps) == (1, False)
-    assert route.remarks() == "1 items left out (local frames, landings)"
+    assert route.remarks() == "1 items left out (local frames, landings, surveys)"
 
 
 def test_a_px4_mission_has_no_home_item_and_a_jump_makes_laps() -> None:

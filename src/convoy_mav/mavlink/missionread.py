@@ -20,6 +20,8 @@ Design rules:
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from pymavlink.dialects.v20 import common as mavlink
 
 from convoy_mav.mavlink.codec import Message
@@ -31,25 +33,26 @@ TRIES = 5
 MAX_ITEMS = 2000  # more than any autopilot stores (ArduPilot on SITL: 700 on flash boards)
 
 
+@dataclass(frozen=True, slots=True)
 class MissionItem:
     """One mission item in the INT form's units: ``lat``/``lon`` degrees (0, 0: none)."""
 
-    __slots__ = ("command", "frame", "lat", "lon", "param1", "param2", "seq")
+    seq: int
+    command: int
+    frame: int
+    lat: float
+    lon: float
+    param1: float = 0.0
+    param2: float = 0.0
 
-    def __init__(self, msg: Message) -> None:
-        self.seq: int = int(msg.seq)
-        self.command: int = int(msg.command)
-        self.frame: int = int(msg.frame)
-        self.param1: float = float(msg.param1)
-        self.param2: float = float(msg.param2)
-        if msg.get_type() == "MISSION_ITEM_INT":
-            self.lat: float = msg.x * 1e-7
-            self.lon: float = msg.y * 1e-7
-        else:
-            self.lat, self.lon = float(msg.x), float(msg.y)
-
-    def __repr__(self) -> str:
-        return f"MissionItem({self.seq}, cmd {self.command}, {self.lat:.7f}, {self.lon:.7f})"
+    @classmethod
+    def from_message(cls, msg: Message) -> MissionItem:
+        """From a MISSION_ITEM_INT (degrees e7) or a MISSION_ITEM (degrees)."""
+        scale = 1e-7 if msg.get_type() == "MISSION_ITEM_INT" else 1.0
+        return cls(
+            int(msg.seq), int(msg.command), int(msg.frame), msg.x * scale, msg.y * scale,
+            float(msg.param1), float(msg.param2),
+        )  # fmt: skip
 
 
 class MissionRead:
@@ -102,7 +105,7 @@ class MissionRead:
         if kind in ("MISSION_ITEM_INT", "MISSION_ITEM") and self._count is not None:
             if msg.seq != len(self._got):
                 return []  # a late duplicate, or one we did not ask for yet
-            self._got.append(MissionItem(msg))
+            self._got.append(MissionItem.from_message(msg))
             if len(self._got) < self._count:
                 return self._ask(now, first=True)
             self.items = self._got

@@ -40,6 +40,7 @@ from convoy_mav.tracks.csvfile import parse_csv_points, parse_csv_track
 from convoy_mav.tracks.geotrack import GeoTrack, TrackSpeeds, track_speeds
 from convoy_mav.tracks.gpx import parse_gpx_points, parse_gpx_track
 from convoy_mav.tracks.kml import is_zip, kmz_document, parse_kml_points, parse_kml_track
+from convoy_mav.tracks.missionfile import WPL_HEADER, parse_plan, parse_waypoints
 from convoy_mav.tracks.routejson import parse_route_json
 from convoy_mav.tracks.tlog import parse_tlog_track
 
@@ -108,6 +109,9 @@ def _check_size(name: str) -> None:
 def load_route(path: str | os.PathLike[str]) -> tuple[list[float], list[float]]:
     """Read a route, the road a convoy will drive: (lats, lons), in order, times ignored.
 
+    A rover's mission as a ground station saves it: QGroundControl's ``.plan``, or a
+    ``.waypoints`` (``.txt``) file in QGC WPL 110 (Mission Planner, MAVProxy;
+    ``tracks.missionfile``): the waypoints it drives.
     GPX ``<trkpt>`` or ``<rtept>`` (no ``<time>`` needed), CSV ``lat,lon[,time]``,
     JSON (``.geojson``/``.json``: a GeoJSON LineString as map tools export it, or
     ``{"points": [[lat, lon], ...]}``, the MQTT route's forms, ``tracks.routejson``),
@@ -119,6 +123,15 @@ def load_route(path: str | os.PathLike[str]) -> tuple[list[float], list[float]]:
     """
     name = os.fspath(path)
     ext = os.path.splitext(name)[1].lower()
+    if ext in (".plan", ".waypoints") or (ext == ".txt" and _is_waypoints(name)):
+        _check_size(name)
+        with open(name, "rb") as handle:
+            data = handle.read()
+        if ext == ".plan":
+            route = parse_plan(data, name)
+        else:
+            route = parse_waypoints(data.decode("utf-8-sig", errors="replace"), name)
+        return [p[0] for p in route.points], [p[1] for p in route.points]
     if ext in (".geojson", ".json", ".kml", ".kmz"):
         _check_size(name)
         with open(name, "rb") as handle:
@@ -129,7 +142,8 @@ def load_route(path: str | os.PathLike[str]) -> tuple[list[float], list[float]]:
     kind = format_of(name)
     if kind not in ("csv", "gpx"):
         raise ValueError(
-            f"{name}: a route is a .gpx, .csv, .geojson or .kml/.kmz file, not a {kind}"
+            f"{name}: a route is a .gpx, .csv, .geojson, .kml/.kmz, .plan or .waypoints "
+            f"file, not a {kind}"
         )
     _check_size(name)
     if kind == "csv":
@@ -137,6 +151,12 @@ def load_route(path: str | os.PathLike[str]) -> tuple[list[float], list[float]]:
             return parse_csv_points(handle, name)
     with open(name, "rb") as binary:
         return parse_gpx_points(binary, name)
+
+
+def _is_waypoints(name: str) -> bool:
+    """A ``.txt`` that is a waypoints file (MAVProxy saves them so): by its first line."""
+    with open(name, "rb") as handle:
+        return handle.read(len(WPL_HEADER)).decode("ascii", errors="replace") == WPL_HEADER
 
 
 def _kml_bytes(data: bytes, name: str) -> bytes:

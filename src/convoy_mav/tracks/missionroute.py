@@ -58,25 +58,30 @@ class MissionRoute:
     """The road a mission drives: (lat, lon) in order, and what was left out."""
 
     points: tuple[tuple[float, float], ...]
-    skipped: int  # items with a position the road leaves out (local frames, landings)
+    skipped: int  # items the road leaves out (local frames, landings, a plan's surveys)
     laps: bool  # a DO_JUMP repeats part of it
 
     def remarks(self) -> str:
         """What the points alone do not say ("" when nothing)."""
         said = ["driven in laps (DO_JUMP)"] if self.laps else []
         if self.skipped:
-            said.append(f"{self.skipped} items left out (local frames, landings)")
+            said.append(f"{self.skipped} items left out (local frames, landings, surveys)")
         return ", ".join(said)
 
 
-def mission_route(items: Sequence[MissionItem], *, home_first: bool) -> MissionRoute:
-    """The polyline a rover's mission drives (see the module's rules).
+def mission_route(
+    items: Sequence[MissionItem],
+    *,
+    home_first: bool,
+    home: tuple[float, float] | None = None,
+) -> MissionRoute:
+    """The polyline a rover's mission drives (see the module's rules); ``home`` is where a
+    return to launch goes when the items do not hold it (a QGroundControl plan's).
 
     Raises:
         ValueError: Fewer than two distinct points to drive: no road to speak of.
     """
     points: list[tuple[float, float]] = []
-    home: tuple[float, float] | None = None
     skipped = 0
     laps = False
 
