@@ -486,7 +486,9 @@ def test_a_route_needs_no_times(tmp_path: Path) -> None:
     assert route("n.csv", "lon,lat\n8.1,47.1\n8.2,47.2\n") == want
     with pytest.raises(ValueError, match=r"b.csv:1: expected columns lat,lon"):
         route("b.csv", "47.1\n")
-    with pytest.raises(ValueError, match=r"a route is a \.gpx, \.csv, \.geojson or \.kml"):
+    with pytest.raises(
+        ValueError, match=r"a route is a \.gpx, \.csv, \.geojson, \.kml/\.kmz, \.plan"
+    ):
         load_route(tmp_path / "x.tlog")
     drawn = (  # as geojson.io saves a line drawn on the map
         '{"type": "FeatureCollection", "features": [{"type": "Feature", "properties": {}, '
