@@ -10,8 +10,10 @@ Design rules:
     * The waypoints are the route's vertices; a recorded track is thinned
       (Douglas-Peucker, ``tolerance`` metres) to the corners a planner would have
       clicked, so GPS jitter along a straight is not a waypoint.
-    * The timing is not in the mission (no holds, no speeds): a mission says where the
-      rover goes, the route's timing how it drives there.
+    * Where a track stands still 5 s or more (``convoy_mav.tracks.stops``), the rover's
+      mission holds: a waypoint there with that hold time (NAV_WAYPOINT param1, as
+      ArduRover's ``loiter_duration``), the plan it keeps. No speeds: the track's own
+      say how it drives between.
     * Numbering follows the firmware: ArduPilot's item 0 is home (a NAV_WAYPOINT in
       MAV_FRAME_GLOBAL), PX4's items are the waypoints alone.
 """
@@ -27,6 +29,7 @@ from dataclasses import dataclass
 from pymavlink.dialects.v20 import common as mavlink
 
 from convoy_mav.geo import GeoPoint, LocalFrame
+from convoy_mav.tracks.stops import standstills
 from sitl_mock.ground import Polyline, Route, Track
 
 __all__ = ["RoverMission", "as_float_item", "thin"]
@@ -66,17 +69,22 @@ class RoverMission:
     waypoints: tuple[GeoPoint, ...]
     times: tuple[float, ...]
     laps: bool = False  # a looping polyline: driven again from the first once at the last
+    holds: tuple[float, ...] = ()  # seconds held at each waypoint (none: no holds)
 
     @classmethod
     def of(
         cls, route: Route, world: LocalFrame, tolerance: float = DEFAULT_TOLERANCE_M
     ) -> RoverMission | None:
         """The mission driving ``route``'s road (None: a route with no road to give)."""
+        held: dict[int, float] = {}
         if isinstance(route, Track):
             points = list(zip(route.norths, route.easts, strict=True))
-            keep = thin(points, tolerance)
+            stands = standstills(route.times, route.norths, route.easts)
+            held = {stand.index: stand.seconds for stand in stands}
+            keep = sorted(set(thin(points, tolerance)) | set(held))
             times = [route.times[i] for i in keep]
             points = [points[i] for i in keep]
+            held = {k: held[i] for k, i in enumerate(keep) if i in held}
         elif isinstance(route, Polyline) and route.speed > 0.0:
             points = [p for i, p in enumerate(route.points) if i == 0 or p != route.points[i - 1]]
             if route.loop and points[-1] != points[0]:
@@ -90,7 +98,8 @@ class RoverMission:
         if len(points) < 2:
             return None
         geo = tuple(world.to_geo(n, e, 0.0) for n, e in points)
-        return cls(geo, tuple(times), laps=isinstance(route, Polyline) and route.loop)
+        holds = tuple(held.get(k, 0.0) for k in range(len(points))) if held else ()
+        return cls(geo, tuple(times), laps=isinstance(route, Polyline) and route.loop, holds=holds)
 
     def count(self, *, home_first: bool) -> int:
         return len(self.waypoints) + home_first
@@ -101,25 +110,29 @@ class RoverMission:
         """Item ``seq`` as MISSION_ITEM_INT (None: out of range)."""
         if not 0 <= seq < self.count(home_first=home_first):
             return None
+        hold = 0.0
         if home_first and seq == 0:
             where, frame = home, mavlink.MAV_FRAME_GLOBAL
         else:
             where = self.waypoints[seq - home_first]
             frame = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
+            hold = self.holds[seq - home_first] if self.holds else 0.0
         return mavlink.MAVLink_mission_item_int_message(
             target[0], target[1], seq, frame, mavlink.MAV_CMD_NAV_WAYPOINT,
-            0, 1, 0.0, 0.0, 0.0, 0.0,
+            0, 1, hold, 0.0, 0.0, 0.0,
             round(where.lat * 1e7), round(where.lon * 1e7),
             where.alt if frame == mavlink.MAV_FRAME_GLOBAL else 0.0,
             mavlink.MAV_MISSION_TYPE_MISSION,
         )  # fmt: skip
 
     def current(self, t: float, *, home_first: bool) -> int:
-        """The item being driven to at sim time ``t`` (the last once arrived)."""
+        """The item being driven to, or held at, at sim time ``t`` (the last once arrived)."""
         if self.laps and t > 0.0:
             t %= self.times[-1]
-        i = min(bisect.bisect_right(self.times, t), len(self.times) - 1)
-        return i + home_first
+        i = bisect.bisect_right(self.times, t)
+        if i and self.holds and t < self.times[i - 1] + self.holds[i - 1]:
+            i -= 1  # (holding there: that waypoint is still the one in force)
+        return min(i, len(self.times) - 1) + home_first
 
 
 def as_float_item(item: mavlink.MAVLink_mission_item_int_message) -> mavlink.MAVLink_message:

@@ -22,6 +22,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import functools
+import itertools
 import logging
 import math
 import sys
@@ -393,7 +394,8 @@ class ConvoyService:
         else:
             self.mission = Mission(request, uav_ids, down=self._down, thresholds=thresholds)
         self._planner_why = why
-        self._new_route: Road | None = None  # from MQTT, for the next mission step
+        # A new route (MQTT, a rover's mission) and its holds, for the next mission step.
+        self._new_route: tuple[Road, tuple[tuple[float, float], ...]] | None = None
         self._route_source = (
             "file"
             if config.convoy.route_file is not None
@@ -501,7 +503,7 @@ class ConvoyService:
             return
         remarks = route.remarks()
         source = f"ground vehicle {sysid}'s mission" + (f" ({remarks})" if remarks else "")
-        self.set_route(route.points, source=source)
+        self.set_route(route.points, source=source, holds=route.holds)
 
     def _on_mqtt_convoy(self, fix: Mapping[str, Any]) -> None:
         """A convoy position from ``<prefix>/convoy/position`` (already validated)."""
@@ -1517,7 +1519,7 @@ class ConvoyService:
         road_mission = mission if isinstance(mission, RoadMission) else None
         if road_mission is not None:
             if road is not None:
-                road_mission.set_route(road)
+                road_mission.set_route(*road)
             road_mission.set_replan_lag(*lead)
         plans_before = 0 if road_mission is None else road_mission.uav_plans
         if est is not None:
@@ -1862,10 +1864,15 @@ class ConvoyService:
         }
 
     def set_route(
-        self, points: Sequence[tuple[float, float]], *, source: str = "MQTT convoy/route"
+        self,
+        points: Sequence[tuple[float, float]],
+        *,
+        source: str = "MQTT convoy/route",
+        holds: Sequence[tuple[int, float]] = (),
     ) -> None:
         """A new route for the convoy, (lat, lon) in order (MQTT ``convoy/route``, or the
-        lead ground vehicle's mission).
+        lead ground vehicle's mission), and the convoy's planned holds on it: (index of
+        the point, seconds), a rover's mission's hold times.
 
         Taken in at the next mission step (the mission lives in its worker thread);
         the paper's planner has no use for one, which the log says.
@@ -1878,11 +1885,27 @@ class ConvoyService:
         except PlanningError as exc:
             self._note(f"route of {len(points)} points from {source} refused: {exc}")
             return
-        self._new_route = road
+        self._new_route = (road, self._hold_arcs(road, points, holds))
         self._route_source = source
         self._note(
             f"convoy route received from {source}: {len(points)} points, {road.length:.0f} m"
         )
+
+    def _hold_arcs(
+        self, road: Road, points: Sequence[tuple[float, float]], holds: Sequence[tuple[int, float]]
+    ) -> tuple[tuple[float, float], ...]:
+        """Each hold's arc length on ``road``, found near the distance driven to its point
+        from the hold before (a route that comes back along itself has the point on two
+        passes)."""
+        if not holds:
+            return ()
+        ne = [self.frame.to_ned(GeoPoint(lat, lon))[:2] for lat, lon in points]
+        driven = [0.0]
+        for (n0, e0), (n1, e1) in itertools.pairwise(ne):
+            driven.append(driven[-1] + math.hypot(n1 - n0, e1 - e0))
+        held = sorted((i, seconds) for i, seconds in holds if 0 <= i < len(ne))
+        arcs = road.project_along((ne[i][1], ne[i][0], driven[i]) for i, _ in held)
+        return tuple(zip(arcs, (seconds for _, seconds in held), strict=True))
 
     @property
     def route(self) -> Road | None:

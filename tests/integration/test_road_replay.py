@@ -215,19 +215,23 @@ def test_the_lead_rovers_mission_is_read_as_the_convoys_route(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """``replay --route-mission``: the mock's lead rover (ArduPilot: its mission's item 0
-    is home) drives the road as its mission; the service reads that mission over MAVLink
-    and flies it as the route, with the route's count of UAVs."""
+    is home) drives the road as its mission, holding where the road stops; the service
+    reads that mission over MAVLink and flies it as the route, with its holds, and the
+    route's count of UAVs."""
     report_path = tmp_path / "r.json"
-    argv = ["replay", "--road", "bends", "--route-mission", "--duration", "200"]
+    argv = ["replay", "--road", "stop-and-go", "--route-mission", "--duration", "240"]
     argv += ["--personality", "ardupilot", "--speedup", str(SPEEDUP), "--quiet"]
     assert main([*argv, "--report", str(report_path)]) == 0
     assert "ground truth" in capsys.readouterr().out
     report = json.loads(report_path.read_text())
     planner = report["planner"]
     assert report["uav_count"] == 6  # (the count with a route)
-    assert planner["route_source"] == "ground vehicle 7's mission"
+    # The road's three stops (120, 120 and 30 s), as its rover's hold times.
+    assert planner["route_source"] == "ground vehicle 7's mission (3 holds, 272 s)"
     assert planner["mission_reads"] == 1  # (its MISSION_CURRENT says it did not change)
     assert planner["route_known"]
     # The whole road, its arcs as the chords of the waypoints it was thinned to.
-    assert planner["route_length_m"] == pytest.approx(road_kind("bends").length_m, rel=0.02)
+    road = road_kind("stop-and-go")
+    assert planner["route_length_m"] == pytest.approx(road.length_m, rel=0.02)
     assert any("route received from ground vehicle 7's mission" in e for e in report["events"])
+    assert report["protect_start_s"] is not None

@@ -236,3 +236,58 @@ def test_the_mean_speed_forgets_what_is_older_than_its_window() -> None:
     for bad in ({"relax_s": -1.0}, {"mean_window_s": 0.0}, {"relax_s": math.nan}):
         with pytest.raises(ValueError, match="must be"):
             ConvoyModel(STRAIGHT, **bad)
+
+
+# ----------------------------------------------------------------- planned holds
+
+
+def _holding(hold_at: float, hold_s: float, speeds: list[tuple[float, float]]) -> ConvoyModel:
+    """``_driven`` on a route with one planned hold."""
+    model = ConvoyModel(relax_s=30.0, mean_window_s=120.0)
+    model.set_route(STRAIGHT, [(hold_at, hold_s), (1e9, 0.0)])  # (no hold of 0 s)
+    t = along = 0.0
+    for seconds, speed in speeds:
+        for _ in range(round(seconds)):
+            model.observe(ConvoyEstimate(t, 0.0, along, 0.0, speed))
+            t, along = t + 1.0, along + speed
+    return model
+
+
+def test_a_convoy_driving_to_a_planned_hold_is_forecast_to_brake_stand_and_pull_away() -> None:
+    model = _holding(500.0, 60.0, [(10.0, 8.0)])  # at 72 m, 8 m/s, the hold 428 m on
+    dt = np.arange(0.0, 160.0, 1.0)
+    arc = _ahead(model, dt) + 72.0
+    # 428 m at 8 m/s, the last 32 m braking at 1 m/s^2: stopped at 500 m 57.5 s on ...
+    assert arc[50] == pytest.approx(72.0 + 8.0 * 50.0, abs=0.5)
+    assert np.all(np.abs(arc[58:117] - 500.0) < 1e-6)
+    # ... stands its 60 s, then pulls away at 1 m/s^2 up to the 8 m/s it drove at.
+    assert arc[120] > 500.0 and arc[159] - arc[158] == pytest.approx(8.0, abs=0.01)
+    assert np.all(np.diff(arc) >= -1e-9)  # never backwards
+    plain = _driven([(10.0, 8.0)])  # without the plan: on at its speed (relaxed to its mean)
+    assert _ahead(plain, dt)[100] > 700.0
+
+
+def test_standing_at_a_planned_hold_the_convoy_goes_when_its_time_is_up() -> None:
+    model = _holding(80.0, 60.0, [(10.0, 8.0), (20.0, 0.0)])  # there, standing 20 s
+    dt = np.arange(0.0, 80.0, 1.0)
+    arc = _ahead(model, dt)
+    # Standing since the estimate at t = 10 (the 20th is t = 29): 60 s from t = 10.
+    assert np.all(np.abs(arc[:41]) < 1e-6)
+    assert arc[45] > 0.5
+    # Its driving off now is still weighed (the plan's time against the tracker's).
+    assert model.driving_off(model.estimate.t + dt, 1.5, 1.0) is not None  # type: ignore[union-attr]
+
+
+def test_a_hold_stood_at_and_left_is_not_planned_again() -> None:
+    model = _holding(80.0, 30.0, [(10.0, 8.0), (30.0, 0.0), (2.0, 4.0)])
+    dt = np.arange(0.0, 60.0, 1.0)
+    arc = _ahead(model, dt)
+    assert arc[30] > 100.0  # driving on: no second stand at 80 m
+
+
+def test_a_hold_is_not_planned_for_a_convoy_off_its_route_or_without_a_plan() -> None:
+    off = _holding(500.0, 60.0, [(10.0, 8.0)])
+    off.observe(ConvoyEstimate(10.0, 200.0, 88.0, 0.0, 8.0))  # 200 m off the road
+    off.observe(ConvoyEstimate(16.0, 200.0, 136.0, 0.0, 8.0))
+    x, _ = off.positions(np.array([16.0 + 100.0]))
+    assert x[0] == pytest.approx(136.0 + 800.0)  # its own velocity

@@ -304,3 +304,18 @@ def test_a_mission_going_nowhere_is_no_route() -> None:
         mission_route(items((WP, GLOBAL, 47.4, 8.54), (WP, REL_INT, 47.4, 8.54)), home_first=True)
     with pytest.raises(ValueError, match="0 distinct"):
         mission_route([], home_first=False)
+
+
+def test_a_missions_hold_times_are_where_the_convoy_will_stand() -> None:
+    """NAV_WAYPOINT's param1 (ArduRover's hold time) and NAV_LOITER_TIME's, at their point;
+    a hold "here" at the point before."""
+    rows = [
+        MissionItem(0, WP, REL_INT, 47.400, 8.540),
+        MissionItem(1, WP, REL_INT, 47.401, 8.540, param1=30.0),
+        MissionItem(2, WP, REL_INT, 0.0, 0.0, param1=15.0),  # here: at the point before
+        MissionItem(3, mavlink.MAV_CMD_NAV_LOITER_TIME, REL_INT, 47.401, 8.542, param1=60.0),
+        MissionItem(4, WP, REL_INT, 47.402, 8.542, param1=float("nan")),  # (no hold)
+    ]
+    route = mission_route(rows, home_first=False)
+    assert route.holds == ((1, 45.0), (2, 60.0))
+    assert route.remarks() == "2 holds, 105 s"

@@ -144,3 +144,17 @@ def test_only_a_ground_vehicle_with_a_road_has_a_mission() -> None:
     missions = [v.mission for v in config.vehicles if v.kind == "ground"]
     assert missions == [True, False]  # the lead's
     assert math.isfinite(config.vehicles[-1].warmup_s)
+
+
+def test_a_tracks_stands_are_its_missions_holds() -> None:
+    """A track standing 40 s at its corner: the mission holds there 40 s (param1), and
+    MISSION_CURRENT stays on that waypoint while it stands."""
+    t = np.arange(0.0, 141.0)
+    north = np.clip(8.0 * t, 0.0, 400.0)
+    east = np.where(t <= 90, 0.0, 8.0 * (t - 90))
+    mission = RoverMission.of(Track(tuple(t), tuple(north), tuple(east)), WORLD)
+    assert mission is not None
+    assert mission.times == (0.0, 50.0, 140.0) and mission.holds == (0.0, 40.0, 0.0)
+    item = mission.item(1, WORLD.to_geo(0.0, 0.0), (255, 190), home_first=False)
+    assert item is not None and item.param1 == 40.0
+    assert [mission.current(s, home_first=False) for s in (49.0, 70.0, 91.0)] == [1, 1, 2]

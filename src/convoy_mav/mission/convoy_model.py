@@ -46,6 +46,14 @@ Design rules:
   corner ahead, for the mission to weigh its choices against both. Nor, once
   it stands, when it will drive off again: ``driving_off`` is the convoy
   pulling away along the route now, back up to the speed it last drove at.
+- A route may come with the convoy's plan of where it stands and how long
+  (``holds``: a rover's mission's hold times, ``tracks.missionroute``). Then
+  along the route the convoy is forecast to brake into each hold ahead, stand
+  its time and pull away again (at ``HOLD_ACCEL``, up to the speed it last
+  drove at); standing at one, to pull away once its time is up, counted from
+  when it stopped. Its driving off now is still weighed (``driving_off``): the
+  plan's time is the rover's, the stop's start is the tracker's, seconds
+  apart (without it, simulated urban grids lost 0.7-1 point to the holds).
 - Pure: estimates carry their time.
 """
 
@@ -53,6 +61,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -61,7 +70,7 @@ import numpy.typing as npt
 from convoy_mav.planning.road import Road
 from convoy_mav.types import ConvoyEstimate
 
-__all__ = ["ConvoyModel", "RoadMotion"]
+__all__ = ["HOLD_ACCEL", "ConvoyModel", "RoadMotion"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -74,6 +83,11 @@ _REFIND_NEAR_M = 10.0  # past the end or against it, a place this little farther
 _REFIND_JUMP_M = 100.0  # ... if it is this far along the route from where the convoy was
 _TURNING_OFF_M = 25.0  # this far off the route and heading away from it ...
 _TURNING_OFF_RAD = math.radians(45.0)  # ... by more than this: it is leaving the route
+_STANDING_MPS = 1.5  # slower along the route, the convoy stands (3 m of GPS noise: ~1 m/s)
+_HOLD_NEAR_M = 20.0  # standing this near a planned hold, it is holding there
+_HOLD_BEHIND_M = 5.0  # a hold not stood at is still ahead until this far behind
+HOLD_ACCEL = 1.0  # m/s^2: braking into a planned hold and pulling away from it
+_PLAN_STEP = 0.25  # s: the timetable's grid
 
 
 @dataclass(frozen=True, slots=True)
@@ -142,6 +156,10 @@ class ConvoyModel:
         self._s = 0.0  # arc length on the route
         self._along = 0.0  # speed along the route
         self._cruise: float | None = None  # the last speed along it while driving
+        self._holds: tuple[tuple[float, float], ...] = ()  # planned: (arc on route, s)
+        self._holding: int | None = None  # the hold it stands at (index)
+        self._held: set[int] = set()  # holds stood at and left
+        self._stood_since: float | None = None  # standing (along the route) since
         self._off_since: float | None = None
         self.left_route = False
         self.counters = {"left_route": 0, "back_on_route": 0, "found_again": 0}
@@ -174,8 +192,11 @@ class ConvoyModel:
         off = self._off_road
         return RoadMotion(est.t, est.speed if off else self._along, not off)
 
-    def set_route(self, route: Road) -> None:
-        """A new route (the convoy is found on it afresh at the next estimate)."""
+    def set_route(self, route: Road, holds: Sequence[tuple[float, float]] = ()) -> None:
+        """A new route (the convoy is found on it afresh at the next estimate), and where
+        along it the convoy plans to stand and how long: (arc length, seconds)."""
+        self._holds = tuple(sorted((float(a), float(h)) for a, h in holds if h > 0.0))
+        self._holding, self._held = None, set()
         self.route = route
         self._roads = (route, route.reversed())
         self._reversed = False
@@ -220,6 +241,21 @@ class ConvoyModel:
         )
         if self._along >= _CRUISING_MPS:
             self._cruise = self._along
+        if self._along >= _STANDING_MPS:
+            self._stood_since = None
+            if self._holding is not None:  # pulled away: that hold is done
+                self._held.add(self._holding)
+                self._holding = None
+        else:
+            if self._stood_since is None:
+                self._stood_since = est.t
+            if self._holding is None and not self._reversed:
+                near = [
+                    k
+                    for k, (arc, _) in enumerate(self._holds)
+                    if k not in self._held and abs(arc - s) <= _HOLD_NEAR_M
+                ]
+                self._holding = near[0] if near else None
         self._note_speed(est.t, self._along)
         if off > self.off_route_m:
             if self._off_since is None:
@@ -318,7 +354,7 @@ class ConvoyModel:
         road = self.road
         if road is None or self._off_road:
             return est.east + est.ve * dt, est.north + est.vn * dt
-        p = road.point(min(self._s + float(self.ahead(np.array(dt))), road.length))
+        p = road.point(min(float(self._arcs(np.array([dt]))[0]), road.length))
         return p.x, p.y
 
     def positions(self, times: npt.NDArray[np.float64]) -> tuple[FloatArray, FloatArray]:
@@ -330,8 +366,74 @@ class ConvoyModel:
         road = self.road
         if road is None or self._off_road:
             return est.east + est.ve * dt, est.north + est.vn * dt
-        x, y, _, _ = road.arrays(np.minimum(self._s + self.ahead(dt), road.length))
+        x, y, _, _ = road.arrays(np.minimum(self._arcs(dt), road.length))
         return x, y
+
+    def _hold_here(self) -> tuple[float, float] | None:
+        """Standing at a planned hold: (its arc, seconds of it left, 0 once overstayed)."""
+        est, since, k = self._est, self._stood_since, self._holding
+        if est is None or since is None or k is None:
+            return None
+        arc, seconds = self._holds[k]
+        return arc, max(0.0, seconds - (est.t - since))
+
+    def _arcs(self, dt: FloatArray) -> FloatArray:
+        """Arc length along the road ``dt`` seconds after the estimate: ``ahead``, or with
+        planned holds the timetable they make (module rules)."""
+        base = self._s + self.ahead(dt)
+        if not self._holds or self._reversed or len(dt) == 0:
+            return base
+        here = self._hold_here()
+        ahead = [
+            (a, h)
+            for k, (a, h) in enumerate(self._holds)
+            if k not in self._held and k != self._holding and a > self._s - _HOLD_BEHIND_M
+        ]
+        if here is None and not ahead:
+            return base
+        end = float(np.max(dt))
+        grid = np.arange(0.0, end + 2.0 * _PLAN_STEP, _PLAN_STEP)
+        arc = np.empty_like(grid)
+        cruise = self._cruise or self.mean_speed or 0.0
+        a = HOLD_ACCEL
+
+        ramp = cruise / a
+
+        def move(tau: FloatArray) -> FloatArray:
+            """Driving from ``t0``: as forecast, or pulling away from ``origin``."""
+            if not pulling:
+                return self._s + self.ahead(tau)
+            up = np.where(tau < ramp, 0.5 * a * tau**2, 0.5 * cruise * ramp + cruise * (tau - ramp))
+            return origin + up
+
+        t0, origin, top, pulling = 0.0, self._s, self._along, here is not None
+        if here is not None:
+            arc[grid < here[1]] = origin
+            t0, top = here[1], cruise
+        for hold_arc, seconds in ahead:
+            later = grid >= t0
+            f = move(grid[later] - t0)
+            brake = top * top / (2.0 * a)
+            hit = np.flatnonzero(f >= hold_arc - brake)
+            if len(hit) == 0:
+                break
+            t_brake = float(grid[later][hit[0]])
+            before = later & (grid < t_brake)
+            arc[before] = f[: int(np.count_nonzero(before))]
+            # Braked evenly to the hold from where it is then (harder when nearer than
+            # ``brake``; at once when on it or a little past it).
+            at = float(f[hit[0]])
+            stop = max(hold_arc, at)
+            t_stop = t_brake + (2.0 * (stop - at) / top if top > 0.0 else 0.0)
+            braking = (grid >= t_brake) & (grid < t_stop)
+            if t_stop > t_brake:
+                tau = grid[braking] - t_brake
+                arc[braking] = at + top * tau - 0.5 * (top / (t_stop - t_brake)) * tau**2
+            arc[(grid >= t_stop) & (grid < t_stop + seconds)] = stop
+            t0, origin, top, pulling = t_stop + seconds, stop, cruise, True
+        later = grid >= t0
+        arc[later] = move(grid[later] - t0)
+        return np.interp(dt, grid, arc)
 
     def stopping_short(
         self, times: npt.NDArray[np.float64], curvature: float, short_m: float

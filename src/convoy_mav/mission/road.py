@@ -664,11 +664,12 @@ class RoadMission(Roster):
         self._lag = lag
         self._lag_max = max(self._lag_max, lag[0] + lag[1])
 
-    def set_route(self, route: Road) -> None:
-        """The route the convoy will drive from now on (a new one over MQTT)."""
+    def set_route(self, route: Road, holds: Sequence[tuple[float, float]] = ()) -> None:
+        """The route the convoy will drive from now on (a new one over MQTT, a rover's
+        mission), and where along it the convoy plans to stand: (arc length, seconds)."""
         if self.recording is not None:
-            self.recording.add("set_route", (route,))
-        self.model.set_route(route)
+            self.recording.add("set_route", (route, tuple(holds)) if holds else (route,))
+        self.model.set_route(route, holds)
 
     def join(self, uav: int, north: float, east: float, yaw: float, t: float) -> list[MissionEvent]:
         """``join_many`` for one UAV."""

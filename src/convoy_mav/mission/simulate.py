@@ -28,6 +28,7 @@ from convoy_mav.mission.recording import MissionRecording
 from convoy_mav.mission.road import RoadMission, RoadSettings
 from convoy_mav.planning.plan import PlanRequest
 from convoy_mav.planning.road import Road
+from convoy_mav.tracks.stops import standstills
 
 __all__ = ["RoadRun", "chord_velocity", "fly_road"]
 
@@ -55,6 +56,16 @@ class RoadRun:
     unseen_off_pattern_s: float = 0.0
 
 
+def true_holds(
+    route: Road, t: FloatArray, north: FloatArray, east: FloatArray
+) -> tuple[tuple[float, float], ...]:
+    """The drive's stands (``standstills``) as holds on ``route``: (arc length, seconds)."""
+    stands = standstills(t, north, east)
+    driven = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(north), np.diff(east)))])
+    arcs = route.project_along((s.east, s.north, float(driven[s.index])) for s in stands)
+    return tuple(zip(arcs, (s.seconds for s in stands), strict=True))
+
+
 def fly_road(
     t: npt.ArrayLike,
     north: npt.ArrayLike,
@@ -72,6 +83,7 @@ def fly_road(
     record: bool = False,
     foresight_s: float | None = None,
     replan_lag: tuple[float, float] = (0.0, 0.0),
+    holds_known: bool = False,
 ) -> RoadRun:
     """Fly ``uavs`` UAVs over a convoy whose fixes are (t, north, east).
 
@@ -96,6 +108,9 @@ def fly_road(
             and per UAV re-planned (the mock at 40x on two cores: about 0.15 and 0.4).
             The mission is told (``RoadMission.set_replan_lag``) and, as the service's
             loop, starts no step before the last one is done. Default: at once.
+        holds_known: With the route, give the mission where the convoy stands and how
+            long (its true stands of 5 s or more, ``standstills``), as a rover's
+            mission's hold times give it.
     """
     ts = np.asarray(t, dtype=np.float64)
     fn, fe = np.asarray(north, dtype=np.float64), np.asarray(east, dtype=np.float64)
@@ -110,6 +125,8 @@ def fly_road(
     if foresight_s is not None:
         mission.model = Foresight(mission.model, ts, te, tn, foresight_s)
     mission.set_replan_lag(*replan_lag)
+    if holds_known and route is not None:
+        mission.set_route(route, true_holds(route, ts, tn, te))
     tracker = ConvoyTracker(window=4.0)
     vn, ve = (None, None) if reported is None else (np.asarray(v, np.float64) for v in reported)
     # The UAVs start circling near the convoy's first fix, spread around it.

@@ -223,6 +223,21 @@ class Road:
                     return float(self.s[end] + along)
         return best_s
 
+    def project_along(
+        self, points: Iterable[tuple[float, float, float]], window: float = 100.0
+    ) -> list[float]:
+        """Arc lengths of (x, y, driven) points in driving order, ``driven`` the distance
+        driven to each: each is looked for near the last one's arc plus the distance
+        driven since, so a point of a road that comes back along itself is found on its
+        own pass (the road's smoothing cuts corners: the gap is counted afresh from
+        each)."""
+        out: list[float] = []
+        arc, run = 0.0, 0.0
+        for x, y, driven in points:
+            arc, run = self.project(x, y, arc + driven - run, window), driven
+            out.append(arc)
+        return out
+
     def reversed(self) -> Road:
         """The same road driven the other way: arc length from the far end."""
         return Road(

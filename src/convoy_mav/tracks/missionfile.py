@@ -109,7 +109,7 @@ def parse_plan(data: bytes, name: str) -> MissionRoute:
     except ValueError as exc:
         raise ValueError(f"{name}: {exc}") from None
     if complex_items:  # (a survey's transects are no road the convoy drives)
-        return MissionRoute(route.points, route.skipped + complex_items, route.laps)
+        return MissionRoute(route.points, route.skipped + complex_items, route.laps, route.holds)
     return route
 
 

@@ -17,6 +17,10 @@ count, per the MAVLink mission commands a rover flies:
   finds on the whole route whichever lap the convoy is on; the route itself is one lap.
 - Items in a local frame, and commands with a position a rover does not drive to, are
   counted in ``skipped`` and left out.
+- Where it will stand, and how long (``holds``): a waypoint's hold time (NAV_WAYPOINT
+  param1, seconds: ArduRover's ``loiter_duration``, PX4's hold) and NAV_LOITER_TIME's
+  (param1), at that point, or at the last one for a hold "here". The rest of the
+  mission's timing (DO_CHANGE_SPEED) is not read: the convoy's own speed says it.
 """
 
 from __future__ import annotations
@@ -50,6 +54,7 @@ _DRIVEN_TO = frozenset(
         mavlink.MAV_CMD_NAV_LOITER_TIME,
     }
 )
+_HOLDS_P1 = frozenset({mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_CMD_NAV_LOITER_TIME})
 _SAME_POINT_DEG = 5e-6  # ~0.5 m: a waypoint repeated in place is one point of the road
 
 
@@ -60,10 +65,14 @@ class MissionRoute:
     points: tuple[tuple[float, float], ...]
     skipped: int  # items the road leaves out (local frames, landings, a plan's surveys)
     laps: bool  # a DO_JUMP repeats part of it
+    holds: tuple[tuple[int, float], ...] = ()  # (index in points, seconds it stands there)
 
     def remarks(self) -> str:
         """What the points alone do not say ("" when nothing)."""
         said = ["driven in laps (DO_JUMP)"] if self.laps else []
+        if self.holds:
+            total = sum(seconds for _, seconds in self.holds)
+            said.append(f"{len(self.holds)} holds, {total:.0f} s")
         if self.skipped:
             said.append(f"{self.skipped} items left out (local frames, landings, surveys)")
         return ", ".join(said)
@@ -82,6 +91,7 @@ def mission_route(
         ValueError: Fewer than two distinct points to drive: no road to speak of.
     """
     points: list[tuple[float, float]] = []
+    holds: dict[int, float] = {}
     skipped = 0
     laps = False
 
@@ -103,16 +113,18 @@ def mission_route(
             if home is not None:
                 add(*home)
         elif item.command in _DRIVEN_TO:
-            if not has_point:
-                continue  # "here": the rover holds where it is, no new point
-            if not valid or item.frame not in _GLOBAL_FRAMES:
+            if has_point and (not valid or item.frame not in _GLOBAL_FRAMES):
                 skipped += 1
                 continue
-            add(*here)
+            if has_point:
+                add(*here)  # (without one, "here": it holds where it is)
+            wait = item.param1 if item.command in _HOLDS_P1 else 0.0
+            if points and math.isfinite(wait) and wait > 0.0:
+                holds[len(points) - 1] = holds.get(len(points) - 1, 0.0) + wait
         elif valid:
             skipped += 1
     if len(points) < 2:
         raise ValueError(
             f"the mission drives to {len(points)} distinct point(s) of {len(items)} items: no route"
         )
-    return MissionRoute(tuple(points), skipped, laps)
+    return MissionRoute(tuple(points), skipped, laps, tuple(sorted(holds.items())))
