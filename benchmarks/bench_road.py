@@ -22,6 +22,7 @@ from pytest_benchmark.fixture import BenchmarkFixture
 
 from convoy_mav.convoy import ConvoyTracker
 from convoy_mav.geo import GeoPoint, LocalFrame
+from convoy_mav.mission.convoy_model import ConvoyModel
 from convoy_mav.mission.road import RoadMission
 from convoy_mav.mission.simulate import fly_road
 from convoy_mav.planning import PlanRequest
@@ -145,3 +146,34 @@ def test_road_estimate_update(benchmark: BenchmarkFixture) -> None:
         mission.model.observe(est)
 
     benchmark(update)
+
+
+def _forecaster(holds: bool) -> tuple[ConvoyModel, np.ndarray]:
+    """A convoy driving a known 25-km route at 8 m/s, with a hold every 500 m ahead or
+    none, and a re-plan's forecast grid (0.5 s over 200 s)."""
+    _, north, east = _drive()
+    route = Road.from_points(east, north)
+    model = ConvoyModel()
+    stops = [(float(s), 30.0) for s in np.arange(1000.0, route.length, 500.0)]
+    model.set_route(route, stops if holds else ())
+    for k in range(10):  # (driving up the route, an estimate a second)
+        q = route.point(720.0 + 8.0 * k)
+        vx, vy = 8.0 * math.cos(q.heading), 8.0 * math.sin(q.heading)
+        model.observe(ConvoyEstimate(float(k), q.y, q.x, vy, vx))
+    return model, 9.0 + np.arange(0.0, 200.0, 0.5)
+
+
+def test_forecast_along_the_route(benchmark: BenchmarkFixture) -> None:
+    """The convoy's forecast for one re-plan (``ConvoyModel.positions``): worker thread,
+    once per mission step; without holds, for the ratio to the next."""
+    model, grid = _forecaster(holds=False)
+    benchmark(model.positions, grid)
+
+
+def test_forecast_along_the_route_with_holds(benchmark: BenchmarkFixture) -> None:
+    """The same with the rover mission's holds: the timetable of braking, standing and
+    pulling away (``ConvoyModel._arcs``)."""
+    model, grid = _forecaster(holds=True)
+    x, y = model.positions(grid)
+    assert np.count_nonzero(np.hypot(np.diff(x), np.diff(y)) < 1e-9) >= 100  # (holds: 30 s)
+    benchmark(model.positions, grid)

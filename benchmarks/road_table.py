@@ -14,6 +14,7 @@
     .venv/bin/python benchmarks/road_table.py --no-route-count  # 6 or 7 UAVs, no route (~8 min)
     .venv/bin/python benchmarks/road_table.py --deviations  # routes the convoy leaves (~3 min)
     .venv/bin/python benchmarks/road_table.py --aircraft  # the kinds, other aircraft (~15 min)
+    .venv/bin/python benchmarks/road_table.py --holds  # with its stops as holds (~10 min)
     .venv/bin/python benchmarks/road_table.py --spread DIR  # cells kept by --mock --keep DIR
 
 Simulation: the service's ``RoadMission`` fed the convoy's fixes through its own
@@ -56,6 +57,7 @@ from convoy_mav.tracks.roads import (
     DEVIATIONS,
     KINDS,
     VARIANTS,
+    RoadTrack,
     corner,
     junction,
     random_road,
@@ -518,6 +520,63 @@ def _no_route_count() -> None:
     )
 
 
+HOLD_ROADS = (
+    *KINDS,
+    *(f"urban grid, seed {k}" for k in range(1, 6)),
+    *(f"random road, seed {k}" for k in range(1, 9)),
+    "stops of 30 s from 10 m/s",
+    "stops of 60 s from 12 m/s",
+    "urban, 5 m noise at 2 Hz",
+    "urban at 0.5 Hz",
+    "2 and 14 m/s",
+    *(f"stops from {r} of the airspeed" for r in (0.5, 0.61, 0.67, 0.78)),
+)
+"""``--holds``: the kinds, other grids, random roads, the variants with stops or speeds,
+and fast stops (``stops_from``)."""
+
+
+def _hold_road(name: str) -> RoadTrack:
+    if name.startswith("urban grid, seed "):
+        return road_kind("urban", seed=int(name.rsplit(" ", 1)[1]))
+    if name.startswith("random road, seed "):
+        return random_road(np.random.default_rng(int(name.rsplit(" ", 1)[1])))
+    if name.startswith("stops from "):
+        return stops_from(float(name.split()[2]) * DEFAULT.uav_speed)
+    if name in VARIANTS:
+        return VARIANTS[name](np.random.default_rng(7))
+    return road_kind(name)
+
+
+def _held(job: tuple[str, bool]) -> tuple[float, float]:
+    name, holds = job
+    rt = _hold_road(name)
+    run = fly_road(
+        rt.t, rt.north, rt.east, DEFAULT, road_fleet(DEFAULT.turn_radius, DEFAULT.sensor_radius),
+        true_north=rt.true_north, true_east=rt.true_east, route_known=True,
+        reported=chord_velocity(rt.t, rt.north, rt.east), holds_known=holds,
+    )  # fmt: skip
+    return run.coverage, run.longest_gap_s
+
+
+def _holds() -> None:
+    """Route known, without and with the convoy's stands as its plan's holds (a rover's
+    mission's hold times, ``fly_road(holds_known=True)``), side by side."""
+    jobs = [(name, holds) for name in HOLD_ROADS for holds in (False, True)]
+    with ProcessPoolExecutor(os.cpu_count()) as pool:
+        runs = dict(zip(jobs, pool.map(_held, jobs), strict=True))
+    print("| road | route known | with its holds |\n|---|---|---|")
+    for name in HOLD_ROADS:
+        cells = [f"{100 * c:.2f} % / {g:.1f} s" for c, g in (runs[name, False], runs[name, True])]
+        print(f"| {name} | " + " | ".join(cells) + " |")
+    diff = np.array([runs[n, True][0] - runs[n, False][0] for n in HOLD_ROADS])
+    without = np.mean([runs[n, False][0] for n in HOLD_ROADS])
+    print(
+        f"mean {100 * without:.2f} -> {100 * (without + diff.mean()):.2f} %, paired "
+        f"{100 * diff.mean():+.2f} +- {100 * diff.std(ddof=1) / math.sqrt(len(diff)):.2f} "
+        f"points (standard error, {len(diff)} roads), worst {100 * diff.min():+.2f}"
+    )
+
+
 #: Other aircraft on the generated kinds (name: R, r, V), as other fleets may fly them.
 AIRCRAFT = {
     "demo planes": DEFAULT,
@@ -694,6 +753,9 @@ def main() -> None:
         "--aircraft", action="store_true", help="the simulation of the kinds with other aircraft"
     )
     parser.add_argument(
+        "--holds", action="store_true", help="route known, with the convoy's stops as holds"
+    )
+    parser.add_argument(
         "--keep",
         type=Path,
         metavar="DIR",
@@ -714,6 +776,9 @@ def main() -> None:
         return
     if args.aircraft:
         _aircraft()
+        return
+    if args.holds:
+        _holds()
         return
     if args.no_route_count:
         _no_route_count()

@@ -210,3 +210,31 @@ def test_a_convoy_that_outruns_the_uavs_is_alarmed_too() -> None:
     ]
     outruns = next(a for a in service.alarms if a["kind"] == "convoy_outruns")
     assert "faster than the UAVs fly (20.7 m/s at most)" in outruns["message"]
+
+
+def test_a_missions_holds_are_placed_on_its_road_each_on_its_own_pass() -> None:
+    """Out and back along one street, a hold at the far end and one on the way back at
+    the point passed on the way out: each is placed on its own pass of the road."""
+    from convoy_mav.geo import LocalFrame
+
+    cfg = parse_config(
+        {
+            "mission": {"sensor_radius_m": 100.0, "planner": "road"},
+            "uav": [{"connection": "udpin:127.0.0.1:14560", "sysid": 1}],
+        }
+    )
+    service = ConvoyService(cfg)
+    frame = LocalFrame(cfg.origin)
+    ne = [(0.0, 0.0), (400.0, 0.0), (800.0, 0.0), (800.0, 60.0), (400.0, 60.0), (0.0, 60.0)]
+    geo = [frame.to_geo(n, e) for n, e in ne]
+    points = [(g.lat, g.lon) for g in geo]
+    service.set_route(points, source="a test", holds=[(2, 30.0), (4, 45.0)])
+    assert service._new_route is not None
+    road, holds = service._new_route
+    assert [round(h) for _, h in holds] == [30, 45]
+    (far, _), (back, _) = holds
+    assert far == pytest.approx(800.0, abs=10.0)  # (the road cuts its corners a little)
+    # On the way back, 400 m from the far end along the road (which cuts the U-turn's
+    # corners: 1,660 m drawn, shorter driven), not the way out's 400.
+    assert road.length - back == pytest.approx(400.0, abs=10.0)
+    assert road.length == pytest.approx(1660.0, abs=40.0)
