@@ -22,7 +22,6 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import functools
-import itertools
 import logging
 import math
 import sys
@@ -66,7 +65,7 @@ from convoy_mav.mission.lag import ReplanLag
 from convoy_mav.mission.road import FAST_CONVOY_RATIO, RoadMission
 from convoy_mav.monitor import Alarm, Monitor, MonitorSnapshot, sees, why_not_counted
 from convoy_mav.planning.export import compass_to_planner
-from convoy_mav.planning.road import Road
+from convoy_mav.planning.road import Road, path_lengths
 from convoy_mav.publish import topics
 from convoy_mav.publish.mqtt import MqttPublisher
 from convoy_mav.publish.security import mqtt_security
@@ -1900,9 +1899,7 @@ class ConvoyService:
         if not holds:
             return ()
         ne = [self.frame.to_ned(GeoPoint(lat, lon))[:2] for lat, lon in points]
-        driven = [0.0]
-        for (n0, e0), (n1, e1) in itertools.pairwise(ne):
-            driven.append(driven[-1] + math.hypot(n1 - n0, e1 - e0))
+        driven = path_lengths(ne)
         held = sorted((i, seconds) for i, seconds in holds if 0 <= i < len(ne))
         arcs = road.project_along((ne[i][1], ne[i][0], driven[i]) for i, _ in held)
         return tuple(zip(arcs, (seconds for _, seconds in held), strict=True))

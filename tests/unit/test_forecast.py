@@ -176,9 +176,17 @@ def test_a_driving_convoy_s_pattern_is_laid_round_it_as_forecast() -> None:
 STRAIGHT = Road.straight(0.0, 0.0, 0.0, 20000.0)  # east from the origin
 
 
-def _driven(speeds: list[tuple[float, float]], *, relax_s: float = 30.0) -> ConvoyModel:
-    """A convoy along ``STRAIGHT`` that drove each (seconds, m/s) in turn, an estimate a second."""
+def _driven(
+    speeds: list[tuple[float, float]],
+    *,
+    relax_s: float = 30.0,
+    holds: list[tuple[float, float]] | None = None,
+) -> ConvoyModel:
+    """A convoy along ``STRAIGHT`` that drove each (seconds, m/s) in turn, an estimate a
+    second; with ``holds``, the route's planned holds (arc length, seconds)."""
     model = ConvoyModel(STRAIGHT, relax_s=relax_s, mean_window_s=120.0)
+    if holds is not None:
+        model.set_route(STRAIGHT, holds)
     t = along = 0.0
     for seconds, speed in speeds:
         for _ in range(round(seconds)):
@@ -243,14 +251,7 @@ def test_the_mean_speed_forgets_what_is_older_than_its_window() -> None:
 
 def _holding(hold_at: float, hold_s: float, speeds: list[tuple[float, float]]) -> ConvoyModel:
     """``_driven`` on a route with one planned hold."""
-    model = ConvoyModel(relax_s=30.0, mean_window_s=120.0)
-    model.set_route(STRAIGHT, [(hold_at, hold_s), (1e9, 0.0)])  # (no hold of 0 s)
-    t = along = 0.0
-    for seconds, speed in speeds:
-        for _ in range(round(seconds)):
-            model.observe(ConvoyEstimate(t, 0.0, along, 0.0, speed))
-            t, along = t + 1.0, along + speed
-    return model
+    return _driven(speeds, holds=[(hold_at, hold_s), (1e9, 0.0)])  # (no hold of 0 s)
 
 
 def test_a_convoy_driving_to_a_planned_hold_is_forecast_to_brake_stand_and_pull_away() -> None:

@@ -27,7 +27,7 @@ from convoy_mav.mission.foresight import Foresight
 from convoy_mav.mission.recording import MissionRecording
 from convoy_mav.mission.road import RoadMission, RoadSettings
 from convoy_mav.planning.plan import PlanRequest
-from convoy_mav.planning.road import Road
+from convoy_mav.planning.road import Road, path_lengths
 from convoy_mav.tracks.stops import standstills
 
 __all__ = ["RoadRun", "chord_velocity", "fly_road"]
@@ -61,8 +61,8 @@ def true_holds(
 ) -> tuple[tuple[float, float], ...]:
     """The drive's stands (``standstills``) as holds on ``route``: (arc length, seconds)."""
     stands = standstills(t, north, east)
-    driven = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(north), np.diff(east)))])
-    arcs = route.project_along((s.east, s.north, float(driven[s.index])) for s in stands)
+    driven = path_lengths(zip(north, east, strict=True))
+    arcs = route.project_along((s.east, s.north, driven[s.index]) for s in stands)
     return tuple(zip(arcs, (s.seconds for s in stands), strict=True))
 
 

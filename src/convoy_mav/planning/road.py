@@ -25,7 +25,7 @@ import numpy.typing as npt
 from convoy_mav.errors import PlanningError
 from convoy_mav.geo import GeoPoint, LocalFrame
 
-__all__ = ["Road", "RoadPoint"]
+__all__ = ["Road", "RoadPoint", "path_lengths"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -42,6 +42,13 @@ class RoadPoint:
     y: float
     heading: float
     curvature: float
+
+
+def path_lengths(points: Iterable[tuple[float, float]]) -> list[float]:
+    """The distance along a polyline to each of its points (the first 0)."""
+    xy = np.asarray(list(points), dtype=np.float64).reshape(-1, 2)
+    steps = np.hypot(*np.diff(xy, axis=0).T) if len(xy) > 1 else np.zeros(0)
+    return [0.0, *np.cumsum(steps).tolist()] if len(xy) else []
 
 
 def _resample(x: FloatArray, y: FloatArray, step: float) -> tuple[FloatArray, FloatArray]:
