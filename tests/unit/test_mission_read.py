@@ -239,6 +239,22 @@ def test_a_read_refused_during_another_stations_upload_is_tried_again_soon() -> 
     assert only(watch.poll(0.1 + BUSY_RETRY_S), "MISSION_REQUEST_LIST")
 
 
+def test_a_total_that_never_matches_the_mission_is_not_read_for_ever() -> None:
+    """MISSION_CURRENT's total of 0 means "not supported" from firmware without it: the
+    mission read is checked once more, then read again only when the total changes."""
+    watch = MissionWatch(ROVER)
+    watch.handle(heartbeat(mavlink.MAV_AUTOPILOT_PX4), 0.0)
+    drive(watch, POINTS, 0.0)
+    watch.handle(current(0, 0), 1.0)
+    assert only(drive(watch, POINTS, 2.0)[:1], "MISSION_REQUEST_LIST")  # once more
+    for k in range(3, 10):
+        watch.handle(current(0, 0), float(k))
+        assert watch.poll(float(k)) == []
+    assert watch.reads == 2
+    watch.handle(current(0, 5), 10.0)  # a new mission after all
+    assert only(watch.poll(10.0), "MISSION_REQUEST_LIST")
+
+
 def test_a_px4_mission_counted_whole_is_not_read_again() -> None:
     watch = MissionWatch(ROVER)
     watch.handle(heartbeat(mavlink.MAV_AUTOPILOT_PX4), 0.0)

@@ -30,7 +30,7 @@ __all__ = ["MissionItem", "MissionRead", "MissionWatch"]
 
 TIMEOUT_S = 1.5
 TRIES = 5
-MAX_ITEMS = 2000  # more than any autopilot stores (ArduPilot on SITL: 700 on flash boards)
+MAX_ITEMS = 2000  # a rover's mission is hundreds of items at most: more is refused unread
 
 
 @dataclass(frozen=True, slots=True)
@@ -177,6 +177,7 @@ class MissionWatch:
         self._heard = False
         self._total: int | None = None  # as MISSION_CURRENT last said
         self._held: int | None = None  # items of the last read, as MISSION_CURRENT counts
+        self._total_read: int | None = None  # MISSION_CURRENT's total when it was read
         self._next_try = 0.0
         self._finished: MissionRead | None = None
 
@@ -205,7 +206,10 @@ class MissionWatch:
             out = read.poll(now)
             self._finish_if_done(now)
             return out
-        changed = self._total is not None and self._total != self._held
+        # A total that is not the read's count, and not what it said at the read (firmware
+        # that sends 0, "not supported", has its mission read once more, not for ever).
+        total = self._total
+        changed = total is not None and total not in (self._held, self._total_read)
         due = not self._held or changed
         if self._heard and due and now >= self._next_try:
             self.read = MissionRead(*self.target)
@@ -225,5 +229,5 @@ class MissionWatch:
         self.reads += 1
         # Failed, or nothing uploaded yet (home alone): ask again later, or when it changes.
         held = None if read.items is None else max(0, len(read.items) - self.ardupilot)
-        self._held = held
+        self._held, self._total_read = held, self._total
         self._next_try = 0.0 if held else now + (BUSY_RETRY_S if read.busy else RETRY_S)
