@@ -15,6 +15,7 @@
     .venv/bin/python benchmarks/road_table.py --deviations  # routes the convoy leaves (~3 min)
     .venv/bin/python benchmarks/road_table.py --aircraft  # the kinds, other aircraft (~15 min)
     .venv/bin/python benchmarks/road_table.py --holds  # with its stops as holds (~10 min)
+    .venv/bin/python benchmarks/road_table.py --patrol  # a circuit's laps and holds (~10 min)
     .venv/bin/python benchmarks/road_table.py --spread DIR  # cells kept by --mock --keep DIR
 
 Simulation: the service's ``RoadMission`` fed the convoy's fixes through its own
@@ -57,13 +58,16 @@ from convoy_mav.tracks.roads import (
     DEVIATIONS,
     KINDS,
     VARIANTS,
+    Deviation,
     RoadTrack,
     corner,
     junction,
+    patrol,
     random_road,
     road_kind,
     stops_from,
 )
+from convoy_mav.tracks.stops import standstills
 
 ROOT = Path(__file__).resolve().parents[1]
 TRACKS = ROOT.parent / "shared" / "tracks"
@@ -677,6 +681,55 @@ def _deviations() -> None:
     print("mean " + ", ".join(f"{m} {100 * np.mean(v):.2f} %" for m, v in means.items()))
 
 
+PATROL_MODES = ("lap as route", "+ holds", "lap as circuit", "circuit + holds")
+PATROLS = ((8.0, 0.0), (8.0, 60.0), (11.0, 60.0))  # (speed m/s, stop s each lap)
+
+
+def _patrolled(job: tuple[float, float, float, str]) -> RoadRun:
+    speed, stop_s, offset, mode = job
+    dev = patrol(speed, stop_s)
+    rt = dev.track
+    keep = rt.t >= rt.t[0] + offset
+    lap = Road.from_points(dev.route_east, dev.route_north)
+    holds = ((lap.project(*_stop_point(dev)), stop_s),) if stop_s and "holds" in mode else ()
+    return fly_road(
+        rt.t[keep] - rt.t[keep][0], rt.north[keep], rt.east[keep], DEFAULT,
+        road_fleet(DEFAULT.turn_radius, DEFAULT.sensor_radius, route=True),
+        true_north=rt.true_north[keep], true_east=rt.true_east[keep],
+        route=lap, holds=holds, circuit="circuit" in mode,
+    )  # fmt: skip
+
+
+def _stop_point(dev: Deviation) -> tuple[float, float]:
+    """(east, north) of the lap's stop: where the first of its stands is."""
+    stand = standstills(dev.track.t, dev.track.true_north, dev.track.true_east)[0]
+    return stand.east, stand.north
+
+
+def _patrols() -> None:
+    """A patrol circuit driven three laps, given as one lap, as a rover's mission that
+    jumps back to its first waypoint gives it: as a plain route, with its hold, known as
+    a circuit, and both; each from ``COUNT_OFFSETS_S``, 6 UAVs."""
+    jobs = [(v, h, o, m) for v, h in PATROLS for m in PATROL_MODES for o in COUNT_OFFSETS_S]
+    with ProcessPoolExecutor(os.cpu_count()) as pool:
+        runs = list(pool.map(_patrolled, jobs))
+    print("| drive | " + " | ".join(PATROL_MODES) + " |\n|---|---|---|---|---|")
+    it = iter(runs)
+    for speed, stop_s in PATROLS:
+        cells = []
+        for mode in PATROL_MODES:
+            if stop_s == 0.0 and "holds" in mode:
+                cells.append("-")
+                for _ in COUNT_OFFSETS_S:
+                    next(it)
+                continue
+            row = [next(it) for _ in COUNT_OFFSETS_S]
+            cov = " · ".join(f"{100 * run.coverage:.1f}" for run in row)
+            cells.append(f"{cov} % / {max(run.longest_gap_s for run in row):.0f} s")
+        what = f"{speed:g} m/s" + (f", {stop_s:g}-s stop each lap" if stop_s else "")
+        print(f"| {what} | " + " | ".join(cells) + " |")
+
+
 SPREAD_FACTORS = (0.97, 0.98, 0.99, 1.01, 1.02, 1.03)
 
 
@@ -756,6 +809,9 @@ def main() -> None:
         "--holds", action="store_true", help="route known, with the convoy's stops as holds"
     )
     parser.add_argument(
+        "--patrol", action="store_true", help="a circuit given as one lap: holds and laps"
+    )
+    parser.add_argument(
         "--keep",
         type=Path,
         metavar="DIR",
@@ -779,6 +835,9 @@ def main() -> None:
         return
     if args.holds:
         _holds()
+        return
+    if args.patrol:
+        _patrols()
         return
     if args.no_route_count:
         _no_route_count()

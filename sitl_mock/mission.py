@@ -16,6 +16,9 @@ Design rules:
       say how it drives between.
     * Numbering follows the firmware: ArduPilot's item 0 is home (a NAV_WAYPOINT in
       MAV_FRAME_GLOBAL), PX4's items are the waypoints alone.
+    * A looping route is a patrol: its waypoints close the lap, and a last item
+      DO_JUMPs back to the first waypoint for ever (param2 -1), as a ground station
+      plans one.
 """
 
 from __future__ import annotations
@@ -102,7 +105,7 @@ class RoverMission:
         return cls(geo, tuple(times), laps=isinstance(route, Polyline) and route.loop, holds=holds)
 
     def count(self, *, home_first: bool) -> int:
-        return len(self.waypoints) + home_first
+        return len(self.waypoints) + home_first + self.laps
 
     def item(
         self, seq: int, home: GeoPoint, target: tuple[int, int], *, home_first: bool
@@ -111,6 +114,12 @@ class RoverMission:
         if not 0 <= seq < self.count(home_first=home_first):
             return None
         hold = 0.0
+        if self.laps and seq == self.count(home_first=home_first) - 1:
+            return mavlink.MAVLink_mission_item_int_message(
+                target[0], target[1], seq, mavlink.MAV_FRAME_MISSION, mavlink.MAV_CMD_DO_JUMP,
+                0, 1, float(home_first), -1.0, 0.0, 0.0, 0, 0, 0.0,
+                mavlink.MAV_MISSION_TYPE_MISSION,
+            )  # fmt: skip
         if home_first and seq == 0:
             where, frame = home, mavlink.MAV_FRAME_GLOBAL
         else:

@@ -73,8 +73,8 @@ from convoy_mav.recording import TlogRecorder
 from convoy_mav.schedule import POSITION_AT_HORIZON_S, position_at
 from convoy_mav.separation import conflicts
 from convoy_mav.streaming import SetpointStreamer
-from convoy_mav.tracks import load_route
-from convoy_mav.tracks.missionroute import mission_route
+from convoy_mav.tracks import load_mission_file, load_route
+from convoy_mav.tracks.missionroute import MissionRoute, mission_route
 from convoy_mav.types import ConvoyEstimate, Setpoint, Telemetry, VehicleStatus
 from convoy_mav.vehicle import EventKind, Vehicle, VehicleEvent
 
@@ -380,9 +380,10 @@ class ConvoyService:
             or config.convoy.route_from_mission,
         )
         self.mission: Mission | RoadMission
+        saved: MissionRoute | None = None  # a route file that is a rover's saved mission
         if self.planner == "road":
             if route is None and config.convoy.route_file is not None:
-                route = self._load_route(config)
+                route, saved = self._load_route(config)
             self.mission = RoadMission(
                 request,
                 uav_ids,
@@ -390,13 +391,18 @@ class ConvoyService:
                 route=route,
                 record=config.mission_recording is not None,
             )
+            if route is not None and saved is not None and (saved.holds or saved.circuit):
+                holds = self._hold_arcs(route, saved.points, saved.holds)
+                self.mission.set_route(route, holds, saved.circuit)
         else:
             self.mission = Mission(request, uav_ids, down=self._down, thresholds=thresholds)
         self._planner_why = why
-        # A new route (MQTT, a rover's mission) and its holds, for the next mission step.
-        self._new_route: tuple[Road, tuple[tuple[float, float], ...]] | None = None
+        # A new route (MQTT, a rover's mission), its holds and whether it is a circuit,
+        # for the next mission step.
+        self._new_route: tuple[Road, tuple[tuple[float, float], ...], bool] | None = None
+        remarks = "" if saved is None else saved.remarks()
         self._route_source = (
-            "file"
+            "file" + (f" ({remarks})" if remarks else "")
             if config.convoy.route_file is not None
             else ("given" if self.route is not None else None)  # (replay --route-known)
         )
@@ -432,13 +438,19 @@ class ConvoyService:
         self._silence: tuple[float, float | None] | None = None  # fleet-wide: (began, ended)
 
     @staticmethod
-    def _load_route(config: MissionConfig) -> Road:
-        """The convoy's route file as a road in the mission frame."""
+    def _load_route(config: MissionConfig) -> tuple[Road, MissionRoute | None]:
+        """The convoy's route file as a road in the mission frame, and, if the file is a
+        rover's mission saved by a ground station, that mission's route (holds, laps)."""
         path = config.convoy.route_file
         assert path is not None
         try:
-            lats, lons = load_route(path)
-            return Road.from_geo(zip(lats, lons, strict=True), LocalFrame(config.origin))
+            saved = load_mission_file(path)
+            if saved is not None:
+                lats, lons = [p[0] for p in saved.points], [p[1] for p in saved.points]
+            else:
+                lats, lons = load_route(path)
+            frame = LocalFrame(config.origin)
+            return Road.from_geo(zip(lats, lons, strict=True), frame), saved
         except (OSError, ValueError) as exc:
             raise ConfigError("convoy.route", path, f"cannot be used as a route ({exc})") from exc
 
@@ -502,7 +514,7 @@ class ConvoyService:
             return
         remarks = route.remarks()
         source = f"ground vehicle {sysid}'s mission" + (f" ({remarks})" if remarks else "")
-        self.set_route(route.points, source=source, holds=route.holds)
+        self.set_route(route.points, source=source, holds=route.holds, circuit=route.circuit)
 
     def _on_mqtt_convoy(self, fix: Mapping[str, Any]) -> None:
         """A convoy position from ``<prefix>/convoy/position`` (already validated)."""
@@ -1868,10 +1880,12 @@ class ConvoyService:
         *,
         source: str = "MQTT convoy/route",
         holds: Sequence[tuple[int, float]] = (),
+        circuit: bool = False,
     ) -> None:
         """A new route for the convoy, (lat, lon) in order (MQTT ``convoy/route``, or the
-        lead ground vehicle's mission), and the convoy's planned holds on it: (index of
-        the point, seconds), a rover's mission's hold times.
+        lead ground vehicle's mission), the convoy's planned holds on it: (index of the
+        point, seconds), a rover's mission's hold times, and whether it is one lap of a
+        circuit (``MissionRoute.circuit``).
 
         Taken in at the next mission step (the mission lives in its worker thread);
         the paper's planner has no use for one, which the log says.
@@ -1884,7 +1898,7 @@ class ConvoyService:
         except PlanningError as exc:
             self._note(f"route of {len(points)} points from {source} refused: {exc}")
             return
-        self._new_route = (road, self._hold_arcs(road, points, holds))
+        self._new_route = (road, self._hold_arcs(road, points, holds), circuit)
         self._route_source = source
         self._note(
             f"convoy route received from {source}: {len(points)} points, {road.length:.0f} m"

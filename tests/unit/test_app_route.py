@@ -230,8 +230,8 @@ def test_a_missions_holds_are_placed_on_its_road_each_on_its_own_pass() -> None:
     points = [(g.lat, g.lon) for g in geo]
     service.set_route(points, source="a test", holds=[(2, 30.0), (4, 45.0)])
     assert service._new_route is not None
-    road, holds = service._new_route
-    assert [round(h) for _, h in holds] == [30, 45]
+    road, holds, circuit = service._new_route
+    assert [round(h) for _, h in holds] == [30, 45] and not circuit
     (far, _), (back, _) = holds
     assert far == pytest.approx(800.0, abs=10.0)  # (the road cuts its corners a little)
     # On the way back, 400 m from the far end along the road (which cuts the U-turn's

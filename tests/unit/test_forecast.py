@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -284,6 +285,57 @@ def test_a_hold_stood_at_and_left_is_not_planned_again() -> None:
     dt = np.arange(0.0, 60.0, 1.0)
     arc = _ahead(model, dt)
     assert arc[30] > 100.0  # driving on: no second stand at 80 m
+
+
+@pytest.mark.parametrize("circuit", [True, False])
+def test_a_hold_on_a_circuit_given_as_one_lap_is_planned_again_on_every_lap(circuit: bool) -> None:
+    # A 1.6-km square circuit given as one lap, its hold of 30 s 600 m round; the convoy
+    # drives it at 8 m/s and stands its 30 s there each lap. Known as a circuit (a DO_JUMP
+    # mission's) it is lapped at once; else it is found again on the next lap.
+    corners = [(0.0, 0.0), (400.0, 0.0), (400.0, 400.0), (0.0, 400.0), (0.0, 0.0)]
+    pairs = list(itertools.pairwise(corners))
+    xs = np.concatenate([np.linspace(a[0], b[0], 81)[:-1] for a, b in pairs] + [[0.0]])
+    ys = np.concatenate([np.linspace(a[1], b[1], 81)[:-1] for a, b in pairs] + [[0.0]])
+    lap = Road.from_points(xs, ys)
+    hold = lap.project(400.0, 200.0)
+    model = ConvoyModel(lap)
+    model.set_route(lap, [(hold, 30.0)], circuit=circuit)
+    t, run = 0.0, 0.0  # (seconds, metres driven)
+
+    def drive(seconds: float, speed: float) -> None:
+        nonlocal t, run
+        for _ in range(round(seconds)):
+            x, y, h, _ = lap.arrays(np.array([run % lap.length]))
+            v = (speed * math.cos(h[0]), speed * math.sin(h[0]))
+            model.observe(ConvoyEstimate(t, float(y[0]), float(x[0]), v[1], v[0]))
+            t, run = t + 1.0, run + speed
+
+    drive(hold / 8.0, 8.0)
+    drive(30.0, 0.0)  # its hold, lap 1
+    drive((lap.length - hold + 450.0) / 8.0, 8.0)  # round to 450 m into lap 2
+    est = model.estimate
+    assert est is not None and math.hypot(est.east - 400.0, est.north - 50.0) < 10.0
+    assert model.counters["laps" if circuit else "found_again"] == 1
+    # Forecast to stand at the hold (150 m on) from about 19 s to 49 s on, not drive past.
+    x, y = model.positions(est.t + np.array([25.0, 45.0, 80.0]))
+    assert math.hypot(x[0] - 400.0, y[0] - 200.0) < 5.0
+    assert math.hypot(x[1] - 400.0, y[1] - 200.0) < 5.0
+    assert y[2] > 300.0
+
+
+def test_a_circuit_is_forecast_round_into_its_next_lap() -> None:
+    square = [(0.0, 0.0), (400.0, 0.0), (400.0, 400.0), (0.0, 400.0), (0.0, 0.0)]
+    pairs = list(itertools.pairwise(square))
+    xs = np.concatenate([np.linspace(a[0], b[0], 81)[:-1] for a, b in pairs] + [[0.0]])
+    ys = np.concatenate([np.linspace(a[1], b[1], 81)[:-1] for a, b in pairs] + [[0.0]])
+    lap = Road.from_points(xs, ys)
+    near_end = ConvoyEstimate(0.0, 50.0, 0.0, -8.0, 0.0)  # 50 m short of the end, south
+    for circuit, where in ((True, (0.0 + 8.0 * 20.0 - 50.0, 0.0)), (False, (0.0, 0.0))):
+        model = ConvoyModel(lap)
+        model.set_route(lap, circuit=circuit)
+        model.observe(near_end)
+        x, y = model.positions(np.array([20.0]))  # 160 m on: round the corner, or parked
+        assert math.hypot(x[0] - where[0], y[0] - where[1]) < 15.0
 
 
 def test_a_hold_is_not_planned_for_a_convoy_off_its_route_or_without_a_plan() -> None:

@@ -134,3 +134,32 @@ def test_a_plan_flies_as_the_route_of_a_mission(tmp_path: Path) -> None:
     service = ConvoyService(parse_config(doc))
     assert service.route is not None
     assert service.route.length == pytest.approx(262.0 + 222.0, rel=0.1)
+
+
+def test_a_saved_patrol_flies_as_a_circuit_with_its_holds(tmp_path: Path) -> None:
+    """A QGroundControl plan: a way out, a lap of three corners with a hold at the first,
+    and a DO_JUMP back to it for ever (by its doJumpId, as QGC saves it)."""
+    from convoy_mav.app import ConvoyService
+    from convoy_mav.mission.road import RoadMission
+
+    items = [simple(16, la, lo) for la, lo in ROAD]
+    items.append(simple(16, 47.4010, 8.5456))
+    for k, item in enumerate(items):
+        item["doJumpId"] = k + 1
+    items[1]["params"][0] = 30.0  # the lap's first corner: a hold of 30 s
+    jump = simple(177, None, None, frame=2) | {"doJumpId": len(items) + 1}
+    jump["params"][:2] = [2, -1]  # (to doJumpId 2, for ever)
+    path = tmp_path / "patrol.plan"
+    path.write_bytes(plan([*items, jump]))
+    route = parse_plan(path.read_bytes(), "patrol.plan")
+    assert route.circuit and rounded(route.points) == rounded(
+        [*ROAD[1:], (47.4010, 8.5456), ROAD[1]]
+    )
+    assert route.holds == ((0, 30.0),)
+    doc = {"mission": {"sensor_radius_m": 100.0, "planner": "road"}, "convoy": {"route": str(path)}}
+    doc["uav"] = [{"connection": "udpin:127.0.0.1:14540", "sysid": 1}]
+    service = ConvoyService(parse_config(doc))
+    assert service._route_source == "file (a circuit driven in laps (DO_JUMP), 1 holds, 30 s)"
+    assert isinstance(service.mission, RoadMission)
+    model = service.mission.model
+    assert model._circuit and len(model._holds) == 1 and model._holds[0][0] < 10.0

@@ -315,6 +315,34 @@ def test_a_px4_mission_has_no_home_item_and_a_jump_makes_laps() -> None:
     assert route.remarks() == "driven in laps (DO_JUMP)"
 
 
+def test_a_jump_back_repeated_with_nothing_after_it_is_a_circuit() -> None:
+    """ArduPilot: home, a way out to the patrol, its three corners (a hold at the first),
+    then DO_JUMP to the first corner for ever: the route is the lap, closed."""
+    jump = mavlink.MAV_CMD_DO_JUMP
+    rows = [
+        MissionItem(0, WP, GLOBAL, 47.400, 8.540),  # home
+        MissionItem(1, WP, REL_INT, 47.401, 8.540),  # the way there
+        MissionItem(2, WP, REL_INT, 47.402, 8.540, param1=20.0),  # the lap: a hold here
+        MissionItem(3, WP, REL_INT, 47.402, 8.542),
+        MissionItem(4, WP, REL_INT, 47.403, 8.541),
+        MissionItem(5, jump, MISSION_FRAME, 0.0, 0.0, param1=2.0, param2=-1.0),
+    ]
+    route = mission_route(rows, home_first=True)
+    assert route.circuit and route.laps
+    assert route.points == ((47.402, 8.540), (47.402, 8.542), (47.403, 8.541), (47.402, 8.540))
+    assert route.holds == ((0, 20.0),)
+    assert route.remarks() == "a circuit driven in laps (DO_JUMP), 1 holds, 20 s"
+    # Driven on after its laps, a jump never taken (a repeat of 0), or a jump forward:
+    # laps of part of the route, no circuit; the route is every waypoint.
+    after = [*rows, MissionItem(6, WP, REL_INT, 47.404, 8.541)]
+    never = [*rows[:5], MissionItem(5, jump, MISSION_FRAME, 0.0, 0.0, param1=2.0, param2=0.0)]
+    ahead = [*rows[:5], MissionItem(5, jump, MISSION_FRAME, 0.0, 0.0, param1=9.0, param2=3.0)]
+    for other, n in ((after, 5), (never, 4), (ahead, 4)):
+        route = mission_route(other, home_first=True)
+        assert route.laps and not route.circuit and len(route.points) == n
+        assert route.holds == ((1, 20.0),)
+
+
 def test_a_mission_going_nowhere_is_no_route() -> None:
     with pytest.raises(ValueError, match=r"1 distinct point\(s\) of 2 items: no route"):
         mission_route(items((WP, GLOBAL, 47.4, 8.54), (WP, REL_INT, 47.4, 8.54)), home_first=True)

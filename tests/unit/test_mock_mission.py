@@ -106,11 +106,13 @@ def test_a_rover_without_a_mission_has_none_to_give() -> None:
     assert of_type(gcs.run(3.0), "MISSION_CURRENT") == []
 
 
+@pytest.mark.parametrize("loop", [False, True])
 @pytest.mark.parametrize("personality", [Personality.ARDUPILOT, Personality.PX4])
-def test_the_services_reader_takes_the_rovers_road(personality: Personality) -> None:
+def test_the_services_reader_takes_the_rovers_road(personality: Personality, loop: bool) -> None:
     """The service's MissionWatch against the mock rover, through MAVLink bytes: the
-    route it makes is the road's corners (from home, on ArduPilot: the first corner)."""
-    gcs = Gcs(rover(personality))
+    route it makes is the road's corners (from home, on ArduPilot: the first corner); a
+    looping road's is a circuit, its lap closed and a DO_JUMP back to the first corner."""
+    gcs = Gcs(rover(personality, Polyline(CORNERS, speed=10.0, loop=loop)))
     watch = MissionWatch(11)
     interval = mavlink.MAV_CMD_SET_MESSAGE_INTERVAL
     gcs.command(interval, mavlink.MAVLINK_MSG_ID_MISSION_CURRENT, 1e6)
@@ -123,7 +125,8 @@ def test_the_services_reader_takes_the_rovers_road(personality: Personality) -> 
     assert read is not None and read.items is not None
     route = mission_route(read.items, home_first=watch.ardupilot)
     assert watch.ardupilot is (personality is Personality.ARDUPILOT)
-    corners = [WORLD.to_geo(*c) for c in CORNERS]
+    corners = [WORLD.to_geo(*c) for c in CORNERS + CORNERS[:1] * loop]
+    assert route.circuit is loop and route.laps is loop
     assert [(round(a, 6), round(b, 6)) for a, b in route.points] == [
         (round(c.lat, 6), round(c.lon, 6)) for c in corners
     ]

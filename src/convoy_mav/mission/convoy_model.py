@@ -54,6 +54,14 @@ Design rules:
   when it stopped. Its driving off now is still weighed (``driving_off``): the
   plan's time is the rover's, the stop's start is the tracker's, seconds
   apart (without it, simulated urban grids lost 0.7-1 point to the holds).
+  A hold stood at is done while the convoy is past it: found again before it
+  (the next lap of a patrol given as one lap), it holds there again.
+- A route known to be a circuit (``circuit``: a rover's mission that jumps
+  back to its first waypoint, DO_JUMP, closed by the drive back there) is
+  lapped: past its end the convoy is on the next lap at once, not driving
+  off it, and forecast round it and into the next lap's holds; a new lap
+  plans every hold again. Only when said: a route that ends near where it
+  began is more often a destination (home) than a lap.
 - Pure: estimates carry their time.
 """
 
@@ -88,6 +96,7 @@ _HOLD_NEAR_M = 20.0  # standing this near a planned hold, it is holding there
 _HOLD_BEHIND_M = 5.0  # a hold not stood at is still ahead until this far behind
 HOLD_ACCEL = 1.0  # m/s^2: braking into a planned hold and pulling away from it
 _PLAN_STEP = 0.25  # s: the timetable's grid
+_WRAP_M = 100.0  # on a circuit this near its end, the convoy may be on the next lap
 
 
 @dataclass(frozen=True, slots=True)
@@ -157,12 +166,13 @@ class ConvoyModel:
         self._along = 0.0  # speed along the route
         self._cruise: float | None = None  # the last speed along it while driving
         self._holds: tuple[tuple[float, float], ...] = ()  # planned: (arc on route, s)
+        self._circuit = False  # the route is one lap of a circuit driven round and round
         self._holding: int | None = None  # the hold it stands at (index)
         self._held: set[int] = set()  # holds stood at and left
         self._stood_since: float | None = None  # standing (along the route) since
         self._off_since: float | None = None
         self.left_route = False
-        self.counters = {"left_route": 0, "back_on_route": 0, "found_again": 0}
+        self.counters = {"left_route": 0, "back_on_route": 0, "found_again": 0, "laps": 0}
 
     @property
     def estimate(self) -> ConvoyEstimate | None:
@@ -192,10 +202,14 @@ class ConvoyModel:
         off = self._off_road
         return RoadMotion(est.t, est.speed if off else self._along, not off)
 
-    def set_route(self, route: Road, holds: Sequence[tuple[float, float]] = ()) -> None:
-        """A new route (the convoy is found on it afresh at the next estimate), and where
-        along it the convoy plans to stand and how long: (arc length, seconds)."""
+    def set_route(
+        self, route: Road, holds: Sequence[tuple[float, float]] = (), *, circuit: bool = False
+    ) -> None:
+        """A new route (the convoy is found on it afresh at the next estimate), where
+        along it the convoy plans to stand and how long: (arc length, seconds), and
+        whether it is one lap of a circuit (its end where it began) driven in laps."""
         self._holds = tuple(sorted((float(a), float(h)) for a, h in holds if h > 0.0))
+        self._circuit = circuit
         self._holding, self._held = None, set()
         self.route = route
         self._roads = (route, route.reversed())
@@ -218,6 +232,8 @@ class ConvoyModel:
             return
         x, y = est.east, est.north
         s = route.project(x, y, None if first else self._s)
+        if self._circuit and not first and s > route.length - _WRAP_M:
+            s = self._next_lap(route, x, y, s, est)
         off, along = _on(route, s, est)
         against = along <= -_CRUISING_MPS
         beyond = not 0.0 <= s <= route.length
@@ -233,6 +249,8 @@ class ConvoyModel:
                 off, along = _on(route, s, est)
                 self._lost_since = None
         self._s = s
+        if self._held:  # back before a hold it has stood at (a lap): it holds there again
+            self._held = {k for k in self._held if self._holds[k][0] <= s + _HOLD_NEAR_M}
         self._along = max(0.0, along)
         self._leaving = (
             est.speed >= _CRUISING_MPS
@@ -253,7 +271,7 @@ class ConvoyModel:
                 near = [
                     k
                     for k, (arc, _) in enumerate(self._holds)
-                    if k not in self._held and abs(arc - s) <= _HOLD_NEAR_M
+                    if k not in self._held and self._apart(arc, s) <= _HOLD_NEAR_M
                 ]
                 self._holding = near[0] if near else None
         self._note_speed(est.t, self._along)
@@ -268,6 +286,29 @@ class ConvoyModel:
             if self.left_route:
                 self.left_route = False
                 self.counters["back_on_route"] += 1
+
+    def _next_lap(self, route: Road, x: float, y: float, s: float, est: ConvoyEstimate) -> float:
+        """``s`` near the end of a circuit, or where the next lap has the convoy if
+        that is nearer: a new lap (every hold planned again)."""
+        s0 = route.project(x, y, 0.0, _WRAP_M)
+        if _on(route, s0, est)[0] >= _on(route, s, est)[0]:
+            return s
+        self._held.clear()
+        self.counters["laps"] += 1
+        return s0
+
+    def _apart(self, a: float, b: float) -> float:
+        """Metres between two arc lengths (round the circuit the shorter way)."""
+        d = abs(a - b)
+        road = self.road
+        return min(d, road.length - d) if self._circuit and road is not None else d
+
+    def _lapped(self, route: Road, arcs: FloatArray, *, end: bool = True) -> FloatArray:
+        """Arc lengths on ``route`` for ones driven on from here: round the circuit, or
+        stopped at the route's end (where the convoy is going; ``end``, else straight on)."""
+        if self._circuit:
+            return np.mod(arcs, route.length)
+        return np.minimum(arcs, route.length) if end else arcs
 
     def _found_again(
         self,
@@ -354,8 +395,8 @@ class ConvoyModel:
         road = self.road
         if road is None or self._off_road:
             return est.east + est.ve * dt, est.north + est.vn * dt
-        p = road.point(min(float(self._arcs(np.array([dt]))[0]), road.length))
-        return p.x, p.y
+        x, y, _, _ = road.arrays(self._lapped(road, self._arcs(np.array([dt]))))
+        return float(x[0]), float(y[0])
 
     def positions(self, times: npt.NDArray[np.float64]) -> tuple[FloatArray, FloatArray]:
         """:meth:`position` at every time of ``times`` (each >= the latest estimate's)."""
@@ -366,7 +407,7 @@ class ConvoyModel:
         road = self.road
         if road is None or self._off_road:
             return est.east + est.ve * dt, est.north + est.vn * dt
-        x, y, _, _ = road.arrays(np.minimum(self._arcs(dt), road.length))
+        x, y, _, _ = road.arrays(self._lapped(road, self._arcs(dt)))
         return x, y
 
     def _hold_here(self) -> tuple[float, float] | None:
@@ -389,6 +430,9 @@ class ConvoyModel:
             for k, (a, h) in enumerate(self._holds)
             if k not in self._held and k != self._holding and a > self._s - _HOLD_BEHIND_M
         ]
+        road = self.road
+        if self._circuit and road is not None:  # and the next lap's
+            ahead += [(a + road.length, h) for a, h in self._holds]
         if here is None and not ahead:
             return base
         end = float(np.max(dt))
@@ -449,7 +493,7 @@ class ConvoyModel:
             return None
         s = self._s + self.ahead(_since(times, est))
         ahead = np.arange(self._s, float(s[-1]) + short_m, _CORNER_STEP_M)
-        _, _, _, k = route.arrays(ahead)
+        _, _, _, k = route.arrays(self._lapped(route, ahead, end=False))
         sharp = np.abs(k) >= curvature
         if sharp[ahead < self._s + _CORNER_FROM_M].any():
             # In a corner (or at it) already, the convoy turns it: the next one counts.
@@ -460,7 +504,7 @@ class ConvoyModel:
         if len(corners) == 0:
             return None
         stop = float(ahead[corners[0]]) - short_m
-        x, y, _, _ = route.arrays(np.minimum(s, max(stop, self._s)))
+        x, y, _, _ = route.arrays(self._lapped(route, np.minimum(s, max(stop, self._s)), end=False))
         return x, y
 
     def driving_off(
@@ -488,7 +532,7 @@ class ConvoyModel:
         dt = _since(times, est)
         ramp = cruise / accel  # s to cruise
         gone = np.where(dt < ramp, 0.5 * accel * dt**2, 0.5 * cruise * ramp + cruise * (dt - ramp))
-        x, y, _, _ = route.arrays(self._s + gone)
+        x, y, _, _ = route.arrays(self._lapped(route, self._s + gone, end=False))
         return x, y
 
     def velocity(self) -> tuple[float, float]:

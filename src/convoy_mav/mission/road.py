@@ -664,12 +664,16 @@ class RoadMission(Roster):
         self._lag = lag
         self._lag_max = max(self._lag_max, lag[0] + lag[1])
 
-    def set_route(self, route: Road, holds: Sequence[tuple[float, float]] = ()) -> None:
+    def set_route(
+        self, route: Road, holds: Sequence[tuple[float, float]] = (), circuit: bool = False
+    ) -> None:
         """The route the convoy will drive from now on (a new one over MQTT, a rover's
-        mission), and where along it the convoy plans to stand: (arc length, seconds)."""
+        mission), where along it the convoy plans to stand: (arc length, seconds), and
+        whether it is one lap of a circuit driven round and round."""
         if self.recording is not None:
-            self.recording.add("set_route", (route, tuple(holds)) if holds else (route,))
-        self.model.set_route(route, holds)
+            args = (route, tuple(holds), circuit) if circuit else (route, tuple(holds))
+            self.recording.add("set_route", args if holds or circuit else (route,))
+        self.model.set_route(route, holds, circuit=circuit)
 
     def join(self, uav: int, north: float, east: float, yaw: float, t: float) -> list[MissionEvent]:
         """``join_many`` for one UAV."""
@@ -1389,6 +1393,7 @@ class RoadMission(Roster):
             "route_max_curvature_per_m": None if route is None else route.max_curvature(),
             "convoy_left_route": self.model.counters["left_route"],
             "convoy_found_again_on_route": self.model.counters["found_again"],
+            "convoy_laps": self.model.counters["laps"],
             "convoy_speed_range_mps": None if speeds is None else [round(v, 2) for v in speeds],
             "convoy_fast": {
                 "above_speed_ratio": FAST_CONVOY_RATIO,

@@ -84,6 +84,8 @@ def fly_road(
     foresight_s: float | None = None,
     replan_lag: tuple[float, float] = (0.0, 0.0),
     holds_known: bool = False,
+    holds: Sequence[tuple[float, float]] = (),
+    circuit: bool = False,
 ) -> RoadRun:
     """Fly ``uavs`` UAVs over a convoy whose fixes are (t, north, east).
 
@@ -111,6 +113,10 @@ def fly_road(
         holds_known: With the route, give the mission where the convoy stands and how
             long (its true stands of 5 s or more, ``standstills``), as a rover's
             mission's hold times give it.
+        holds: Or these holds on ``route`` (arc length, seconds), as a mission gives them
+            (on a circuit, each lap's at one place).
+        circuit: ``route`` is one lap of a circuit the convoy drives round (a mission
+            that jumps back to its first waypoint).
     """
     ts = np.asarray(t, dtype=np.float64)
     fn, fe = np.asarray(north, dtype=np.float64), np.asarray(east, dtype=np.float64)
@@ -125,8 +131,10 @@ def fly_road(
     if foresight_s is not None:
         mission.model = Foresight(mission.model, ts, te, tn, foresight_s)
     mission.set_replan_lag(*replan_lag)
-    if holds_known and route is not None:
-        mission.set_route(route, true_holds(route, ts, tn, te))
+    if holds_known and route is not None and not holds:
+        holds = true_holds(route, ts, tn, te)
+    if route is not None and (holds or circuit):
+        mission.set_route(route, holds, circuit)
     tracker = ConvoyTracker(window=4.0)
     vn, ve = (None, None) if reported is None else (np.asarray(v, np.float64) for v in reported)
     # The UAVs start circling near the convoy's first fix, spread around it.

@@ -41,6 +41,7 @@ from convoy_mav.tracks.geotrack import GeoTrack, TrackSpeeds, track_speeds
 from convoy_mav.tracks.gpx import parse_gpx_points, parse_gpx_track
 from convoy_mav.tracks.kml import is_zip, kmz_document, parse_kml_points, parse_kml_track
 from convoy_mav.tracks.missionfile import WPL_HEADER, parse_plan, parse_waypoints
+from convoy_mav.tracks.missionroute import MissionRoute
 from convoy_mav.tracks.routejson import parse_route_json
 from convoy_mav.tracks.tlog import parse_tlog_track
 
@@ -50,6 +51,7 @@ __all__ = [
     "TrackFormat",
     "TrackSpeeds",
     "format_of",
+    "load_mission_file",
     "load_route",
     "load_track",
     "parse_csv_track",
@@ -123,15 +125,9 @@ def load_route(path: str | os.PathLike[str]) -> tuple[list[float], list[float]]:
     """
     name = os.fspath(path)
     ext = os.path.splitext(name)[1].lower()
-    if ext in (".plan", ".waypoints") or (ext == ".txt" and _is_waypoints(name)):
-        _check_size(name)
-        with open(name, "rb") as handle:
-            data = handle.read()
-        if ext == ".plan":
-            route = parse_plan(data, name)
-        else:
-            route = parse_waypoints(data.decode("utf-8-sig", errors="replace"), name)
-        return [p[0] for p in route.points], [p[1] for p in route.points]
+    mission = load_mission_file(name)
+    if mission is not None:
+        return [p[0] for p in mission.points], [p[1] for p in mission.points]
     if ext in (".geojson", ".json", ".kml", ".kmz"):
         _check_size(name)
         with open(name, "rb") as handle:
@@ -151,6 +147,26 @@ def load_route(path: str | os.PathLike[str]) -> tuple[list[float], list[float]]:
             return parse_csv_points(handle, name)
     with open(name, "rb") as binary:
         return parse_gpx_points(binary, name)
+
+
+def load_mission_file(path: str | os.PathLike[str]) -> MissionRoute | None:
+    """A rover's mission saved by a ground station (``.plan``, ``.waypoints``, a WPL
+    ``.txt``) as the road it drives with its holds and laps; None for other files.
+
+    Raises:
+        ValueError: A malformed mission file.
+        OSError: The file cannot be read.
+    """
+    name = os.fspath(path)
+    ext = os.path.splitext(name)[1].lower()
+    if not (ext in (".plan", ".waypoints") or (ext == ".txt" and _is_waypoints(name))):
+        return None
+    _check_size(name)
+    with open(name, "rb") as handle:
+        data = handle.read()
+    if ext == ".plan":
+        return parse_plan(data, name)
+    return parse_waypoints(data.decode("utf-8-sig", errors="replace"), name)
 
 
 def _is_waypoints(name: str) -> bool:

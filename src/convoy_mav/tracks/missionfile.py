@@ -18,9 +18,12 @@ Bad input is a ``ValueError`` naming the file, and the line (WPL) or the item (p
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from typing import Any
+
+from pymavlink.dialects.v20 import common as mavlink
 
 from convoy_mav.mavlink.missionread import MissionItem
 from convoy_mav.tracks.missionroute import MissionRoute, mission_route
@@ -85,6 +88,7 @@ def parse_plan(data: bytes, name: str) -> MissionRoute:
     if isinstance(planned, list) and len(planned) >= 2 and _numbers(planned[:2]):
         home = (float(planned[0]), float(planned[1]))
     items: list[MissionItem] = []
+    jump_ids: dict[int, int] = {}  # doJumpId -> the item's place among the items read
     complex_items = 0
     for k, entry in enumerate(raw):
         where = f"{name}: mission.items[{k}]"
@@ -103,13 +107,22 @@ def parse_plan(data: bytes, name: str) -> MissionRoute:
         if not _numbers(p):
             raise ValueError(f"{where}: a parameter is not a number")
         lat, lon = (0.0, 0.0) if math.isnan(p[4]) or math.isnan(p[5]) else (p[4], p[5])
+        if isinstance(entry.get("doJumpId"), int):
+            jump_ids[entry["doJumpId"]] = len(items)
         items.append(MissionItem(len(items), command, frame, lat, lon, p[0], p[1]))
+    # A plan's DO_JUMP names its target by doJumpId, not by its place in the mission.
+    items = [
+        dataclasses.replace(i, param1=jump_ids.get(int(i.param1), math.nan))
+        if i.command == mavlink.MAV_CMD_DO_JUMP and math.isfinite(i.param1)
+        else i
+        for i in items
+    ]
     try:
         route = mission_route(items, home_first=False, home=home)
     except ValueError as exc:
         raise ValueError(f"{name}: {exc}") from None
     if complex_items:  # (a survey's transects are no road the convoy drives)
-        return MissionRoute(route.points, route.skipped + complex_items, route.laps, route.holds)
+        return dataclasses.replace(route, skipped=route.skipped + complex_items)
     return route
 
 

@@ -15,6 +15,11 @@ count, per the MAVLink mission commands a rover flies:
   first waypoint, which the road model takes as a convoy joining its route.
 - DO_JUMP repeats items: the route is driven as laps (``laps``), which the road model
   finds on the whole route whichever lap the convoy is on; the route itself is one lap.
+  A jump back to a waypoint (param1, its seq) repeated (param2: a count, or -1 for
+  ever; 0 never jumps) with nothing driven after it makes a patrol circuit
+  (``circuit``): the route is that lap, closed by the drive back to where it starts
+  (the waypoints before it are the way there, which AUTO drives as it drives to any
+  first waypoint), and the convoy's forecast goes round it lap after lap.
 - Items in a local frame, and commands with a position a rover does not drive to, are
   counted in ``skipped`` and left out.
 - Where it will stand, and how long (``holds``): a waypoint's hold time (NAV_WAYPOINT
@@ -66,10 +71,12 @@ class MissionRoute:
     skipped: int  # items the road leaves out (local frames, landings, a plan's surveys)
     laps: bool  # a DO_JUMP repeats part of it
     holds: tuple[tuple[int, float], ...] = ()  # (index in points, seconds it stands there)
+    circuit: bool = False  # the points are one lap, closed, driven round and round
 
     def remarks(self) -> str:
         """What the points alone do not say ("" when nothing)."""
-        said = ["driven in laps (DO_JUMP)"] if self.laps else []
+        said = [f"{'a circuit ' if self.circuit else ''}driven in laps (DO_JUMP)"]
+        said = said if self.laps else []
         if self.holds:
             total = sum(seconds for _, seconds in self.holds)
             said.append(f"{len(self.holds)} holds, {total:.0f} s")
@@ -94,6 +101,8 @@ def mission_route(
     holds: dict[int, float] = {}
     skipped = 0
     laps = False
+    first_point: dict[int, int] = {}  # item seq -> index of the point it drives to
+    lap_from: int | None = None  # a jump repeated back to this point, nothing driven since
 
     def add(lat: float, lon: float) -> None:
         if points and max(abs(lat - points[-1][0]), abs(lon - points[-1][1])) < _SAME_POINT_DEG:
@@ -109,6 +118,10 @@ def mission_route(
             continue
         if item.command == mavlink.MAV_CMD_DO_JUMP:
             laps = True
+            target = item.param1
+            later = [i for q, i in first_point.items() if math.isfinite(target) and q >= target]
+            if item.param2 != 0.0 and later:  # (back to a waypoint driven already)
+                lap_from = min(later)
         elif item.command == mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH:
             if home is not None:
                 add(*home)
@@ -118,6 +131,9 @@ def mission_route(
                 continue
             if has_point:
                 add(*here)  # (without one, "here": it holds where it is)
+                lap_from = None
+            if points:
+                first_point[item.seq] = len(points) - 1
             wait = item.param1 if item.command in _HOLDS_P1 else 0.0
             if points and math.isfinite(wait) and wait > 0.0:
                 holds[len(points) - 1] = holds.get(len(points) - 1, 0.0) + wait
@@ -127,4 +143,11 @@ def mission_route(
         raise ValueError(
             f"the mission drives to {len(points)} distinct point(s) of {len(items)} items: no route"
         )
+    if lap_from is not None and len(points) - lap_from >= 2:
+        lap = points[lap_from:]
+        start, end = lap[0], lap[-1]
+        if max(abs(start[0] - end[0]), abs(start[1] - end[1])) >= _SAME_POINT_DEG:
+            lap.append(start)  # (the drive back to where the lap starts)
+        on_lap = {i - lap_from: seconds for i, seconds in holds.items() if i >= lap_from}
+        return MissionRoute(tuple(lap), skipped, laps, tuple(sorted(on_lap.items())), True)
     return MissionRoute(tuple(points), skipped, laps, tuple(sorted(holds.items())))

@@ -428,9 +428,19 @@ def _out_and_back(rng: np.random.Generator) -> Deviation:
     return Deviation(rt, *route_of(_OUT))
 
 
-def _patrol(rng: np.random.Generator) -> Deviation:
-    rt = drive("patrol circuit", _LAP * 3, Drive(((0.0, 8.0),)), noise_m=1.0)
+def patrol(speed: float = 8.0, stop_s: float = 0.0, stop_at_m: float = 700.0) -> Deviation:
+    """Three laps of the patrol circuit at ``speed``, standing ``stop_s`` at ``stop_at_m``
+    round each lap (none for 0: a checkpoint a rover's mission holds at); the route is
+    one lap."""
+    lap = sum(p.arc_length for p in _LAP)
+    stops = tuple((stop_at_m + k * lap, stop_s) for k in range(3)) if stop_s > 0.0 else ()
+    name = "patrol circuit" + (f", {stop_s:g}-s stops" if stops else "")
+    rt = drive(name, _LAP * 3, Drive(((0.0, speed),), stops), noise_m=1.0)
     return Deviation(rt, *route_of(_LAP))
+
+
+def _patrol(rng: np.random.Generator) -> Deviation:
+    return patrol()
 
 
 def _detour(rng: np.random.Generator) -> Deviation:
