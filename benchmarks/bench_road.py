@@ -148,14 +148,18 @@ def test_road_estimate_update(benchmark: BenchmarkFixture) -> None:
     benchmark(update)
 
 
-def _forecaster(holds: bool) -> tuple[ConvoyModel, np.ndarray]:
+def _forecaster(holds: bool, speeds: bool = False) -> tuple[ConvoyModel, np.ndarray]:
     """A convoy driving a known 25-km route at 8 m/s, with a hold every 500 m ahead or
-    none, and a re-plan's forecast grid (0.5 s over 200 s)."""
+    none (and a planned speed of 6 or 10 m/s from each 250 m between), and a re-plan's
+    forecast grid (0.5 s over 200 s)."""
     _, north, east = _drive()
     route = Road.from_points(east, north)
     model = ConvoyModel()
     stops = [(float(s), 30.0) for s in np.arange(1000.0, route.length, 500.0)]
-    model.set_route(route, stops if holds else ())
+    paces = [
+        (float(s), 6.0 + 4.0 * (k % 2)) for k, s in enumerate(np.arange(750.0, route.length, 500.0))
+    ]
+    model.set_route(route, stops if holds else (), speeds=paces if speeds else ())
     for k in range(10):  # (driving up the route, an estimate a second)
         q = route.point(720.0 + 8.0 * k)
         vx, vy = 8.0 * math.cos(q.heading), 8.0 * math.sin(q.heading)
@@ -176,4 +180,11 @@ def test_forecast_along_the_route_with_holds(benchmark: BenchmarkFixture) -> Non
     model, grid = _forecaster(holds=True)
     x, y = model.positions(grid)
     assert np.count_nonzero(np.hypot(np.diff(x), np.diff(y)) < 1e-9) >= 100  # (holds: 30 s)
+    benchmark(model.positions, grid)
+
+
+def test_forecast_along_the_route_with_holds_and_speeds(benchmark: BenchmarkFixture) -> None:
+    """The same with the mission's speeds too (DO_CHANGE_SPEED): a speed change between
+    each two holds."""
+    model, grid = _forecaster(holds=True, speeds=True)
     benchmark(model.positions, grid)

@@ -14,7 +14,7 @@
     .venv/bin/python benchmarks/road_table.py --no-route-count  # 6 or 7 UAVs, no route (~8 min)
     .venv/bin/python benchmarks/road_table.py --deviations  # routes the convoy leaves (~3 min)
     .venv/bin/python benchmarks/road_table.py --aircraft  # the kinds, other aircraft (~15 min)
-    .venv/bin/python benchmarks/road_table.py --holds  # with its stops as holds (~10 min)
+    .venv/bin/python benchmarks/road_table.py --holds  # with its stops, speeds as its plan
     .venv/bin/python benchmarks/road_table.py --patrol  # a circuit's laps and holds (~10 min)
     .venv/bin/python benchmarks/road_table.py --spread DIR  # cells kept by --mock --keep DIR
 
@@ -49,7 +49,7 @@ from convoy_mav.geo import GeoPoint, LocalFrame
 from convoy_mav.mission.choose import road_fleet
 from convoy_mav.mission.recording import load_recording
 from convoy_mav.mission.road import RoadMission, RoadSettings
-from convoy_mav.mission.simulate import RoadRun, chord_velocity, fly_road
+from convoy_mav.mission.simulate import RoadRun, chord_velocity, fly_road, true_speeds
 from convoy_mav.planning import PlanRequest
 from convoy_mav.planning.dubins import Pose, dubins_word_lengths
 from convoy_mav.planning.road import Road
@@ -533,6 +533,8 @@ HOLD_ROADS = (
     "urban, 5 m noise at 2 Hz",
     "urban at 0.5 Hz",
     "2 and 14 m/s",
+    "5 and 15 m/s",
+    "roundabout at 12 m/s",
     *(f"stops from {r} of the airspeed" for r in (0.5, 0.61, 0.67, 0.78)),
 )
 """``--holds``: the kinds, other grids, random roads, the variants with stops or speeds,
@@ -551,34 +553,42 @@ def _hold_road(name: str) -> RoadTrack:
     return road_kind(name)
 
 
-def _held(job: tuple[str, bool]) -> tuple[float, float]:
-    name, holds = job
+PLANS = ("route known", "with its holds", "with its holds and speeds")
+
+
+def _held(job: tuple[str, str]) -> tuple[float, float]:
+    name, plan = job
     rt = _hold_road(name)
+    route = Road.from_points(rt.true_east, rt.true_north)
+    speeds = true_speeds(route, rt.true_north, rt.true_east, rt.speeds) if "speeds" in plan else ()
     run = fly_road(
         rt.t, rt.north, rt.east, DEFAULT, road_fleet(DEFAULT.turn_radius, DEFAULT.sensor_radius),
-        true_north=rt.true_north, true_east=rt.true_east, route_known=True,
-        reported=chord_velocity(rt.t, rt.north, rt.east), holds_known=holds,
+        true_north=rt.true_north, true_east=rt.true_east, route=route,
+        reported=chord_velocity(rt.t, rt.north, rt.east), holds_known=plan != PLANS[0],
+        speeds=speeds,
     )  # fmt: skip
     return run.coverage, run.longest_gap_s
 
 
 def _holds() -> None:
     """Route known, without and with the convoy's stands as its plan's holds (a rover's
-    mission's hold times, ``fly_road(holds_known=True)``), side by side."""
-    jobs = [(name, holds) for name in HOLD_ROADS for holds in (False, True)]
+    mission's hold times, ``fly_road(holds_known=True)``), and with the drive's speeds
+    too (its DO_CHANGE_SPEEDs, ``true_speeds``), side by side."""
+    jobs = [(name, plan) for name in HOLD_ROADS for plan in PLANS]
     with ProcessPoolExecutor(os.cpu_count()) as pool:
         runs = dict(zip(jobs, pool.map(_held, jobs), strict=True))
-    print("| road | route known | with its holds |\n|---|---|---|")
+    print("| road | " + " | ".join(PLANS) + " |\n|---|---|---|---|")
     for name in HOLD_ROADS:
-        cells = [f"{100 * c:.2f} % / {g:.1f} s" for c, g in (runs[name, False], runs[name, True])]
+        cells = [f"{100 * c:.2f} % / {g:.1f} s" for c, g in (runs[name, p] for p in PLANS)]
         print(f"| {name} | " + " | ".join(cells) + " |")
-    diff = np.array([runs[n, True][0] - runs[n, False][0] for n in HOLD_ROADS])
-    without = np.mean([runs[n, False][0] for n in HOLD_ROADS])
-    print(
-        f"mean {100 * without:.2f} -> {100 * (without + diff.mean()):.2f} %, paired "
-        f"{100 * diff.mean():+.2f} +- {100 * diff.std(ddof=1) / math.sqrt(len(diff)):.2f} "
-        f"points (standard error, {len(diff)} roads), worst {100 * diff.min():+.2f}"
-    )
+    for plan, than in ((PLANS[1], PLANS[0]), (PLANS[2], PLANS[1])):
+        diff = np.array([runs[n, plan][0] - runs[n, than][0] for n in HOLD_ROADS])
+        before = np.mean([runs[n, than][0] for n in HOLD_ROADS])
+        print(
+            f"{plan}: mean {100 * before:.2f} -> {100 * (before + diff.mean()):.2f} %, paired "
+            f"{100 * diff.mean():+.2f} +- {100 * diff.std(ddof=1) / math.sqrt(len(diff)):.2f} "
+            f"points (standard error, {len(diff)} roads), worst {100 * diff.min():+.2f}"
+        )
 
 
 #: Other aircraft on the generated kinds (name: R, r, V), as other fleets may fly them.

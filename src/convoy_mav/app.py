@@ -82,6 +82,7 @@ __all__ = ["ConvoyService", "Progress", "ServiceReport"]
 
 log = logging.getLogger(__name__)
 
+Marks = tuple[tuple[float, float], ...]  # (arc length on the route, value) in order
 _GIL_SWITCH_S = 0.001  # s: how long the mission worker may hold the GIL at a time
 _GROUND_STREAM_RETRY = 5.0  # mission s between stream requests to a silent ground vehicle
 _VELOCITY_SOURCES = ("velocity_reported", "velocity_fitted")  # (tracker counters)
@@ -391,15 +392,14 @@ class ConvoyService:
                 route=route,
                 record=config.mission_recording is not None,
             )
-            if route is not None and saved is not None and (saved.holds or saved.circuit):
-                holds = self._hold_arcs(route, saved.points, saved.holds)
-                self.mission.set_route(route, holds, saved.circuit)
+            if route is not None and saved is not None:
+                self.mission.set_route(route, *self._plan_on(route, saved.points, saved))
         else:
             self.mission = Mission(request, uav_ids, down=self._down, thresholds=thresholds)
         self._planner_why = why
-        # A new route (MQTT, a rover's mission), its holds and whether it is a circuit,
-        # for the next mission step.
-        self._new_route: tuple[Road, tuple[tuple[float, float], ...], bool] | None = None
+        # A new route (MQTT, a rover's mission) and its plan (holds, whether a circuit,
+        # speeds), for the next mission step.
+        self._new_route: tuple[Road, Marks, bool, Marks] | None = None
         remarks = "" if saved is None else saved.remarks()
         self._route_source = (
             "file" + (f" ({remarks})" if remarks else "")
@@ -514,7 +514,7 @@ class ConvoyService:
             return
         remarks = route.remarks()
         source = f"ground vehicle {sysid}'s mission" + (f" ({remarks})" if remarks else "")
-        self.set_route(route.points, source=source, holds=route.holds, circuit=route.circuit)
+        self.set_route(route.points, source=source, plan=route)
 
     def _on_mqtt_convoy(self, fix: Mapping[str, Any]) -> None:
         """A convoy position from ``<prefix>/convoy/position`` (already validated)."""
@@ -1879,13 +1879,11 @@ class ConvoyService:
         points: Sequence[tuple[float, float]],
         *,
         source: str = "MQTT convoy/route",
-        holds: Sequence[tuple[int, float]] = (),
-        circuit: bool = False,
+        plan: MissionRoute | None = None,
     ) -> None:
         """A new route for the convoy, (lat, lon) in order (MQTT ``convoy/route``, or the
-        lead ground vehicle's mission), the convoy's planned holds on it: (index of the
-        point, seconds), a rover's mission's hold times, and whether it is one lap of a
-        circuit (``MissionRoute.circuit``).
+        lead ground vehicle's mission), and the convoy's plan on it when a rover's mission
+        gives one: its holds, laps and speeds (``MissionRoute``, indices of ``points``).
 
         Taken in at the next mission step (the mission lives in its worker thread);
         the paper's planner has no use for one, which the log says.
@@ -1898,25 +1896,38 @@ class ConvoyService:
         except PlanningError as exc:
             self._note(f"route of {len(points)} points from {source} refused: {exc}")
             return
-        self._new_route = (road, self._hold_arcs(road, points, holds), circuit)
+        self._new_route = (road, *self._plan_on(road, points, plan))
         self._route_source = source
         self._note(
             f"convoy route received from {source}: {len(points)} points, {road.length:.0f} m"
         )
 
-    def _hold_arcs(
-        self, road: Road, points: Sequence[tuple[float, float]], holds: Sequence[tuple[int, float]]
-    ) -> tuple[tuple[float, float], ...]:
-        """Each hold's arc length on ``road``, found near the distance driven to its point
-        from the hold before (a route that comes back along itself has the point on two
-        passes)."""
-        if not holds:
+    def _plan_on(
+        self, road: Road, points: Sequence[tuple[float, float]], plan: MissionRoute | None
+    ) -> tuple[Marks, bool, Marks]:
+        """A mission's plan on ``road``: its holds (arc length, seconds), whether it is a
+        circuit, its speeds (arc length, m/s)."""
+        if plan is None:
+            return (), False, ()
+        return (
+            self._arcs_on(road, points, plan.holds),
+            plan.circuit,
+            self._arcs_on(road, points, plan.speeds),
+        )
+
+    def _arcs_on(
+        self, road: Road, points: Sequence[tuple[float, float]], marks: Sequence[tuple[int, float]]
+    ) -> Marks:
+        """(index of a point, value) marks as (arc length on ``road``, value), each found
+        near the distance driven to its point from the mark before (a route that comes
+        back along itself has the point on two passes)."""
+        if not marks:
             return ()
         ne = [self.frame.to_ned(GeoPoint(lat, lon))[:2] for lat, lon in points]
         driven = path_lengths(ne)
-        held = sorted((i, seconds) for i, seconds in holds if 0 <= i < len(ne))
-        arcs = road.project_along((ne[i][1], ne[i][0], driven[i]) for i, _ in held)
-        return tuple(zip(arcs, (seconds for _, seconds in held), strict=True))
+        kept = sorted((i, value) for i, value in marks if 0 <= i < len(ne))
+        arcs = road.project_along((ne[i][1], ne[i][0], driven[i]) for i, _ in kept)
+        return tuple(zip(arcs, (value for _, value in kept), strict=True))
 
     @property
     def route(self) -> Road | None:

@@ -216,6 +216,7 @@ def test_a_missions_holds_are_placed_on_its_road_each_on_its_own_pass() -> None:
     """Out and back along one street, a hold at the far end and one on the way back at
     the point passed on the way out: each is placed on its own pass of the road."""
     from convoy_mav.geo import LocalFrame
+    from convoy_mav.tracks.missionroute import MissionRoute
 
     cfg = parse_config(
         {
@@ -228,10 +229,13 @@ def test_a_missions_holds_are_placed_on_its_road_each_on_its_own_pass() -> None:
     ne = [(0.0, 0.0), (400.0, 0.0), (800.0, 0.0), (800.0, 60.0), (400.0, 60.0), (0.0, 60.0)]
     geo = [frame.to_geo(n, e) for n, e in ne]
     points = [(g.lat, g.lon) for g in geo]
-    service.set_route(points, source="a test", holds=[(2, 30.0), (4, 45.0)])
+    plan = MissionRoute(tuple(points), 0, False, holds=((2, 30.0), (4, 45.0)), speeds=((3, 6.0),))
+    service.set_route(points, source="a test", plan=plan)
     assert service._new_route is not None
-    road, holds, circuit = service._new_route
+    road, holds, circuit, speeds = service._new_route
     assert [round(h) for _, h in holds] == [30, 45] and not circuit
+    ((turn, pace),) = speeds  # (from the far end's second corner, on the way back)
+    assert pace == 6.0 and turn == pytest.approx(860.0, abs=15.0)
     (far, _), (back, _) = holds
     assert far == pytest.approx(800.0, abs=10.0)  # (the road cuts its corners a little)
     # On the way back, 400 m from the far end along the road (which cuts the U-turn's

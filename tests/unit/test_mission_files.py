@@ -58,6 +58,7 @@ def test_a_waypoints_file_is_its_road_and_the_way_home() -> None:
     route = parse_waypoints(WPL, "drive.waypoints")
     assert rounded(route.points) == rounded([*ROAD, HOME])
     assert route.skipped == 0 and not route.laps
+    assert route.speeds == ((0, 6.0),)  # (DO_CHANGE_SPEED 6 m/s before the first waypoint)
     spaced = WPL.replace("\t", "  ")  # (MAVProxy's files are read either way)
     assert parse_waypoints(spaced, "x.txt").points == route.points
 

@@ -343,6 +343,30 @@ def test_a_jump_back_repeated_with_nothing_after_it_is_a_circuit() -> None:
         assert route.holds == ((1, 20.0),)
 
 
+def test_a_missions_speed_changes_are_its_planned_speeds() -> None:
+    """DO_CHANGE_SPEED (param2 m/s) from the waypoint before it on; -1 changes nothing;
+    on a circuit, the speed set on the way there is in force round the lap."""
+    speed, jump = mavlink.MAV_CMD_DO_CHANGE_SPEED, mavlink.MAV_CMD_DO_JUMP
+    rows = [
+        MissionItem(0, WP, REL_INT, 47.400, 8.540),
+        MissionItem(1, speed, MISSION_FRAME, 0.0, 0.0, param1=1.0, param2=9.0),
+        MissionItem(2, WP, REL_INT, 47.401, 8.540),
+        MissionItem(3, speed, MISSION_FRAME, 0.0, 0.0, param1=1.0, param2=-1.0),
+        MissionItem(4, WP, REL_INT, 47.401, 8.542),
+        MissionItem(5, speed, MISSION_FRAME, 0.0, 0.0, param1=1.0, param2=3.5),
+        MissionItem(6, WP, REL_INT, 47.402, 8.542),
+    ]
+    route = mission_route(rows, home_first=False)
+    assert route.speeds == ((0, 9.0), (2, 3.5))
+    assert route.remarks() == "2 speeds, 3.5-9 m/s"
+    lap = mission_route(
+        [*rows[:3], *rows[4:], MissionItem(7, jump, MISSION_FRAME, 0.0, 0.0, 2.0, -1.0)],
+        home_first=False,
+    )
+    assert lap.circuit and len(lap.points) == 4  # (the lap from the second waypoint)
+    assert lap.speeds == ((0, 9.0), (1, 3.5))
+
+
 def test_a_mission_going_nowhere_is_no_route() -> None:
     with pytest.raises(ValueError, match=r"1 distinct point\(s\) of 2 items: no route"):
         mission_route(items((WP, GLOBAL, 47.4, 8.54), (WP, REL_INT, 47.4, 8.54)), home_first=True)

@@ -56,6 +56,12 @@ Design rules:
   apart (without it, simulated urban grids lost 0.7-1 point to the holds).
   A hold stood at is done while the convoy is past it: found again before it
   (the next lap of a patrol given as one lap), it holds there again.
+- A route may come with the speeds the convoy plans (``speeds``: a rover's
+  mission's DO_CHANGE_SPEEDs): driving, it is forecast to take up each from its
+  arc on (at ``HOLD_ACCEL``, up or down, as the firmware changes speed at the
+  waypoint), at the one in force now if it drives slower or faster, and to pull
+  away from a hold to the one in force there. Standing where no hold is planned,
+  it is forecast standing as without a plan (the drive-off is weighed apart).
 - A route known to be a circuit (``circuit``: a rover's mission that jumps
   back to its first waypoint, DO_JUMP, closed by the drive back there) is
   lapped: past its end the convoy is on the next lap at once, not driving
@@ -67,6 +73,7 @@ Design rules:
 
 from __future__ import annotations
 
+import bisect
 import math
 from collections import deque
 from collections.abc import Sequence
@@ -167,6 +174,7 @@ class ConvoyModel:
         self._cruise: float | None = None  # the last speed along it while driving
         self._holds: tuple[tuple[float, float], ...] = ()  # planned: (arc on route, s)
         self._circuit = False  # the route is one lap of a circuit driven round and round
+        self._paces: tuple[tuple[float, float], ...] = ()  # planned: (arc on route, m/s on)
         self._holding: int | None = None  # the hold it stands at (index)
         self._held: set[int] = set()  # holds stood at and left
         self._stood_since: float | None = None  # standing (along the route) since
@@ -203,12 +211,19 @@ class ConvoyModel:
         return RoadMotion(est.t, est.speed if off else self._along, not off)
 
     def set_route(
-        self, route: Road, holds: Sequence[tuple[float, float]] = (), *, circuit: bool = False
+        self,
+        route: Road,
+        holds: Sequence[tuple[float, float]] = (),
+        *,
+        circuit: bool = False,
+        speeds: Sequence[tuple[float, float]] = (),
     ) -> None:
         """A new route (the convoy is found on it afresh at the next estimate), where
-        along it the convoy plans to stand and how long: (arc length, seconds), and
-        whether it is one lap of a circuit (its end where it began) driven in laps."""
+        along it the convoy plans to stand and how long: (arc length, seconds), whether
+        it is one lap of a circuit (its end where it began) driven in laps, and the
+        speeds it plans to drive: (arc length, m/s from there on)."""
         self._holds = tuple(sorted((float(a), float(h)) for a, h in holds if h > 0.0))
+        self._paces = tuple(sorted((float(a), float(v)) for a, v in speeds if v > 0.0))
         self._circuit = circuit
         self._holding, self._held = None, set()
         self.route = route
@@ -418,63 +433,100 @@ class ConvoyModel:
         arc, seconds = self._holds[k]
         return arc, max(0.0, seconds - (est.t - since))
 
-    def _arcs(self, dt: FloatArray) -> FloatArray:
-        """Arc length along the road ``dt`` seconds after the estimate: ``ahead``, or with
-        planned holds the timetable they make (module rules)."""
-        base = self._s + self.ahead(dt)
-        if not self._holds or self._reversed or len(dt) == 0:
-            return base
-        here = self._hold_here()
-        ahead = [
-            (a, h)
+    def _pace_at(self, arc: float) -> float | None:
+        """The planned speed in force at ``arc`` (the last change at or before it; on a
+        circuit, before the lap's first, the lap's last), None where none is."""
+        paces = self._paces
+        k = bisect.bisect_right(paces, (arc, math.inf))
+        if k:
+            return paces[k - 1][1]
+        return paces[-1][1] if self._circuit and paces else None
+
+    def _plan_ahead(self) -> list[tuple[float, float, float]]:
+        """The plan's events ahead, by arc: (arc, seconds held, 0 for a speed change;
+        planned speed from there, nan for a hold), the next lap's too on a circuit."""
+        s = self._s
+        events = [
+            (a, h, math.nan)
             for k, (a, h) in enumerate(self._holds)
-            if k not in self._held and k != self._holding and a > self._s - _HOLD_BEHIND_M
+            if k not in self._held and k != self._holding and a > s - _HOLD_BEHIND_M
         ]
+        events += [(a, 0.0, v) for a, v in self._paces if a > s]
         road = self.road
         if self._circuit and road is not None:  # and the next lap's
-            ahead += [(a + road.length, h) for a, h in self._holds]
-        if here is None and not ahead:
+            lap = road.length
+            events += [(a + lap, h, math.nan) for a, h in self._holds]
+            events += [(a + lap, 0.0, v) for a, v in self._paces]
+        return sorted(events, key=lambda e: (e[0], e[1] == 0.0))
+
+    def _arcs(self, dt: FloatArray) -> FloatArray:
+        """Arc length along the road ``dt`` seconds after the estimate: ``ahead``, or with
+        a plan (holds, speeds) the timetable it makes (module rules)."""
+        base = self._s + self.ahead(dt)
+        if not (self._holds or self._paces) or self._reversed or len(dt) == 0:
+            return base
+        here = self._hold_here()
+        events = self._plan_ahead()
+        now = self._pace_at(self._s) if self._along >= _CRUISING_MPS else None
+        if here is None and not events and now is None:
             return base
         end = float(np.max(dt))
         grid = np.arange(0.0, end + 2.0 * _PLAN_STEP, _PLAN_STEP)
         arc = np.empty_like(grid)
-        cruise = self._cruise or self.mean_speed or 0.0
         a = HOLD_ACCEL
 
-        ramp = cruise / a
+        def cruise_at(where: float) -> float:
+            """The speed it pulls away to from a hold: planned, or the last it drove at."""
+            pace = self._pace_at(where)
+            return pace if pace is not None else self._cruise or self.mean_speed or 0.0
 
         def move(tau: FloatArray) -> FloatArray:
-            """Driving from ``t0``: as forecast, or pulling away from ``origin``."""
-            if not pulling:
+            """Driving from ``t0``: as forecast, or from ``origin`` at ``v0`` changing at
+            ``a`` to ``v1`` and on at that."""
+            if forecast:
                 return self._s + self.ahead(tau)
-            up = np.where(tau < ramp, 0.5 * a * tau**2, 0.5 * cruise * ramp + cruise * (tau - ramp))
+            ramp = abs(v1 - v0) / a
+            acc = math.copysign(a, v1 - v0)
+            up = np.where(
+                tau < ramp,
+                v0 * tau + 0.5 * acc * tau**2,
+                v0 * ramp + 0.5 * acc * ramp**2 + v1 * (tau - ramp),
+            )
             return origin + up
 
-        t0, origin, top, pulling = 0.0, self._s, self._along, here is not None
+        t0, origin, v0, v1, forecast = 0.0, self._s, self._along, self._along, now is None
+        if now is not None:
+            v1 = now
         if here is not None:
             arc[grid < here[1]] = origin
-            t0, top = here[1], cruise
-        for hold_arc, seconds in ahead:
+            t0, v0, v1, forecast = here[1], 0.0, cruise_at(origin), False
+        for at_arc, seconds, pace in events:
+            top = self._along if forecast else v1
             later = grid >= t0
             f = move(grid[later] - t0)
-            brake = top * top / (2.0 * a)
-            hit = np.flatnonzero(f >= hold_arc - brake)
+            # To a hold it brakes evenly, to stand at its arc (harder when nearer than the
+            # braking distance; at once when on it or past it); a new speed it takes up
+            # from its arc on, as the firmware runs DO_CHANGE_SPEED at the waypoint.
+            brake = top * top / (2.0 * a) if seconds > 0.0 else 0.0
+            hit = np.flatnonzero(f >= at_arc - brake)
             if len(hit) == 0:
                 break
-            t_brake = float(grid[later][hit[0]])
-            before = later & (grid < t_brake)
+            t_hit = float(grid[later][hit[0]])
+            before = later & (grid < t_hit)
             arc[before] = f[: int(np.count_nonzero(before))]
-            # Braked evenly to the hold from where it is then (harder when nearer than
-            # ``brake``; at once when on it or a little past it).
             at = float(f[hit[0]])
-            stop = max(hold_arc, at)
-            t_stop = t_brake + (2.0 * (stop - at) / top if top > 0.0 else 0.0)
-            braking = (grid >= t_brake) & (grid < t_stop)
-            if t_stop > t_brake:
-                tau = grid[braking] - t_brake
-                arc[braking] = at + top * tau - 0.5 * (top / (t_stop - t_brake)) * tau**2
+            forecast = False
+            if seconds <= 0.0:
+                t0, origin, v0, v1 = t_hit, at, top, pace
+                continue
+            stop = max(at_arc, at)
+            t_stop = t_hit + (2.0 * (stop - at) / top if top > 0.0 else 0.0)
+            braking = (grid >= t_hit) & (grid < t_stop)
+            if t_stop > t_hit:
+                tau = grid[braking] - t_hit
+                arc[braking] = at + top * tau - 0.5 * (top / (t_stop - t_hit)) * tau**2
             arc[(grid >= t_stop) & (grid < t_stop + seconds)] = stop
-            t0, origin, top, pulling = t_stop + seconds, stop, cruise, True
+            t0, origin, v0, v1 = t_stop + seconds, stop, 0.0, cruise_at(stop)
         later = grid >= t0
         arc[later] = move(grid[later] - t0)
         return np.interp(dt, grid, arc)

@@ -665,15 +665,20 @@ class RoadMission(Roster):
         self._lag_max = max(self._lag_max, lag[0] + lag[1])
 
     def set_route(
-        self, route: Road, holds: Sequence[tuple[float, float]] = (), circuit: bool = False
+        self,
+        route: Road,
+        holds: Sequence[tuple[float, float]] = (),
+        circuit: bool = False,
+        speeds: Sequence[tuple[float, float]] = (),
     ) -> None:
         """The route the convoy will drive from now on (a new one over MQTT, a rover's
-        mission), where along it the convoy plans to stand: (arc length, seconds), and
-        whether it is one lap of a circuit driven round and round."""
+        mission) and the plan it keeps on it, if any: where it stands (arc length,
+        seconds), whether the route is one lap of a circuit, and the speeds it drives
+        (arc length, m/s from there)."""
         if self.recording is not None:
-            args = (route, tuple(holds), circuit) if circuit else (route, tuple(holds))
-            self.recording.add("set_route", args if holds or circuit else (route,))
-        self.model.set_route(route, holds, circuit=circuit)
+            plan = (tuple(holds), circuit, tuple(speeds))
+            self.recording.add("set_route", (route, *plan) if any(plan) else (route,))
+        self.model.set_route(route, holds, circuit=circuit, speeds=speeds)
 
     def join(self, uav: int, north: float, east: float, yaw: float, t: float) -> list[MissionEvent]:
         """``join_many`` for one UAV."""

@@ -66,6 +66,20 @@ def true_holds(
     return tuple(zip(arcs, (s.seconds for s in stands), strict=True))
 
 
+def true_speeds(
+    route: Road,
+    north: FloatArray,
+    east: FloatArray,
+    plan: Sequence[tuple[float, float]],
+) -> tuple[tuple[float, float], ...]:
+    """A drive's speed plan, (distance driven, m/s from there), on ``route``: (arc length,
+    m/s), each placed where the true path has driven that far (``tracks.roads`` plans)."""
+    driven = path_lengths(zip(north, east, strict=True))
+    at = [min(int(np.searchsorted(driven, d)), len(driven) - 1) for d, _ in plan]
+    arcs = route.project_along((east[i], north[i], driven[i]) for i in at)
+    return tuple(zip(arcs, (v for _, v in plan), strict=True))
+
+
 def fly_road(
     t: npt.ArrayLike,
     north: npt.ArrayLike,
@@ -86,6 +100,7 @@ def fly_road(
     holds_known: bool = False,
     holds: Sequence[tuple[float, float]] = (),
     circuit: bool = False,
+    speeds: Sequence[tuple[float, float]] = (),
 ) -> RoadRun:
     """Fly ``uavs`` UAVs over a convoy whose fixes are (t, north, east).
 
@@ -117,6 +132,8 @@ def fly_road(
             (on a circuit, each lap's at one place).
         circuit: ``route`` is one lap of a circuit the convoy drives round (a mission
             that jumps back to its first waypoint).
+        speeds: The speeds the convoy plans on ``route`` (arc length, m/s from there), as
+            a mission's DO_CHANGE_SPEEDs give them.
     """
     ts = np.asarray(t, dtype=np.float64)
     fn, fe = np.asarray(north, dtype=np.float64), np.asarray(east, dtype=np.float64)
@@ -133,8 +150,8 @@ def fly_road(
     mission.set_replan_lag(*replan_lag)
     if holds_known and route is not None and not holds:
         holds = true_holds(route, ts, tn, te)
-    if route is not None and (holds or circuit):
-        mission.set_route(route, holds, circuit)
+    if route is not None and (holds or circuit or speeds):
+        mission.set_route(route, holds, circuit, speeds)
     tracker = ConvoyTracker(window=4.0)
     vn, ve = (None, None) if reported is None else (np.asarray(v, np.float64) for v in reported)
     # The UAVs start circling near the convoy's first fix, spread around it.

@@ -24,8 +24,11 @@ count, per the MAVLink mission commands a rover flies:
   counted in ``skipped`` and left out.
 - Where it will stand, and how long (``holds``): a waypoint's hold time (NAV_WAYPOINT
   param1, seconds: ArduRover's ``loiter_duration``, PX4's hold) and NAV_LOITER_TIME's
-  (param1), at that point, or at the last one for a hold "here". The rest of the
-  mission's timing (DO_CHANGE_SPEED) is not read: the convoy's own speed says it.
+  (param1), at that point, or at the last one for a hold "here".
+- How fast it drives (``speeds``): a DO_CHANGE_SPEED's speed (param2, m/s; -1 and
+  the other values below 0 change nothing) from the waypoint before it on, as the
+  firmware runs a DO command once the NAV command before it is done; before any
+  waypoint, from the start.
 """
 
 from __future__ import annotations
@@ -72,6 +75,7 @@ class MissionRoute:
     laps: bool  # a DO_JUMP repeats part of it
     holds: tuple[tuple[int, float], ...] = ()  # (index in points, seconds it stands there)
     circuit: bool = False  # the points are one lap, closed, driven round and round
+    speeds: tuple[tuple[int, float], ...] = ()  # (index in points, m/s from there on)
 
     def remarks(self) -> str:
         """What the points alone do not say ("" when nothing)."""
@@ -80,6 +84,10 @@ class MissionRoute:
         if self.holds:
             total = sum(seconds for _, seconds in self.holds)
             said.append(f"{len(self.holds)} holds, {total:.0f} s")
+        if self.speeds:
+            lo, hi = min(v for _, v in self.speeds), max(v for _, v in self.speeds)
+            span = f"{lo:g} m/s" if lo == hi else f"{lo:g}-{hi:g} m/s"
+            said.append(f"{len(self.speeds)} speeds, {span}")
         if self.skipped:
             said.append(f"{self.skipped} items left out (local frames, landings, surveys)")
         return ", ".join(said)
@@ -99,6 +107,7 @@ def mission_route(
     """
     points: list[tuple[float, float]] = []
     holds: dict[int, float] = {}
+    speeds: dict[int, float] = {}
     skipped = 0
     laps = False
     first_point: dict[int, int] = {}  # item seq -> index of the point it drives to
@@ -122,6 +131,9 @@ def mission_route(
             later = [i for q, i in first_point.items() if math.isfinite(target) and q >= target]
             if item.param2 != 0.0 and later:  # (back to a waypoint driven already)
                 lap_from = min(later)
+        elif item.command == mavlink.MAV_CMD_DO_CHANGE_SPEED:
+            if math.isfinite(item.param2) and item.param2 > 0.0:
+                speeds[max(len(points) - 1, 0)] = item.param2
         elif item.command == mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH:
             if home is not None:
                 add(*home)
@@ -149,5 +161,13 @@ def mission_route(
         if max(abs(start[0] - end[0]), abs(start[1] - end[1])) >= _SAME_POINT_DEG:
             lap.append(start)  # (the drive back to where the lap starts)
         on_lap = {i - lap_from: seconds for i, seconds in holds.items() if i >= lap_from}
-        return MissionRoute(tuple(lap), skipped, laps, tuple(sorted(on_lap.items())), True)
-    return MissionRoute(tuple(points), skipped, laps, tuple(sorted(holds.items())))
+        paces = {i - lap_from: v for i, v in speeds.items() if i >= lap_from}
+        before = [v for i, v in sorted(speeds.items()) if i < lap_from]
+        if before and 0 not in paces:
+            paces[0] = before[-1]  # (set on the way there, in force round the lap)
+        return MissionRoute(tuple(lap), skipped, laps, _sorted(on_lap), True, _sorted(paces))
+    return MissionRoute(tuple(points), skipped, laps, _sorted(holds), speeds=_sorted(speeds))
+
+
+def _sorted(marks: dict[int, float]) -> tuple[tuple[int, float], ...]:
+    return tuple(sorted(marks.items()))

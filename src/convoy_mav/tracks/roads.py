@@ -92,6 +92,7 @@ class RoadTrack:
     true_north: FloatArray  # where the convoy really was at each fix time
     true_east: FloatArray
     length_m: float
+    speeds: tuple[tuple[float, float], ...] = ()  # the drive's plan: (arc length, m/s on)
 
     def geotrack(self, origin: GeoPoint) -> GeoTrack:
         """The recorded fixes as a WGS-84 track around ``origin``."""
@@ -197,7 +198,8 @@ def drive(
     if repeat_every > 0:
         for i in range(repeat_every, len(stamps), repeat_every):
             stamps[i] = stamps[i - 1]  # (a receiver stamping a fix with the last one's time)
-    return RoadTrack(name, stamps, north, east, true_n, true_e, float(s_grid[-1]))
+    plan = tuple(sorted(how.speeds))
+    return RoadTrack(name, stamps, north, east, true_n, true_e, float(s_grid[-1]), plan)
 
 
 def _zigzag(count: int, straight: float, radius: float, angle: float) -> list[Piece]:
