@@ -10,8 +10,10 @@ makes of the items (``tracks.missionroute``) work with the firmware, and that
 link: the operator's uploads a mission (waypoints, a DO_CHANGE_SPEED, a hold "here", a
 return to launch), the service's ``MissionWatch`` reads it and prints the route it makes;
 the operator then uploads a longer one, and the watch must see MISSION_CURRENT's total
-change and read it again. Against the mock (whose rover serves its own road and takes no
-upload), the first read alone. Exit 0 when every read gave the mission uploaded.
+change and read it again, then a patrol (the first road jumping back to its first
+waypoint for ever), which must read as a circuit with the same hold and speed. Against
+the mock (whose rover serves its own road and takes no upload), the first read alone.
+Exit 0 when every read gave the mission uploaded.
 
 ``drive`` sends a rover down a road as its operator would: the road's corners (a CSV
 time,lat,lon, as ``checks/ardupilot_sitl.sh`` writes for ROAD=KIND, thinned as the
@@ -47,9 +49,12 @@ FIRST = ((-35.3620, 149.1650), (-35.3600, 149.1650), (-35.3600, 149.1680))
 SECOND = (*FIRST, (-35.3620, 149.1680), (-35.3630, 149.1660))
 
 
-def items(target: tuple[int, int], road: tuple[tuple[float, float], ...]) -> list[Any]:
+def items(
+    target: tuple[int, int], road: tuple[tuple[float, float], ...], *, patrol: bool = False
+) -> list[Any]:
     """Home (seq 0, replaced by the autopilot's), the road's waypoints with a speed change
-    after the first and a hold "here" after the second, then a return to launch."""
+    after the first and a hold "here" after the second, then a return to launch; or, on
+    ``patrol``, a DO_JUMP back to the first waypoint for ever."""
 
     def wp(lat: float, lon: float, command: int = mavlink.MAV_CMD_NAV_WAYPOINT) -> list[Any]:
         return [REL, command, 0, 1, 0.0, 0.0, 0.0, 0.0, round(lat * 1e7), round(lon * 1e7), 0.0]
@@ -62,8 +67,12 @@ def items(target: tuple[int, int], road: tuple[tuple[float, float], ...]) -> lis
             rows.append([*speed, 1.0, 6.0, -1.0, 0.0, 0, 0, 0.0])
         if k == 1:
             rows.append([REL, mavlink.MAV_CMD_NAV_WAYPOINT, 0, 1, 5.0, 0, 0, 0, 0, 0, 0.0])
-    rows.append([mavlink.MAV_FRAME_MISSION, mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH, 0, 1,
-                 0.0, 0.0, 0.0, 0.0, 0, 0, 0.0])  # fmt: skip
+    if patrol:
+        rows.append([mavlink.MAV_FRAME_MISSION, mavlink.MAV_CMD_DO_JUMP, 0, 1,
+                     1.0, -1.0, 0.0, 0.0, 0, 0, 0.0])  # fmt: skip
+    else:
+        rows.append([mavlink.MAV_FRAME_MISSION, mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH, 0, 1,
+                     0.0, 0.0, 0.0, 0.0, 0, 0, 0.0])  # fmt: skip
     return [
         mavlink.MAVLink_mission_item_int_message(*target, seq, *row, MISSION)
         for seq, row in enumerate(rows)
@@ -109,7 +118,11 @@ def watch_read(link: Any, watch: MissionWatch, wait: float) -> MissionRoute | st
     return f"no read finished in {wait:.0f} s"
 
 
-def report(name: str, got: MissionRoute | str, road: tuple[tuple[float, float], ...]) -> bool:
+def report(
+    name: str, got: MissionRoute | str, road: tuple[tuple[float, float], ...], *, patrol: bool
+) -> bool:
+    """Print what was read; whether it is the mission ``items`` uploaded: its road, the
+    hold and the speed change at the waypoints they follow, a circuit on ``patrol``."""
     if isinstance(got, str):
         print(f"{name}: {got}", flush=True)
         return False
@@ -117,7 +130,8 @@ def report(name: str, got: MissionRoute | str, road: tuple[tuple[float, float], 
     print(f"{name}: {len(points)} points {points}", flush=True)
     if got.remarks():
         print(f"{name}: {got.remarks()}", flush=True)
-    return points[: len(road)] == [(round(a, 6), round(b, 6)) for a, b in road]
+    plan = (got.holds, got.speeds, got.circuit) == (((1, 5.0),), ((0, 6.0),), patrol)
+    return plan and points[: len(road)] == [(round(a, 6), round(b, 6)) for a, b in road]
 
 
 def road_items(target: tuple[int, int], path: str, speed: float) -> list[Any]:
@@ -216,14 +230,14 @@ def read(args: argparse.Namespace) -> int:
             got = watch_read(link, watch, 20.0)
             return 0 if not isinstance(got, str) and len(got.points) == 3 else 1
         print(f"upload 1 ({len(FIRST)} waypoints): {upload(link, target, items(target, FIRST))}")
-        ok = report("read 1", watch_read(link, watch, 20.0), FIRST)
+        ok = report("read 1", watch_read(link, watch, 20.0), FIRST, patrol=False)
         print(f"upload 2 ({len(SECOND)} waypoints): {upload(link, target, items(target, SECOND))}")
-        ok = (
-            report(
-                "read 2 (MISSION_CURRENT's total changed)", watch_read(link, watch, 20.0), SECOND
-            )
-            and ok
-        )
+        again = watch_read(link, watch, 20.0)
+        ok = report("read 2 (MISSION_CURRENT's total changed)", again, SECOND, patrol=False) and ok
+        # A patrol: the first road again, jumping back to its first waypoint for ever.
+        lap = items(target, FIRST, patrol=True)
+        print(f"upload 3 ({len(FIRST)} waypoints, a patrol): {upload(link, target, lap)}")
+        ok = report("read 3 (a circuit)", watch_read(link, watch, 20.0), FIRST, patrol=True) and ok
         print(f"reads: {watch.reads}", flush=True)
         return 0 if ok else 1
     finally:
