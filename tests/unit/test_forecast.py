@@ -323,6 +323,24 @@ def test_a_hold_on_a_circuit_given_as_one_lap_is_planned_again_on_every_lap(circ
     assert y[2] > 300.0
 
 
+def test_a_circuit_closing_on_a_straight_is_lapped_at_its_end() -> None:
+    # The lap starts and ends half-way along a side: past the end, the straight on
+    # from it is the next lap's first metres, as near; it is the next lap.
+    corners = [(200.0, 0.0), (400.0, 0.0), (400.0, 400.0), (0.0, 400.0), (0.0, 0.0), (200.0, 0.0)]
+    pairs = list(itertools.pairwise(corners))
+    xs = np.concatenate([np.linspace(a[0], b[0], 41)[:-1] for a, b in pairs] + [[200.0]])
+    ys = np.concatenate([np.linspace(a[1], b[1], 41)[:-1] for a, b in pairs] + [[0.0]])
+    lap = Road.from_points(xs, ys)
+    model = ConvoyModel(lap)
+    model.set_route(lap, circuit=True)
+    for k, x in enumerate(np.arange(150.0, 260.0, 8.0)):  # east along the bottom side
+        model.observe(ConvoyEstimate(float(k), 0.0, float(x), 0.0, 8.0))
+        assert model.motion is not None and model.motion.on_route
+    assert model.counters["laps"] == 1 and model.counters["found_again"] == 0
+    x, _ = model.positions(np.array([13.0 + 10.0]))
+    assert x[0] == pytest.approx(254.0 + 80.0, abs=2.0)  # (on round the lap, not parked)
+
+
 def test_a_circuit_is_forecast_round_into_its_next_lap() -> None:
     square = [(0.0, 0.0), (400.0, 0.0), (400.0, 400.0), (0.0, 400.0), (0.0, 0.0)]
     pairs = list(itertools.pairwise(square))

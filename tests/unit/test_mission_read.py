@@ -345,7 +345,8 @@ def test_a_jump_back_repeated_with_nothing_after_it_is_a_circuit() -> None:
 
 def test_a_missions_speed_changes_are_its_planned_speeds() -> None:
     """DO_CHANGE_SPEED (param2 m/s) from the waypoint before it on; -1 changes nothing;
-    on a circuit, the speed set on the way there is in force round the lap."""
+    on a circuit, a speed lasts round the jump, and one set on the way there is in force
+    round a lap that sets none."""
     speed, jump = mavlink.MAV_CMD_DO_CHANGE_SPEED, mavlink.MAV_CMD_DO_JUMP
     rows = [
         MissionItem(0, WP, REL_INT, 47.400, 8.540),
@@ -364,7 +365,12 @@ def test_a_missions_speed_changes_are_its_planned_speeds() -> None:
         home_first=False,
     )
     assert lap.circuit and len(lap.points) == 4  # (the lap from the second waypoint)
-    assert lap.speeds == ((0, 9.0), (1, 3.5))
+    assert lap.speeds == ((1, 3.5),)
+    plain = mission_route(
+        [*rows[:3], rows[4], rows[6], MissionItem(7, jump, MISSION_FRAME, 0.0, 0.0, 2.0, -1.0)],
+        home_first=False,
+    )
+    assert plain.circuit and plain.speeds == ((0, 9.0),)
 
 
 def test_a_mission_going_nowhere_is_no_route() -> None:

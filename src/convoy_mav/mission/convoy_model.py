@@ -104,6 +104,7 @@ _HOLD_BEHIND_M = 5.0  # a hold not stood at is still ahead until this far behind
 HOLD_ACCEL = 1.0  # m/s^2: braking into a planned hold and pulling away from it
 _PLAN_STEP = 0.25  # s: the timetable's grid
 _WRAP_M = 100.0  # on a circuit this near its end, the convoy may be on the next lap
+_WRAP_TIE_M = 1.0  # ... there if this much nearer (or, past the end, no farther)
 
 
 @dataclass(frozen=True, slots=True)
@@ -303,10 +304,13 @@ class ConvoyModel:
                 self.counters["back_on_route"] += 1
 
     def _next_lap(self, route: Road, x: float, y: float, s: float, est: ConvoyEstimate) -> float:
-        """``s`` near the end of a circuit, or where the next lap has the convoy if
-        that is nearer: a new lap (every hold planned again)."""
+        """``s`` near the end of a circuit, or where the next lap has the convoy (on
+        it, not before its start) if that is nearer, or as near once past the end (a lap
+        closing on a straight): a new lap (every hold planned again)."""
         s0 = route.project(x, y, 0.0, _WRAP_M)
-        if _on(route, s0, est)[0] >= _on(route, s, est)[0]:
+        d0, d = _on(route, s0, est)[0], _on(route, s, est)[0]
+        past = s > route.length and d0 <= d + _WRAP_TIE_M
+        if s0 < 0.0 or not (d0 < d - _WRAP_TIE_M or past):
             return s
         self._held.clear()
         self.counters["laps"] += 1

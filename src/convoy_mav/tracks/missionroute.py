@@ -28,7 +28,9 @@ count, per the MAVLink mission commands a rover flies:
 - How fast it drives (``speeds``): a DO_CHANGE_SPEED's speed (param2, m/s; -1 and
   the other values below 0 change nothing) from the waypoint before it on, as the
   firmware runs a DO command once the NAV command before it is done; before any
-  waypoint, from the start.
+  waypoint, from the start. On a circuit a speed lasts round the jump: the lap's last
+  is in force at its start (from the second lap on); one set on the way there, if the
+  lap sets none.
 """
 
 from __future__ import annotations
@@ -163,7 +165,7 @@ def mission_route(
         on_lap = {i - lap_from: seconds for i, seconds in holds.items() if i >= lap_from}
         paces = {i - lap_from: v for i, v in speeds.items() if i >= lap_from}
         before = [v for i, v in sorted(speeds.items()) if i < lap_from]
-        if before and 0 not in paces:
+        if before and not paces:
             paces[0] = before[-1]  # (set on the way there, in force round the lap)
         return MissionRoute(tuple(lap), skipped, laps, _sorted(on_lap), True, _sorted(paces))
     return MissionRoute(tuple(points), skipped, laps, _sorted(holds), speeds=_sorted(speeds))
