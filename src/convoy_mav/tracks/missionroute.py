@@ -81,8 +81,9 @@ class MissionRoute:
 
     def remarks(self) -> str:
         """What the points alone do not say ("" when nothing)."""
-        said = [f"{'a circuit ' if self.circuit else ''}driven in laps (DO_JUMP)"]
-        said = said if self.laps else []
+        said = []
+        if self.laps:
+            said.append(f"{'a circuit ' if self.circuit else ''}driven in laps (DO_JUMP)")
         if self.holds:
             total = sum(seconds for _, seconds in self.holds)
             said.append(f"{len(self.holds)} holds, {total:.0f} s")
