@@ -48,7 +48,10 @@
 # AUTO at ROVER_SPEED m/s (8; checks/rover_mission.py drive, through its serial1) once its
 # position estimate is good, and the service reads that mission as the route
 # ([convoy] route = "mission"), with the count for a road with one (the stationary
-# minimum + 1). Its speeds and its corners are the firmware's, not the road's.
+# minimum + 1). Its speeds and its corners are the firmware's, not the road's. The
+# mission sets the speed with a DO_CHANGE_SPEED, which the service reads as the convoy's
+# planned speed; ROVER_NO_PLAN_SPEED=1 leaves it out (the rover drives its WP_SPEED, the
+# same, and the service has no planned speed), to weigh the plan against the firmware.
 #
 # SITL_DIR is an ArduPilot tree with build/sitl/bin/arducopter and arduplane built
 # (see the project's notes on building SITL; it is not part of `make test`).
@@ -137,7 +140,9 @@ PY
         --defaults "$SITL_DIR/Tools/autotest/default_params/rover.parm,$PWD/../rover.parm" \
         --serial0 udpclient:127.0.0.1:14600 >sitl.log 2>&1) &
     pids+=($!)
-    "$py" checks/rover_mission.py drive tcp:127.0.0.1:5962 "$out/road.csv" "${ROVER_SPEED:-8}" \
+    mission_speed=${ROVER_SPEED:-8}
+    [ -n "${ROVER_NO_PLAN_SPEED:-}" ] && mission_speed=0  # (no DO_CHANGE_SPEED: WP_SPEED)
+    "$py" checks/rover_mission.py drive tcp:127.0.0.1:5962 "$out/road.csv" "$mission_speed" \
       >"$out/rover_drive.log" 2>&1 &
     pids+=($!)
   else

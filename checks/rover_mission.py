@@ -18,8 +18,9 @@ Exit 0 when every read gave the mission uploaded.
 ``drive`` sends a rover down a road as its operator would: the road's corners (a CSV
 time,lat,lon, as ``checks/ardupilot_sitl.sh`` writes for ROAD=KIND, thinned as the
 mock's rovers thin theirs, ``sitl_mock.mission.thin``) as waypoints after a
-DO_CHANGE_SPEED to the speed given (m/s), then AUTO and arming, retried until the
-firmware accepts. Run beside ``convoy-mav run`` with ``[convoy] route = "mission"``.
+DO_CHANGE_SPEED to the speed given (m/s; 0: none, the rover drives its WP_SPEED), then
+AUTO and arming, retried until the firmware accepts. Run beside ``convoy-mav run``
+with ``[convoy] route = "mission"``.
 
 Not part of ``make test``: it needs a running autopilot (ArduPilot SITL, see the
 project's notes on building it).
@@ -144,8 +145,9 @@ def road_items(target: tuple[int, int], path: str, speed: float) -> list[Any]:
     wp = mavlink.MAV_CMD_NAV_WAYPOINT
     first = [mavlink.MAV_FRAME_GLOBAL, wp, 0, 1, 0.0, 0.0, 0.0, 0.0]
     rows_out = [[*first, round(corners[0][0] * 1e7), round(corners[0][1] * 1e7), 0.0]]
-    rows_out.append([mavlink.MAV_FRAME_MISSION, mavlink.MAV_CMD_DO_CHANGE_SPEED, 0, 1,
-                     1.0, speed, -1.0, 0.0, 0, 0, 0.0])  # fmt: skip
+    if speed > 0.0:  # (0: none, the rover drives its WP_SPEED and the plan says no speed)
+        rows_out.append([mavlink.MAV_FRAME_MISSION, mavlink.MAV_CMD_DO_CHANGE_SPEED, 0, 1,
+                         1.0, speed, -1.0, 0.0, 0, 0, 0.0])  # fmt: skip
     for lat, lon in corners:
         rows_out.append(
             [rel, wp, 0, 1, 0.0, 0.0, 0.0, 0.0, round(lat * 1e7), round(lon * 1e7), 0.0]
