@@ -113,7 +113,10 @@ def watch_read(link: Any, watch: MissionWatch, wait: float) -> MissionRoute | st
         if read.error is not None:
             return f"read failed: it {read.error}"
         try:
-            return mission_route(read.items or [], home_first=watch.ardupilot)
+            items = read.items or []
+            return mission_route(
+                items, home_first=watch.ardupilot, default_speed=watch.default_speed
+            )
         except ValueError as exc:
             return f"no route: {exc}"
     return f"no read finished in {wait:.0f} s"
@@ -240,7 +243,7 @@ def read(args: argparse.Namespace) -> int:
         lap = items(target, FIRST, patrol=True)
         print(f"upload 3 ({len(FIRST)} waypoints, a patrol): {upload(link, target, lap)}")
         ok = report("read 3 (a circuit)", watch_read(link, watch, 20.0), FIRST, patrol=True) and ok
-        print(f"reads: {watch.reads}", flush=True)
+        print(f"reads: {watch.reads}; default speed (WP_SPEED): {watch.default_speed}", flush=True)
         return 0 if ok else 1
     finally:
         if mock is not None:

@@ -38,7 +38,7 @@ from pymavlink.dialects.v20 import common as mavlink
 from convoy_mav.geo import GeoPoint, LocalFrame
 from sitl_mock.clock import Speedup
 from sitl_mock.flight import FlightController, Outcome
-from sitl_mock.ground import Route
+from sitl_mock.ground import Polyline, Route, StraightLine
 from sitl_mock.kinematics import Aircraft, AircraftState, AirframeParams
 from sitl_mock.messages import (
     TELEMETRY_BUILDERS,
@@ -642,6 +642,7 @@ class SimVehicle:
             Knob.WARMUP: self._warmup,
             Knob.SYSID: float(self.sysid),
             Knob.SPEEDUP: 1.0 if self._speedup is None else self._speedup.speedup,
+            Knob.WP_SPEED: _road_speed(self.spec.route),
         }
         return values[knob]
 
@@ -789,3 +790,9 @@ class SimVehicle:
 
 def _msg_id(value: float) -> int:
     return int(value) if math.isfinite(value) and value >= 0.0 else -1
+
+
+def _road_speed(route: Route | None) -> float:
+    """The one speed a ground route drives at (a line's, a polyline's), as a rover's
+    WP_SPEED; 0 for a recorded track, which drives its own speeds (or none)."""
+    return float(route.speed) if isinstance(route, StraightLine | Polyline) else 0.0

@@ -43,6 +43,7 @@ class Knob(StrEnum):
     WARMUP = "warmup"  # s: sensor warm-up after boot (applies at the next boot)
     SPEEDUP = "speedup"  # sim s per wall s: the whole mock's clock (ArduPilot SITL's too)
     SYSID = "sysid"  # read-only: the MAVLink system id
+    WP_SPEED = "wp_speed"  # m/s, read-only: a rover's speed in AUTO (its road's; 0: none)
 
 
 KnobGetter = Callable[[Knob], float]

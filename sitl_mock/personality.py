@@ -388,6 +388,14 @@ def _common_params(personality: Personality) -> tuple[ParamDef, ...]:
 
 def _params(personality: Personality, vehicle_class: VehicleClass) -> tuple[ParamDef, ...]:
     common = _common_params(personality)
+    if vehicle_class == "rover" and personality is Personality.ARDUPILOT:
+        # AUTO's speed where the mission sets none (WP_SPEED; 0: CRUISE_SPEED's): the speed
+        # its road is driven at, scripted, so not to be set.
+        return (
+            ParamDef("WP_SPEED", Knob.WP_SPEED, read_only=True),
+            ParamDef("CRUISE_SPEED", Knob.WP_SPEED, read_only=True),
+            *common[1:],
+        )
     if vehicle_class == "rover":
         return common[1:]
     k = Knob

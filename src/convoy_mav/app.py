@@ -508,7 +508,9 @@ class ConvoyService:
             self._note(f"ground vehicle {sysid}'s mission not read: it {read.error}")
             return
         try:
-            route = mission_route(read.items or [], home_first=watch.ardupilot)
+            route = mission_route(
+                read.items or [], home_first=watch.ardupilot, default_speed=watch.default_speed
+            )
         except ValueError as exc:
             self._note(f"ground vehicle {sysid}'s mission is no route yet: {exc}")
             return

@@ -12,6 +12,8 @@ from pymavlink.dialects.v20 import common as mavlink
 from convoy_mav.mavlink.codec import MavCodec
 from convoy_mav.mavlink.missionread import (
     BUSY_RETRY_S,
+    PARAM_TIMEOUT_S,
+    PARAM_TRIES,
     RETRY_S,
     TIMEOUT_S,
     TRIES,
@@ -176,8 +178,19 @@ def test_a_mission_counted_past_any_autopilot_is_refused() -> None:
 # ------------------------------------------------------------------------- the watch
 
 
-def drive(watch: MissionWatch, points: list[tuple[float, float]], now: float) -> list[Any]:
-    """Answer the watch's read as a rover holding ``points`` would; what it sent."""
+def param(name: str, value: float) -> Any:
+    return wire(
+        mavlink.MAVLink_param_value_message(
+            name.encode(), value, mavlink.MAV_PARAM_TYPE_REAL32, 2, 0
+        )
+    )
+
+
+def drive(
+    watch: MissionWatch, points: list[tuple[float, float]], now: float, wp_speed: float = 8.0
+) -> list[Any]:
+    """Answer the watch's read (and its parameter requests) as a rover holding ``points``
+    would, its WP_SPEED ``wp_speed``; what it sent."""
     sent = watch.poll(now)
     log = list(sent)
     while sent:
@@ -187,6 +200,9 @@ def drive(watch: MissionWatch, points: list[tuple[float, float]], now: float) ->
                 reply.append(count(len(points)))
             elif msg.get_type() == "MISSION_REQUEST_INT":
                 reply.append(item(msg.seq, *points[msg.seq]))
+            elif msg.get_type() == "PARAM_REQUEST_READ":
+                asked = msg.param_id
+                reply.append(param(asked, wp_speed if asked == "WP_SPEED" else 5.0))
         sent = [out for r in reply for out in watch.handle(r, now)]
         log += sent
     return log
@@ -201,6 +217,7 @@ def test_the_watch_reads_once_heard_then_again_only_when_the_mission_changes() -
     read = watch.take()
     assert read is not None and read.items is not None and len(read.items) == 3
     assert watch.take() is None  # handed over once
+    assert watch.default_speed == 8.0  # (its WP_SPEED, asked alongside)
     # ArduPilot's MISSION_CURRENT leaves home out of its total: 2 is the same mission.
     watch.handle(current(1, 2), 2.0)
     assert watch.poll(3.0) == [] and watch.reads == 1
@@ -231,12 +248,48 @@ def test_a_read_refused_during_another_stations_upload_is_tried_again_soon() -> 
     """ArduRover SITL denied the service's first read while the operator uploaded."""
     watch = MissionWatch(ROVER)
     watch.handle(heartbeat(mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA), 0.0)
+    watch.handle(param("WP_SPEED", 6.0), 0.0)
     only(watch.poll(0.0), "MISSION_REQUEST_LIST")
     denied = mavlink.MAVLink_mission_ack_message(255, 190, mavlink.MAV_MISSION_DENIED, MISSION)
     watch.handle(wire(denied), 0.1)
     assert watch.take() is not None
     assert watch.poll(0.1 + BUSY_RETRY_S - 0.5) == []
     assert only(watch.poll(0.1 + BUSY_RETRY_S), "MISSION_REQUEST_LIST")
+
+
+def test_an_ardupilot_rovers_default_speed_is_asked_and_the_read_waits_for_it() -> None:
+    """WP_SPEED, or CRUISE_SPEED where it is 0, is AUTO's speed where no DO_CHANGE_SPEED
+    says one: asked with the read, again if unanswered; the read is handed over once it
+    is known, or once asked PARAM_TRIES times."""
+    watch = MissionWatch(ROVER)
+    watch.handle(heartbeat(mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA), 0.0)
+    sent = [m.get_type() for m in watch.poll(0.0)]
+    assert sent == ["PARAM_REQUEST_READ", "PARAM_REQUEST_READ", "MISSION_REQUEST_LIST"]
+    watch.handle(count(0), 0.1)  # (an empty mission: the read ends at once)
+    assert watch.take() is None  # (held for the speed)
+    asked = watch.poll(PARAM_TIMEOUT_S)
+    assert [m.param_id for m in asked] == ["WP_SPEED", "CRUISE_SPEED"]
+    watch.handle(param("WP_SPEED", 0.0), 1.6)  # 0: CRUISE_SPEED's
+    watch.handle(param("CRUISE_SPEED", 4.5), 1.7)
+    assert watch.default_speed == 4.5
+    read = watch.take()
+    assert read is not None and read.items == []
+    silent = MissionWatch(ROVER)  # a firmware that never answers
+    silent.handle(heartbeat(mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA), 0.0)
+    silent.poll(0.0)
+    silent.handle(count(0), 0.1)
+    for k in range(1, PARAM_TRIES):
+        assert silent.take() is None
+        silent.poll(k * PARAM_TIMEOUT_S)
+    assert silent.take() is not None and silent.default_speed is None
+    px4 = MissionWatch(ROVER)  # (PX4's rovers: not asked)
+    px4.handle(heartbeat(mavlink.MAV_AUTOPILOT_PX4), 0.0)
+    only(px4.poll(0.0), "MISSION_REQUEST_LIST")
+    assert mission_route(
+        [MissionItem(0, WP, REL_INT, 47.4, 8.54), MissionItem(1, WP, REL_INT, 47.401, 8.54)],
+        home_first=False,
+        default_speed=4.5,
+    ).speeds == ((0, 4.5),)
 
 
 def test_a_total_that_never_matches_the_mission_is_not_read_for_ever() -> None:

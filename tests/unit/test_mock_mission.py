@@ -123,10 +123,12 @@ def test_the_services_reader_takes_the_rovers_road(personality: Personality, loo
         sent = [out for msg in sent for reply in gcs.send(msg) for out in watch.handle(reply, 0.0)]
     read = watch.take()
     assert read is not None and read.items is not None
-    route = mission_route(read.items, home_first=watch.ardupilot)
+    route = mission_route(read.items, home_first=watch.ardupilot, default_speed=watch.default_speed)
     assert watch.ardupilot is (personality is Personality.ARDUPILOT)
     corners = [WORLD.to_geo(*c) for c in CORNERS + CORNERS[:1] * loop]
     assert route.circuit is loop and route.laps is loop
+    # ArduPilot's WP_SPEED (the polyline's 10 m/s) asked alongside: its planned speed.
+    assert route.speeds == (((0, 10.0),) if personality is Personality.ARDUPILOT else ())
     assert [(round(a, 6), round(b, 6)) for a, b in route.points] == [
         (round(c.lat, 6), round(c.lon, 6)) for c in corners
     ]

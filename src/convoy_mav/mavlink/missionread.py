@@ -20,10 +20,12 @@ Design rules:
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from pymavlink.dialects.v20 import common as mavlink
 
+from convoy_mav.mavlink.autopilots.base import param_request_message
 from convoy_mav.mavlink.codec import Message
 
 __all__ = ["MissionItem", "MissionRead", "MissionWatch"]
@@ -156,6 +158,10 @@ class MissionRead:
 
 RETRY_S = 30.0  # after a failed read, or an empty mission, before asking again
 BUSY_RETRY_S = 3.0  # ... after one refused while another transfer was under way
+# ArduRover's speed in AUTO where no DO_CHANGE_SPEED says one (WP_SPEED; 0: CRUISE_SPEED's).
+SPEED_PARAMS = ("WP_SPEED", "CRUISE_SPEED")
+PARAM_TIMEOUT_S = 1.5  # before asking again for a parameter not answered
+PARAM_TRIES = 3  # ... and then the read is handed over without it
 
 
 class MissionWatch:
@@ -167,6 +173,11 @@ class MissionWatch:
     again after ``RETRY_S`` (``BUSY_RETRY_S`` when refused during another station's
     transfer, as the operator's upload); so is an empty mission, which a rover has
     before its operator uploads one. :meth:`take` hands over each finished read once.
+
+    Of an ArduPilot rover it also asks the speed it drives AUTO at where its mission sets
+    none (``SPEED_PARAMS``, PARAM_REQUEST_READ): :attr:`default_speed`, and the first
+    read is handed over once they are answered (or asked ``PARAM_TRIES`` times).
+    PX4's rovers keep theirs under other names per rover module: not asked.
     """
 
     def __init__(self, target_system: int, target_component: int = 1) -> None:
@@ -180,6 +191,10 @@ class MissionWatch:
         self._total_read: int | None = None  # MISSION_CURRENT's total when it was read
         self._next_try = 0.0
         self._finished: MissionRead | None = None
+        self.default_speed: float | None = None  # m/s, AUTO's where no item says one
+        self._params: dict[str, float] = {}
+        self._param_tries = 0
+        self._param_next = 0.0
 
     def handle(self, msg: Message, now: float) -> list[Message]:
         """A message from the vehicle; what to send in answer."""
@@ -192,6 +207,11 @@ class MissionWatch:
             if msg.total != self._total and self._total is not None:
                 self._next_try = 0.0  # changed: read it now
             self._total = int(msg.total)
+        elif kind == "PARAM_VALUE" and msg.param_id in SPEED_PARAMS:
+            self._params[msg.param_id] = float(msg.param_value)
+            wp, cruise = (self._params.get(name, math.nan) for name in SPEED_PARAMS)
+            speed = wp if wp > 0.0 else cruise  # (WP_SPEED 0: CRUISE_SPEED is AUTO's)
+            self.default_speed = speed if math.isfinite(speed) and speed > 0.0 else None
         read = self.read
         if read is None:
             return []
@@ -199,13 +219,34 @@ class MissionWatch:
         self._finish_if_done(now)
         return out
 
+    @property
+    def _params_done(self) -> bool:
+        """The default speed known, or not to be asked (not ArduPilot), or given up."""
+        wp = self._params.get(SPEED_PARAMS[0])
+        known = (wp is not None and wp > 0.0) or len(self._params) == len(SPEED_PARAMS)
+        return not self.ardupilot or known or self._param_tries >= PARAM_TRIES
+
+    def _ask_params(self, now: float) -> list[Message]:
+        if not self._heard or self._params_done or now < self._param_next:
+            return []
+        self._param_tries += 1
+        self._param_next = now + PARAM_TIMEOUT_S
+        system, component = self.target
+        return [
+            param_request_message(system, component, name)
+            for name in SPEED_PARAMS
+            if name not in self._params
+        ]
+
     def poll(self, now: float) -> list[Message]:
-        """Start a read when one is due; time the one under way out."""
+        """Start a read when one is due; time the one under way out; ask for the
+        default speed until answered."""
+        asks = self._ask_params(now)
         read = self.read
         if read is not None:
             out = read.poll(now)
             self._finish_if_done(now)
-            return out
+            return asks + out
         # A total that is not the read's count, and not what it said at the read (firmware
         # that sends 0, "not supported", has its mission read once more, not for ever).
         total = self._total
@@ -213,11 +254,14 @@ class MissionWatch:
         due = not self._held or changed
         if self._heard and due and now >= self._next_try:
             self.read = MissionRead(*self.target)
-            return self.read.start(now)
-        return []
+            return asks + self.read.start(now)
+        return asks
 
     def take(self) -> MissionRead | None:
-        """The read finished since the last call (with its items or its error), once."""
+        """The read finished since the last call (with its items or its error), once;
+        held while the default speed is still being asked."""
+        if not self._params_done:
+            return None
         done, self._finished = self._finished, None
         return done
 

@@ -30,7 +30,8 @@ count, per the MAVLink mission commands a rover flies:
   firmware runs a DO command once the NAV command before it is done; before any
   waypoint, from the start. On a circuit a speed lasts round the jump: the lap's last
   is in force at its start (from the second lap on); one set on the way there, if the
-  lap sets none.
+  lap sets none. Before any, the rover drives its own default (``default_speed``:
+  ArduRover's WP_SPEED, read by ``MissionWatch``).
 """
 
 from __future__ import annotations
@@ -101,9 +102,11 @@ def mission_route(
     *,
     home_first: bool,
     home: tuple[float, float] | None = None,
+    default_speed: float | None = None,
 ) -> MissionRoute:
     """The polyline a rover's mission drives (see the module's rules); ``home`` is where a
-    return to launch goes when the items do not hold it (a QGroundControl plan's).
+    return to launch goes when the items do not hold it (a QGroundControl plan's);
+    ``default_speed`` the rover's speed where no DO_CHANGE_SPEED has set one.
 
     Raises:
         ValueError: Fewer than two distinct points to drive: no road to speak of.
@@ -111,6 +114,8 @@ def mission_route(
     points: list[tuple[float, float]] = []
     holds: dict[int, float] = {}
     speeds: dict[int, float] = {}
+    ok = default_speed is not None and math.isfinite(default_speed) and default_speed > 0.0
+    default = default_speed if ok else None
     skipped = 0
     laps = False
     first_point: dict[int, int] = {}  # item seq -> index of the point it drives to
@@ -165,10 +170,12 @@ def mission_route(
             lap.append(start)  # (the drive back to where the lap starts)
         on_lap = {i - lap_from: seconds for i, seconds in holds.items() if i >= lap_from}
         paces = {i - lap_from: v for i, v in speeds.items() if i >= lap_from}
-        before = [v for i, v in sorted(speeds.items()) if i < lap_from]
-        if before and not paces:
+        before = [default, *(v for i, v in sorted(speeds.items()) if i < lap_from)]
+        if before[-1] is not None and not paces:
             paces[0] = before[-1]  # (set on the way there, in force round the lap)
         return MissionRoute(tuple(lap), skipped, laps, _sorted(on_lap), True, _sorted(paces))
+    if default is not None and 0 not in speeds:
+        speeds[0] = default
     return MissionRoute(tuple(points), skipped, laps, _sorted(holds), speeds=_sorted(speeds))
 
 
