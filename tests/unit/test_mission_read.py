@@ -211,6 +211,8 @@ def drive(
 def test_the_watch_reads_once_heard_then_again_only_when_the_mission_changes() -> None:
     watch = MissionWatch(ROVER)
     assert watch.poll(0.0) == []  # not heard yet
+    watch.handle(current(0, 3), 0.0)
+    assert watch.poll(0.0) == []  # (nor from its MISSION_CURRENT: whose numbering?)
     watch.handle(heartbeat(mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA), 0.0)
     assert watch.ardupilot
     drive(watch, POINTS, 1.0)

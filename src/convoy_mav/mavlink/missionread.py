@@ -173,6 +173,8 @@ class MissionWatch:
     again after ``RETRY_S`` (``BUSY_RETRY_S`` when refused during another station's
     transfer, as the operator's upload); so is an empty mission, which a rover has
     before its operator uploads one. :meth:`take` hands over each finished read once.
+    Nothing is read before the vehicle's HEARTBEAT says its firmware: ArduPilot's item 0
+    is home, PX4's a waypoint, and the default speed below is ArduPilot's.
 
     Of an ArduPilot rover it also asks the speed it drives AUTO at where its mission sets
     none (``SPEED_PARAMS``, PARAM_REQUEST_READ): :attr:`default_speed`, and the first
@@ -185,7 +187,7 @@ class MissionWatch:
         self.read: MissionRead | None = None
         self.reads = 0  # finished, good or not
         self.ardupilot = False  # (its item 0 is home)
-        self._heard = False
+        self._heard = False  # a HEARTBEAT: which firmware numbers the mission (home first)
         self._total: int | None = None  # as MISSION_CURRENT last said
         self._held: int | None = None  # items of the last read, as MISSION_CURRENT counts
         self._total_read: int | None = None  # MISSION_CURRENT's total when it was read
@@ -203,7 +205,6 @@ class MissionWatch:
             self._heard = True
             self.ardupilot = msg.autopilot == mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA
         elif kind == "MISSION_CURRENT":
-            self._heard = True
             if msg.total != self._total and self._total is not None:
                 self._next_try = 0.0  # changed: read it now
             self._total = int(msg.total)
