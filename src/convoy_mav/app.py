@@ -65,7 +65,7 @@ from convoy_mav.mission.lag import ReplanLag
 from convoy_mav.mission.road import FAST_CONVOY_RATIO, RoadMission
 from convoy_mav.monitor import Alarm, Monitor, MonitorSnapshot, sees, why_not_counted
 from convoy_mav.planning.export import compass_to_planner
-from convoy_mav.planning.road import Road, path_lengths
+from convoy_mav.planning.road import Road
 from convoy_mav.publish import topics
 from convoy_mav.publish.mqtt import MqttPublisher
 from convoy_mav.publish.security import mqtt_security
@@ -1908,28 +1908,18 @@ class ConvoyService:
         self, road: Road, points: Sequence[tuple[float, float]], plan: MissionRoute | None
     ) -> tuple[Marks, bool, Marks]:
         """A mission's plan on ``road``: its holds (arc length, seconds), whether it is a
-        circuit, its speeds (arc length, m/s)."""
-        if plan is None:
-            return (), False, ()
+        circuit, its speeds (arc length, m/s); each mark found near the distance driven
+        to its point (``Road.place``: a route that comes back along itself has the point
+        on two passes)."""
+        if plan is None or not (plan.holds or plan.speeds):
+            return (), plan is not None and plan.circuit, ()
+        ned = [self.frame.to_ned(GeoPoint(lat, lon)) for lat, lon in points]
+        north, east = [p[0] for p in ned], [p[1] for p in ned]
         return (
-            self._arcs_on(road, points, plan.holds),
+            road.place(north, east, plan.holds),
             plan.circuit,
-            self._arcs_on(road, points, plan.speeds),
+            road.place(north, east, plan.speeds),
         )
-
-    def _arcs_on(
-        self, road: Road, points: Sequence[tuple[float, float]], marks: Sequence[tuple[int, float]]
-    ) -> Marks:
-        """(index of a point, value) marks as (arc length on ``road``, value), each found
-        near the distance driven to its point from the mark before (a route that comes
-        back along itself has the point on two passes)."""
-        if not marks:
-            return ()
-        ne = [self.frame.to_ned(GeoPoint(lat, lon))[:2] for lat, lon in points]
-        driven = path_lengths(ne)
-        kept = sorted((i, value) for i, value in marks if 0 <= i < len(ne))
-        arcs = road.project_along((ne[i][1], ne[i][0], driven[i]) for i, _ in kept)
-        return tuple(zip(arcs, (value for _, value in kept), strict=True))
 
     @property
     def route(self) -> Road | None:

@@ -182,12 +182,14 @@ def _driven(
     *,
     relax_s: float = 30.0,
     holds: list[tuple[float, float]] | None = None,
+    paces: list[tuple[float, float]] | None = None,
 ) -> ConvoyModel:
     """A convoy along ``STRAIGHT`` that drove each (seconds, m/s) in turn, an estimate a
-    second; with ``holds``, the route's planned holds (arc length, seconds)."""
+    second; with ``holds``, the route's planned holds (arc length, seconds), and with
+    ``paces`` its planned speeds (arc length, m/s from there)."""
     model = ConvoyModel(STRAIGHT, relax_s=relax_s, mean_window_s=120.0)
-    if holds is not None:
-        model.set_route(STRAIGHT, holds)
+    if holds is not None or paces is not None:
+        model.set_route(STRAIGHT, holds or (), speeds=paces or ())
     t = along = 0.0
     for seconds, speed in speeds:
         for _ in range(round(seconds)):
@@ -356,46 +358,30 @@ def test_a_circuit_is_forecast_round_into_its_next_lap() -> None:
         assert math.hypot(x[0] - where[0], y[0] - where[1]) < 15.0
 
 
-def _paced(speeds: list[tuple[float, float]], plan: list[tuple[float, float]]) -> ConvoyModel:
-    """``_driven`` on a route with a speed plan: (arc length, m/s from there)."""
-    model = ConvoyModel(STRAIGHT, mean_window_s=120.0)
-    model.set_route(STRAIGHT, speeds=plan)
-    t = along = 0.0
-    for seconds, speed in speeds:
-        for _ in range(round(seconds)):
-            model.observe(ConvoyEstimate(t, 0.0, along, 0.0, speed))
-            t, along = t + 1.0, along + speed
-    return model
-
-
 def test_a_planned_speed_change_ahead_is_driven_from_its_place() -> None:
     dt = np.arange(0.0, 120.0, 1.0)
     # At 4 m/s from 0 m (t = 9: at 36 m), 12 m/s planned from 500 m: 4 m/s to there
     # (116 s on), then up at 1 m/s^2 to 12.
-    faster = _paced([(10.0, 4.0)], [(0.0, 4.0), (500.0, 12.0)])
+    faster = _driven([(10.0, 4.0)], relax_s=0.0, paces=[(0.0, 4.0), (500.0, 12.0)])
     arc = _ahead(faster, dt) + 36.0
     assert arc[100] == pytest.approx(436.0, abs=0.5)
     assert arc[119] - arc[118] > 4.5
     # At 12 m/s, 4 m/s planned from 500 m: on at 12 to there (32.7 s on), then down at
     # 1 m/s^2 to 4 (8 s, 64 m), on at 4.
-    slower = _paced([(10.0, 12.0)], [(500.0, 4.0)])
+    slower = _driven([(10.0, 12.0)], relax_s=0.0, paces=[(500.0, 4.0)])
     arc = _ahead(slower, dt) + 108.0
     assert arc[30] == pytest.approx(468.0, abs=0.5)
     assert np.diff(arc)[45:] == pytest.approx(4.0, abs=0.01)
     assert arc[60] == pytest.approx(564.0 + 4.0 * (60.0 - 40.67), abs=1.0)  # (0.25-s grid)
     # A planned speed in force: driving at 6 m/s where 10 is planned, it speeds up to it.
-    rising = _paced([(10.0, 6.0)], [(0.0, 10.0)])
+    rising = _driven([(10.0, 6.0)], relax_s=0.0, paces=[(0.0, 10.0)])
     arc = _ahead(rising, dt)
     assert arc[10] == pytest.approx(6.0 * 4.0 + 0.5 * 16.0 + 10.0 * 6.0, abs=0.5)
 
 
 def test_a_hold_pulls_away_to_the_planned_speed_from_it() -> None:
-    model = ConvoyModel(STRAIGHT, mean_window_s=120.0)
-    model.set_route(STRAIGHT, [(200.0, 20.0)], speeds=[(0.0, 5.0), (200.0, 10.0)])
-    t = along = 0.0
-    for _ in range(20):
-        model.observe(ConvoyEstimate(t, 0.0, along, 0.0, 5.0))
-        t, along = t + 1.0, along + 5.0
+    paces = [(0.0, 5.0), (200.0, 10.0)]
+    model = _driven([(20.0, 5.0)], relax_s=0.0, holds=[(200.0, 20.0)], paces=paces)
     dt = np.arange(0.0, 120.0, 1.0)
     arc = _ahead(model, dt) + 95.0
     # 105 m at 5 m/s (braking the last 12.5 m), 20 s held, then up to 10 m/s.

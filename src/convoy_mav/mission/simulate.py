@@ -76,8 +76,7 @@ def true_speeds(
     m/s), each placed where the true path has driven that far (``tracks.roads`` plans)."""
     driven = path_lengths(zip(north, east, strict=True))
     at = [min(int(np.searchsorted(driven, d)), len(driven) - 1) for d, _ in plan]
-    arcs = route.project_along((east[i], north[i], driven[i]) for i in at)
-    return tuple(zip(arcs, (v for _, v in plan), strict=True))
+    return route.place(north, east, zip(at, (v for _, v in plan), strict=True))
 
 
 def fly_road(

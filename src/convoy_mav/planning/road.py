@@ -16,7 +16,7 @@ Design rules:
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -244,6 +244,21 @@ class Road:
             arc, run = self.project(x, y, arc + driven - run, window), driven
             out.append(arc)
         return out
+
+    def place(
+        self,
+        north: Sequence[float] | FloatArray,
+        east: Sequence[float] | FloatArray,
+        marks: Iterable[tuple[int, float]],
+    ) -> tuple[tuple[float, float], ...]:
+        """(index of a point of the polyline ``north``/``east``, value) marks, in the
+        polyline's order, as (arc length on this road, value): :meth:`project_along`
+        with the distance driven to each point (indices outside it are left out)."""
+        n = len(north)
+        kept = sorted((i, value) for i, value in marks if 0 <= i < n)
+        driven = path_lengths(zip(north, east, strict=True))
+        arcs = self.project_along((float(east[i]), float(north[i]), driven[i]) for i, _ in kept)
+        return tuple(zip(arcs, (value for _, value in kept), strict=True))
 
     def reversed(self) -> Road:
         """The same road driven the other way: arc length from the far end."""
