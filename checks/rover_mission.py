@@ -40,7 +40,8 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from convoy_mav.geo import GeoPoint, LocalFrame
 from convoy_mav.mavlink.missionread import MissionWatch
-from convoy_mav.tracks.missionroute import MissionRoute, mission_route
+from convoy_mav.tracks.missionroute import mission_route
+from convoy_mav.tracks.plannedroute import PlannedRoute
 from sitl_mock.mission import DEFAULT_TOLERANCE_M, thin
 
 MISSION = mavlink.MAV_MISSION_TYPE_MISSION
@@ -97,7 +98,7 @@ def upload(link: Any, target: tuple[int, int], mission: list[Any]) -> str:
     return "no answer"
 
 
-def watch_read(link: Any, watch: MissionWatch, wait: float) -> MissionRoute | str:
+def watch_read(link: Any, watch: MissionWatch, wait: float) -> PlannedRoute | str:
     """Run the watch on the link until a read finishes; its route, or why not."""
     deadline = time.monotonic() + wait
     while time.monotonic() < deadline:
@@ -123,7 +124,7 @@ def watch_read(link: Any, watch: MissionWatch, wait: float) -> MissionRoute | st
 
 
 def report(
-    name: str, got: MissionRoute | str, road: tuple[tuple[float, float], ...], *, patrol: bool
+    name: str, got: PlannedRoute | str, road: tuple[tuple[float, float], ...], *, patrol: bool
 ) -> bool:
     """Print what was read; whether it is the mission ``items`` uploaded: its road, the
     hold and the speed change at the waypoints they follow, a circuit on ``patrol``."""

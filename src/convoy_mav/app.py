@@ -73,8 +73,9 @@ from convoy_mav.recording import TlogRecorder
 from convoy_mav.schedule import POSITION_AT_HORIZON_S, position_at
 from convoy_mav.separation import conflicts
 from convoy_mav.streaming import SetpointStreamer
-from convoy_mav.tracks import load_mission_file, load_route
-from convoy_mav.tracks.missionroute import MissionRoute, mission_route
+from convoy_mav.tracks import load_planned_route
+from convoy_mav.tracks.missionroute import mission_route
+from convoy_mav.tracks.plannedroute import PlannedRoute
 from convoy_mav.types import ConvoyEstimate, Setpoint, Telemetry, VehicleStatus
 from convoy_mav.vehicle import EventKind, Vehicle, VehicleEvent
 
@@ -381,7 +382,7 @@ class ConvoyService:
             or config.convoy.route_from_mission,
         )
         self.mission: Mission | RoadMission
-        saved: MissionRoute | None = None  # a route file that is a rover's saved mission
+        saved: PlannedRoute | None = None  # a route file that can carry a plan
         if self.planner == "road":
             if route is None and config.convoy.route_file is not None:
                 route, saved = self._load_route(config)
@@ -392,8 +393,8 @@ class ConvoyService:
                 route=route,
                 record=config.mission_recording is not None,
             )
-            if route is not None and saved is not None:
-                self.mission.set_route(route, *self._plan_on(route, saved.points, saved))
+            if route is not None and saved is not None and saved.planned:
+                self.mission.set_route(route, *self._plan_on(route, saved))
         else:
             self.mission = Mission(request, uav_ids, down=self._down, thresholds=thresholds)
         self._planner_why = why
@@ -438,19 +439,15 @@ class ConvoyService:
         self._silence: tuple[float, float | None] | None = None  # fleet-wide: (began, ended)
 
     @staticmethod
-    def _load_route(config: MissionConfig) -> tuple[Road, MissionRoute | None]:
-        """The convoy's route file as a road in the mission frame, and, if the file is a
-        rover's mission saved by a ground station, that mission's route (holds, laps)."""
+    def _load_route(config: MissionConfig) -> tuple[Road, PlannedRoute]:
+        """The convoy's route file as a road in the mission frame, and the route as read,
+        with the convoy's plan on it if the file carries one (a rover's saved mission, a
+        JSON route with holds, speeds or laps)."""
         path = config.convoy.route_file
         assert path is not None
         try:
-            saved = load_mission_file(path)
-            if saved is not None:
-                lats, lons = [p[0] for p in saved.points], [p[1] for p in saved.points]
-            else:
-                lats, lons = load_route(path)
-            frame = LocalFrame(config.origin)
-            return Road.from_geo(zip(lats, lons, strict=True), frame), saved
+            saved = load_planned_route(path)
+            return Road.from_geo(saved.points, LocalFrame(config.origin)), saved
         except (OSError, ValueError) as exc:
             raise ConfigError("convoy.route", path, f"cannot be used as a route ({exc})") from exc
 
@@ -514,9 +511,7 @@ class ConvoyService:
         except ValueError as exc:
             self._note(f"ground vehicle {sysid}'s mission is no route yet: {exc}")
             return
-        remarks = route.remarks()
-        source = f"ground vehicle {sysid}'s mission" + (f" ({remarks})" if remarks else "")
-        self.set_route(route.points, source=source, plan=route)
+        self.set_route(route, source=f"ground vehicle {sysid}'s mission")
 
     def _on_mqtt_convoy(self, fix: Mapping[str, Any]) -> None:
         """A convoy position from ``<prefix>/convoy/position`` (already validated)."""
@@ -1876,20 +1871,15 @@ class ConvoyService:
             "reboots": c.reboots,
         }
 
-    def set_route(
-        self,
-        points: Sequence[tuple[float, float]],
-        *,
-        source: str = "MQTT convoy/route",
-        plan: MissionRoute | None = None,
-    ) -> None:
-        """A new route for the convoy, (lat, lon) in order (MQTT ``convoy/route``, or the
-        lead ground vehicle's mission), and the convoy's plan on it when a rover's mission
-        gives one: its holds, laps and speeds (``MissionRoute``, indices of ``points``).
+    def set_route(self, route: PlannedRoute, *, source: str = "MQTT convoy/route") -> None:
+        """A new route for the convoy (MQTT ``convoy/route``, or the lead ground vehicle's
+        mission), its points (lat, lon) in order and the convoy's plan on it if it says
+        one: holds, laps and speeds.
 
         Taken in at the next mission step (the mission lives in its worker thread);
         the paper's planner has no use for one, which the log says.
         """
+        points = route.points
         if not isinstance(self.mission, RoadMission):
             self._note(f"route of {len(points)} points ignored: the paper's planner flies")
             return
@@ -1898,22 +1888,22 @@ class ConvoyService:
         except PlanningError as exc:
             self._note(f"route of {len(points)} points from {source} refused: {exc}")
             return
-        self._new_route = (road, *self._plan_on(road, points, plan))
-        self._route_source = source
+        self._new_route = (road, *self._plan_on(road, route))
+        remarks = route.remarks()
+        self._route_source = source + (f" ({remarks})" if remarks else "")
         self._note(
-            f"convoy route received from {source}: {len(points)} points, {road.length:.0f} m"
+            f"convoy route received from {self._route_source}: {len(points)} points, "
+            f"{road.length:.0f} m"
         )
 
-    def _plan_on(
-        self, road: Road, points: Sequence[tuple[float, float]], plan: MissionRoute | None
-    ) -> tuple[Marks, bool, Marks]:
-        """A mission's plan on ``road``: its holds (arc length, seconds), whether it is a
+    def _plan_on(self, road: Road, plan: PlannedRoute) -> tuple[Marks, bool, Marks]:
+        """A route's plan on ``road``: its holds (arc length, seconds), whether it is a
         circuit, its speeds (arc length, m/s); each mark found near the distance driven
         to its point (``Road.place``: a route that comes back along itself has the point
         on two passes)."""
-        if plan is None or not (plan.holds or plan.speeds):
-            return (), plan is not None and plan.circuit, ()
-        ned = [self.frame.to_ned(GeoPoint(lat, lon)) for lat, lon in points]
+        if not (plan.holds or plan.speeds):
+            return (), plan.circuit, ()
+        ned = [self.frame.to_ned(GeoPoint(lat, lon)) for lat, lon in plan.points]
         north, east = [p[0] for p in ned], [p[1] for p in ned]
         return (
             road.place(north, east, plan.holds),

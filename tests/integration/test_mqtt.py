@@ -22,6 +22,7 @@ import pytest
 
 from convoy_mav.coverage import CoverageSample, CoverageStats
 from convoy_mav.publish import MqttPublisher, topics
+from convoy_mav.tracks.plannedroute import PlannedRoute
 from convoy_mav.types import Telemetry, VehicleStatus
 from tests.broker import Broker, mqtt_broker_fixture  # noqa: F401 - provides `mqtt_broker`
 
@@ -196,6 +197,30 @@ async def test_convoy_and_command_inputs_reach_callbacks(mqtt_broker: Broker) ->
         assert pub.counters["callback_errors"] == 1
         assert pub.counters["convoy_received"] == 2 and pub.counters["commands_received"] == 2
         assert pub.last_bad_input is not None and "unknown command" in pub.last_bad_input
+
+
+async def test_a_route_and_its_plan_come_in_retained_and_replaced(mqtt_broker: Broker) -> None:
+    """A command post's route, retained before the service connects, with where the
+    convoy will stop; published again with the stop moved and a speed, it replaces the
+    first; a bad plan is counted and changes nothing."""
+    routes: list[PlannedRoute] = []
+    points = [[47.40, 8.54], [47.41, 8.54], [47.41, 8.55]]
+    first = {"points": points, "holds": [{"point": 1, "seconds": 60}]}
+    await send(mqtt_broker, [("convoy/route", json.dumps(first))], retain=True)
+    async with publisher(mqtt_broker, on_route=routes.append) as pub:
+        await wait_for(lambda: len(routes) == 1, what="the retained route")
+        assert routes[0].holds == ((1, 60.0),) and routes[0].points[1] == (47.41, 8.54)
+        again = {"points": points, "holds": [[2, 90]], "speeds": [[0, 9.5]], "circuit": True}
+        bad = {"points": points, "holds": [[7, 90]]}
+        await send(mqtt_broker, [("convoy/route", json.dumps(bad))])
+        await send(mqtt_broker, [("convoy/route", json.dumps(again))])
+        await wait_for(lambda: len(routes) == 2, what="the route published again")
+        assert routes[1].holds == ((2, 90.0),) and routes[1].speeds == ((0, 9.5),)
+        assert routes[1].circuit and routes[1].points[-1] == routes[1].points[0]
+        assert pub.counters["routes_received"] == 2 and pub.counters["bad_input"] == 1
+        assert pub.last_bad_input is not None and "an index of the route's 3 points" in (
+            pub.last_bad_input
+        )
 
 
 async def test_broker_killed_and_restarted(mqtt_broker: Broker) -> None:

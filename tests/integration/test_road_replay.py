@@ -235,3 +235,35 @@ def test_the_lead_rovers_mission_is_read_as_the_convoys_route(
     assert planner["route_length_m"] == pytest.approx(road.length_m, rel=0.02)
     assert any("route received from ground vehicle 7's mission" in e for e in report["events"])
     assert report["protect_start_s"] is not None
+
+
+def test_a_json_route_with_its_stops_is_flown_with_them(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``replay --road stop-and-go --route route.json``: a command post's route, with the
+    three stops it plans (``holds``: where, and how long); the service reads them with
+    the road and covers the convoy through its first stop (from 1.5 km: 190-310 s) as it
+    predicts."""
+    frame = LocalFrame(DEFAULT_ORIGIN)
+    way = [frame.to_geo(float(n), 0.0) for n in range(0, 6501, 500)]  # (the road: north)
+    plan = {
+        "type": "Feature",
+        "properties": {"name": "stop and go", "holds": [[3, 120], [7, 120], [10, 30]]},
+        "geometry": {"type": "LineString", "coordinates": [[p.lon, p.lat] for p in way]},
+    }
+    route = tmp_path / "route.geojson"
+    route.write_text(json.dumps(plan))
+    report_path = tmp_path / "r.json"
+    argv = ["replay", "--road", "stop-and-go", "--route", str(route), "--duration", "420"]
+    argv += ["--personality", "px4", "--speedup", str(SPEEDUP), "--quiet"]
+    assert main([*argv, "--report", str(report_path)]) == 0
+    assert "ground truth" in capsys.readouterr().out
+    report = json.loads(report_path.read_text())
+    planner = report["planner"]
+    assert report["uav_count"] == 6  # (the count with a route)
+    assert planner["route_source"] == "file (3 holds, 270 s)"
+    assert planner["route_length_m"] == pytest.approx(6500.0, rel=0.01)
+    why = _diagnosis(report)
+    truth = report["truth_coverage_fraction"]
+    assert truth >= 0.97, why
+    assert report["predicted_coverage"] == pytest.approx(truth, abs=0.015), why

@@ -216,7 +216,7 @@ def test_a_missions_holds_are_placed_on_its_road_each_on_its_own_pass() -> None:
     """Out and back along one street, a hold at the far end and one on the way back at
     the point passed on the way out: each is placed on its own pass of the road."""
     from convoy_mav.geo import LocalFrame
-    from convoy_mav.tracks.missionroute import MissionRoute
+    from convoy_mav.tracks.plannedroute import PlannedRoute
 
     cfg = parse_config(
         {
@@ -229,8 +229,8 @@ def test_a_missions_holds_are_placed_on_its_road_each_on_its_own_pass() -> None:
     ne = [(0.0, 0.0), (400.0, 0.0), (800.0, 0.0), (800.0, 60.0), (400.0, 60.0), (0.0, 60.0)]
     geo = [frame.to_geo(n, e) for n, e in ne]
     points = [(g.lat, g.lon) for g in geo]
-    plan = MissionRoute(tuple(points), 0, False, holds=((2, 30.0), (4, 45.0)), speeds=((3, 6.0),))
-    service.set_route(points, source="a test", plan=plan)
+    plan = PlannedRoute(tuple(points), holds=((2, 30.0), (4, 45.0)), speeds=((3, 6.0),))
+    service.set_route(plan, source="a test")
     assert service._new_route is not None
     road, holds, circuit, speeds = service._new_route
     assert [round(h) for _, h in holds] == [30, 45] and not circuit

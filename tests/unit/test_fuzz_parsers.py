@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import math
 from collections.abc import Callable
 from typing import Any
 
@@ -25,6 +26,7 @@ from convoy_mav.tracks.csvfile import parse_csv_track
 from convoy_mav.tracks.gpx import parse_gpx_track
 from convoy_mav.tracks.kml import kmz_document, parse_kml_points, parse_kml_track
 from convoy_mav.tracks.missionfile import WPL_HEADER, parse_plan, parse_waypoints
+from convoy_mav.tracks.routejson import planned_route
 from convoy_mav.tracks.tlog import parse_tlog_track
 
 FUZZ = settings(max_examples=300, deadline=None)
@@ -126,6 +128,32 @@ def test_a_plan_of_any_shape_is_read_or_refused(mission: Any) -> None:
         with contextlib.suppress(ValueError):
             route = parse_plan(json.dumps(doc).encode(), "fuzz.plan")
             assert len(route.points) >= 2
+
+
+_number = st.one_of(st.integers(-2, 3), st.floats(), st.booleans())
+_mark = st.one_of(
+    _json,
+    st.lists(_number, min_size=2, max_size=2),
+    st.dictionaries(st.sampled_from(["point", "seconds", "mps"]), _number),
+)
+
+
+@FUZZ
+@given(st.one_of(_json, st.lists(_mark, max_size=4)), st.lists(_mark, max_size=4), _json, _json)
+def test_a_routes_plan_of_any_shape_is_read_or_refused(
+    holds: Any, speeds: Any, own: Any, circuit: Any
+) -> None:
+    """A JSON route's plan (holds, speeds, circuit, a point's own hold and speed) of any
+    shape: read, every mark on the route and above 0, or refused with a ValueError."""
+    here = {"lat": 47.2, "lon": 8.2, "hold_s": own, "mps": own}
+    for doc in (
+        {"points": [[47.1, 8.1], [47.2, 8.2]], "holds": holds, "speeds": speeds},
+        {"points": [[47.1, 8.1], here], "circuit": circuit},
+    ):
+        with contextlib.suppress(ValueError):
+            route = planned_route(doc)
+            marks = route.holds + route.speeds
+            assert all(0 <= i < 2 and math.isfinite(v) and v > 0 for i, v in marks)
 
 
 @FUZZ

@@ -160,7 +160,7 @@ def test_a_saved_patrol_flies_as_a_circuit_with_its_holds(tmp_path: Path) -> Non
     doc = {"mission": {"sensor_radius_m": 100.0, "planner": "road"}, "convoy": {"route": str(path)}}
     doc["uav"] = [{"connection": "udpin:127.0.0.1:14540", "sysid": 1}]
     service = ConvoyService(parse_config(doc))
-    assert service._route_source == "file (a circuit driven in laps (DO_JUMP), 1 holds, 30 s)"
+    assert service._route_source == "file (a circuit driven in laps, 1 holds, 30 s)"
     assert isinstance(service.mission, RoadMission)
     model = service.mission.model
     assert model._circuit and len(model._holds) == 1 and model._holds[0][0] < 10.0

@@ -386,7 +386,7 @@ def test_a_jump_back_repeated_with_nothing_after_it_is_a_circuit() -> None:
     assert route.circuit and route.laps
     assert route.points == ((47.402, 8.540), (47.402, 8.542), (47.403, 8.541), (47.402, 8.540))
     assert route.holds == ((0, 20.0),)
-    assert route.remarks() == "a circuit driven in laps (DO_JUMP), 1 holds, 20 s"
+    assert route.remarks() == "a circuit driven in laps, 1 holds, 20 s"
     # Driven on after its laps, a jump never taken (a repeat of 0), or a jump forward:
     # laps of part of the route, no circuit; the route is every waypoint.
     after = [*rows, MissionItem(6, WP, REL_INT, 47.404, 8.541)]

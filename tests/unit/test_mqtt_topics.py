@@ -16,6 +16,7 @@ from convoy_mav.coverage import CoverageSample, CoverageStats
 from convoy_mav.errors import ConfigError
 from convoy_mav.publish import topics
 from convoy_mav.publish.topics import BadPayload
+from convoy_mav.tracks.plannedroute import PlannedRoute
 from convoy_mav.types import Telemetry, VehicleStatus
 
 WALL = 1_714_564_800.25  # 2024-05-01T12:00:00.250Z
@@ -351,7 +352,7 @@ def test_vehicle_payload_says_whether_and_why_not_a_uav_counts() -> None:
 
 
 def test_a_route_comes_as_points_or_geojson() -> None:
-    want = [(47.1, 8.1), (47.2, 8.2)]
+    want = PlannedRoute(((47.1, 8.1), (47.2, 8.2)))
     assert topics.parse_convoy_route('{"points": [[47.1, 8.1], [47.2, 8.2]]}') == want
     assert (
         topics.parse_convoy_route(

@@ -59,6 +59,7 @@ from paho.mqtt.reasoncodes import ReasonCode
 
 from convoy_mav.errors import ConfigError
 from convoy_mav.publish import topics
+from convoy_mav.tracks.plannedroute import PlannedRoute
 
 __all__ = ["MqttPublisher"]
 
@@ -136,8 +137,9 @@ class MqttPublisher:
         on_convoy: Called with each valid convoy fix (see
             :func:`topics.parse_convoy_position` for the dict's keys).
         on_command: Called with ``"pause"`` or ``"resume"``.
-        on_route: Called with each valid route, its (lat, lon) points in order
-            (:func:`topics.parse_convoy_route`; retained routes are used).
+        on_route: Called with each valid route: its (lat, lon) points in order and
+            the convoy's plan on it (:func:`topics.parse_convoy_route`; retained
+            routes are used).
         reconnect_initial: First back-off delay after a failed or lost connection, s.
         reconnect_max: Upper bound of the doubling back-off, s.
         keepalive: MQTT keep-alive, s: how soon a silent (not closed) broker
@@ -161,7 +163,7 @@ class MqttPublisher:
         *,
         client_id: str | None = None,
         on_convoy: Callable[[dict[str, Any]], None] | None = None,
-        on_route: Callable[[list[tuple[float, float]]], None] | None = None,
+        on_route: Callable[[PlannedRoute], None] | None = None,
         on_command: Callable[[str], None] | None = None,
         reconnect_initial: float = 0.5,
         reconnect_max: float = 10.0,
@@ -475,7 +477,7 @@ class MqttPublisher:
             log.warning("mqtt: rejected route on %s: %s", self._route_topic, exc)
             return
         self.counters["routes_received"] += 1
-        log.info("mqtt: convoy route of %d points", len(route))
+        log.info("mqtt: convoy route of %d points %s", len(route.points), route.remarks())
         if self.on_route is not None:
             self._call(self._route_topic, self.on_route, route)
 

@@ -121,7 +121,8 @@ from typing import Any, Final
 
 from convoy_mav.coverage import CoverageSample, CoverageStats
 from convoy_mav.errors import ConfigError, ConvoyError
-from convoy_mav.tracks.routejson import json_number, route_points, with_geo_keys
+from convoy_mav.tracks.plannedroute import PlannedRoute
+from convoy_mav.tracks.routejson import json_number, planned_route, with_geo_keys
 from convoy_mav.types import Telemetry, VehicleStatus
 
 __all__ = [
@@ -526,20 +527,23 @@ def _velocity(obj: Mapping[str, Any]) -> tuple[float, float] | None:
     return vn, ve  # (the tracker judges it against the fixes: ``ConvoyTracker``)
 
 
-def parse_convoy_route(payload: bytes | str) -> list[tuple[float, float]]:
-    """Validate ``<prefix>/convoy/route``: the road the convoy will drive, in order.
+def parse_convoy_route(payload: bytes | str) -> PlannedRoute:
+    """Validate ``<prefix>/convoy/route``: the road the convoy will drive, in order,
+    and the convoy's plan on it if it carries one.
 
     The forms of a JSON route (``tracks.routejson``): ``{"points": [[lat, lon], ...]}``,
     ``{"points": [{"lat": .., "lon": ..}, ...]}`` or GeoJSON (a ``LineString``, or a
-    ``Feature`` or one-feature ``FeatureCollection`` of one). Retained messages are
-    used: a route published before the service started is the route.
+    ``Feature`` or one-feature ``FeatureCollection`` of one); its plan: ``holds``,
+    ``speeds`` and ``circuit`` (``tracks.routejson.planned_route``). Retained messages
+    are used: a route published before the service started is the route, and one
+    published again (a stop added, a speed changed) replaces it.
 
     Returns:
-        The (lat, lon) points.
+        The (lat, lon) points, and the plan.
 
     Raises:
         BadPayload: Malformed JSON, under two points, a non-finite or out-of-range
-            coordinate, or a payload over ``MAX_ROUTE_BYTES``.
+            coordinate, a plan that is not one, or a payload over ``MAX_ROUTE_BYTES``.
     """
     if len(payload) > MAX_ROUTE_BYTES:
         raise BadPayload(f"route of {len(payload)} bytes exceeds {MAX_ROUTE_BYTES}")
@@ -548,7 +552,7 @@ def parse_convoy_route(payload: bytes | str) -> list[tuple[float, float]]:
     except (ValueError, UnicodeDecodeError) as exc:
         raise BadPayload(f"not JSON: {exc}") from None
     try:
-        return route_points(obj)
+        return planned_route(obj)
     except ValueError as exc:
         raise BadPayload(str(exc)) from None
 

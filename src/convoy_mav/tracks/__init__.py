@@ -41,7 +41,7 @@ from convoy_mav.tracks.geotrack import GeoTrack, TrackSpeeds, track_speeds
 from convoy_mav.tracks.gpx import parse_gpx_points, parse_gpx_track
 from convoy_mav.tracks.kml import is_zip, kmz_document, parse_kml_points, parse_kml_track
 from convoy_mav.tracks.missionfile import WPL_HEADER, parse_plan, parse_waypoints
-from convoy_mav.tracks.missionroute import MissionRoute
+from convoy_mav.tracks.plannedroute import PlannedRoute
 from convoy_mav.tracks.routejson import parse_route_json
 from convoy_mav.tracks.tlog import parse_tlog_track
 
@@ -51,7 +51,7 @@ __all__ = [
     "TrackFormat",
     "TrackSpeeds",
     "format_of",
-    "load_mission_file",
+    "load_planned_route",
     "load_route",
     "load_track",
     "parse_csv_track",
@@ -109,32 +109,48 @@ def _check_size(name: str) -> None:
 
 
 def load_route(path: str | os.PathLike[str]) -> tuple[list[float], list[float]]:
-    """Read a route, the road a convoy will drive: (lats, lons), in order, times ignored.
+    """Read a route, the road a convoy will drive: (lats, lons), in order, times ignored
+    (:func:`load_planned_route`'s points).
+
+    Raises:
+        ValueError: A malformed file, or one that is no route's format.
+        OSError: The file cannot be read.
+    """
+    points = load_planned_route(path).points
+    return [p[0] for p in points], [p[1] for p in points]
+
+
+def load_planned_route(path: str | os.PathLike[str]) -> PlannedRoute:
+    """Read a route, and the convoy's plan on it where the file can carry one.
 
     A rover's mission as a ground station saves it: QGroundControl's ``.plan``, or a
     ``.waypoints`` (``.txt``) file in QGC WPL 110 (Mission Planner, MAVProxy;
-    ``tracks.missionfile``): the waypoints it drives.
-    GPX ``<trkpt>`` or ``<rtept>`` (no ``<time>`` needed), CSV ``lat,lon[,time]``,
+    ``tracks.missionfile``): the waypoints it drives, with its holds, speeds and laps.
     JSON (``.geojson``/``.json``: a GeoJSON LineString as map tools export it, or
-    ``{"points": [[lat, lon], ...]}``, the MQTT route's forms, ``tracks.routejson``),
-    or KML/KMZ (one ``<LineString>`` or ``<gx:Track>``, ``tracks.kml``).
+    ``{"points": [[lat, lon], ...]}``, the MQTT route's forms, with a plan if it has
+    one: ``tracks.routejson``). The road alone: GPX ``<trkpt>`` or ``<rtept>`` (no
+    ``<time>`` needed), CSV ``lat,lon[,time]``, or KML/KMZ (one ``<LineString>`` or
+    ``<gx:Track>``, ``tracks.kml``).
 
     Raises:
-        ValueError: A malformed file, or one that is not GPX, CSV, JSON or KML.
+        ValueError: A malformed file, or one that is not a mission, GPX, CSV, JSON or KML.
         OSError: The file cannot be read.
     """
     name = os.fspath(path)
     ext = os.path.splitext(name)[1].lower()
-    mission = load_mission_file(name)
-    if mission is not None:
-        return [p[0] for p in mission.points], [p[1] for p in mission.points]
-    if ext in (".geojson", ".json", ".kml", ".kmz"):
+    if ext in (".plan", ".waypoints", ".geojson", ".json", ".kml", ".kmz") or (
+        ext == ".txt" and _is_waypoints(name)
+    ):
         _check_size(name)
         with open(name, "rb") as handle:
             data = handle.read()
+        if ext == ".plan":
+            return parse_plan(data, name)
+        if ext in (".geojson", ".json"):
+            return parse_route_json(data, name)
         if ext in (".kml", ".kmz"):
-            return parse_kml_points(_kml_bytes(data, name), name)
-        return parse_route_json(data, name)
+            return _road_only(*parse_kml_points(_kml_bytes(data, name), name))
+        return parse_waypoints(data.decode("utf-8-sig", errors="replace"), name)
     kind = format_of(name)
     if kind not in ("csv", "gpx"):
         raise ValueError(
@@ -144,29 +160,13 @@ def load_route(path: str | os.PathLike[str]) -> tuple[list[float], list[float]]:
     _check_size(name)
     if kind == "csv":
         with open(name, newline="", encoding="utf-8-sig") as handle:
-            return parse_csv_points(handle, name)
+            return _road_only(*parse_csv_points(handle, name))
     with open(name, "rb") as binary:
-        return parse_gpx_points(binary, name)
+        return _road_only(*parse_gpx_points(binary, name))
 
 
-def load_mission_file(path: str | os.PathLike[str]) -> MissionRoute | None:
-    """A rover's mission saved by a ground station (``.plan``, ``.waypoints``, a WPL
-    ``.txt``) as the road it drives with its holds and laps; None for other files.
-
-    Raises:
-        ValueError: A malformed mission file.
-        OSError: The file cannot be read.
-    """
-    name = os.fspath(path)
-    ext = os.path.splitext(name)[1].lower()
-    if not (ext in (".plan", ".waypoints") or (ext == ".txt" and _is_waypoints(name))):
-        return None
-    _check_size(name)
-    with open(name, "rb") as handle:
-        data = handle.read()
-    if ext == ".plan":
-        return parse_plan(data, name)
-    return parse_waypoints(data.decode("utf-8-sig", errors="replace"), name)
+def _road_only(lats: list[float], lons: list[float]) -> PlannedRoute:
+    return PlannedRoute(tuple(zip(lats, lons, strict=True)))
 
 
 def _is_waypoints(name: str) -> bool:

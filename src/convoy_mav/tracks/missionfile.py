@@ -26,7 +26,8 @@ from typing import Any
 from pymavlink.dialects.v20 import common as mavlink
 
 from convoy_mav.mavlink.missionread import MissionItem
-from convoy_mav.tracks.missionroute import MissionRoute, mission_route
+from convoy_mav.tracks.missionroute import mission_route
+from convoy_mav.tracks.plannedroute import PlannedRoute
 
 __all__ = ["WPL_HEADER", "parse_plan", "parse_waypoints"]
 
@@ -39,7 +40,7 @@ def _finite(value: float, where: str) -> float:
     return value
 
 
-def parse_waypoints(text: str, name: str) -> MissionRoute:
+def parse_waypoints(text: str, name: str) -> PlannedRoute:
     """The road of a QGC WPL 110 file.
 
     Raises:
@@ -69,7 +70,7 @@ def parse_waypoints(text: str, name: str) -> MissionRoute:
         raise ValueError(f"{name}: {exc}") from None
 
 
-def parse_plan(data: bytes, name: str) -> MissionRoute:
+def parse_plan(data: bytes, name: str) -> PlannedRoute:
     """The road of a QGroundControl ``.plan``.
 
     Raises:

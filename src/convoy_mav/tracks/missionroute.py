@@ -38,13 +38,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 from pymavlink.dialects.v20 import common as mavlink
 
 from convoy_mav.mavlink.missionread import MissionItem
+from convoy_mav.tracks.plannedroute import SAME_POINT_DEG, PlannedRoute, closed_lap
 
-__all__ = ["MissionRoute", "mission_route"]
+__all__ = ["mission_route"]
 
 _GLOBAL_FRAMES = frozenset(
     {
@@ -66,35 +66,6 @@ _DRIVEN_TO = frozenset(
     }
 )
 _HOLDS_P1 = frozenset({mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_CMD_NAV_LOITER_TIME})
-_SAME_POINT_DEG = 5e-6  # ~0.5 m: a waypoint repeated in place is one point of the road
-
-
-@dataclass(frozen=True, slots=True)
-class MissionRoute:
-    """The road a mission drives: (lat, lon) in order, and what was left out."""
-
-    points: tuple[tuple[float, float], ...]
-    skipped: int  # items the road leaves out (local frames, landings, a plan's surveys)
-    laps: bool  # a DO_JUMP repeats part of it
-    holds: tuple[tuple[int, float], ...] = ()  # (index in points, seconds it stands there)
-    circuit: bool = False  # the points are one lap, closed, driven round and round
-    speeds: tuple[tuple[int, float], ...] = ()  # (index in points, m/s from there on)
-
-    def remarks(self) -> str:
-        """What the points alone do not say ("" when nothing)."""
-        said = []
-        if self.laps:
-            said.append(f"{'a circuit ' if self.circuit else ''}driven in laps (DO_JUMP)")
-        if self.holds:
-            total = sum(seconds for _, seconds in self.holds)
-            said.append(f"{len(self.holds)} holds, {total:.0f} s")
-        if self.speeds:
-            lo, hi = min(v for _, v in self.speeds), max(v for _, v in self.speeds)
-            span = f"{lo:g} m/s" if lo == hi else f"{lo:g}-{hi:g} m/s"
-            said.append(f"{len(self.speeds)} speeds, {span}")
-        if self.skipped:
-            said.append(f"{self.skipped} items left out (local frames, landings, surveys)")
-        return ", ".join(said)
 
 
 def mission_route(
@@ -103,7 +74,7 @@ def mission_route(
     home_first: bool,
     home: tuple[float, float] | None = None,
     default_speed: float | None = None,
-) -> MissionRoute:
+) -> PlannedRoute:
     """The polyline a rover's mission drives (see the module's rules); ``home`` is where a
     return to launch goes when the items do not hold it (a QGroundControl plan's);
     ``default_speed`` the rover's speed where no DO_CHANGE_SPEED has set one.
@@ -122,7 +93,7 @@ def mission_route(
     lap_from: int | None = None  # a jump repeated back to this point, nothing driven since
 
     def add(lat: float, lon: float) -> None:
-        if points and max(abs(lat - points[-1][0]), abs(lon - points[-1][1])) < _SAME_POINT_DEG:
+        if points and max(abs(lat - points[-1][0]), abs(lon - points[-1][1])) < SAME_POINT_DEG:
             return
         points.append((lat, lon))
 
@@ -164,19 +135,16 @@ def mission_route(
             f"the mission drives to {len(points)} distinct point(s) of {len(items)} items: no route"
         )
     if lap_from is not None and len(points) - lap_from >= 2:
-        lap = points[lap_from:]
-        start, end = lap[0], lap[-1]
-        if max(abs(start[0] - end[0]), abs(start[1] - end[1])) >= _SAME_POINT_DEG:
-            lap.append(start)  # (the drive back to where the lap starts)
+        lap = closed_lap(points[lap_from:])  # (the drive back to where the lap starts)
         on_lap = {i - lap_from: seconds for i, seconds in holds.items() if i >= lap_from}
         paces = {i - lap_from: v for i, v in speeds.items() if i >= lap_from}
         before = [default, *(v for i, v in sorted(speeds.items()) if i < lap_from)]
         if before[-1] is not None and not paces:
             paces[0] = before[-1]  # (set on the way there, in force round the lap)
-        return MissionRoute(tuple(lap), skipped, laps, _sorted(on_lap), True, _sorted(paces))
+        return PlannedRoute(tuple(lap), skipped, laps, _sorted(on_lap), True, _sorted(paces))
     if default is not None and 0 not in speeds:
         speeds[0] = default
-    return MissionRoute(tuple(points), skipped, laps, _sorted(holds), speeds=_sorted(speeds))
+    return PlannedRoute(tuple(points), skipped, laps, _sorted(holds), speeds=_sorted(speeds))
 
 
 def _sorted(marks: dict[int, float]) -> tuple[tuple[int, float], ...]:
