@@ -401,6 +401,7 @@ class ConvoyService:
         # A new route (MQTT, a rover's mission) and its plan (holds, whether a circuit,
         # speeds), for the next mission step.
         self._new_route: tuple[Road, Marks, bool, Marks] | None = None
+        self._route_taken = saved  # (the last route taken, with its plan)
         remarks = "" if saved is None else saved.remarks()
         self._route_source = (
             "file" + (f" ({remarks})" if remarks else "")
@@ -1877,9 +1878,13 @@ class ConvoyService:
         one: holds, laps and speeds.
 
         Taken in at the next mission step (the mission lives in its worker thread);
-        the paper's planner has no use for one, which the log says.
+        the paper's planner has no use for one, which the log says. The route in force
+        sent again (a command post republishing it, a mission read again) is left as it
+        is: taking it afresh would find the convoy on it anew.
         """
         points = route.points
+        if route == self._route_taken:
+            return
         if not isinstance(self.mission, RoadMission):
             self._note(f"route of {len(points)} points ignored: the paper's planner flies")
             return
@@ -1889,6 +1894,7 @@ class ConvoyService:
             self._note(f"route of {len(points)} points from {source} refused: {exc}")
             return
         self._new_route = (road, *self._plan_on(road, route))
+        self._route_taken = route
         remarks = route.remarks()
         self._route_source = source + (f" ({remarks})" if remarks else "")
         self._note(

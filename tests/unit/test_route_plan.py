@@ -93,9 +93,9 @@ def test_a_plan_that_is_not_one_says_why(plan: dict[str, Any], needle: str) -> N
 def test_a_points_own_key_clashing_with_the_list_is_refused() -> None:
     own: list[dict[str, float]] = [{"lat": la, "lon": lo} for la, lo in POINTS]
     own[1]["hold_s"] = 30.0
-    with pytest.raises(ValueError, match=re.escape("point 1: point 1 is given two holds")):
+    with pytest.raises(ValueError, match=re.escape("point 1's hold_s: point 1 is given two holds")):
         planned_route({"points": own, "holds": [[1, 20]]})
-    with pytest.raises(ValueError, match=re.escape("point 1: mps 0 is not above 0")):
+    with pytest.raises(ValueError, match=re.escape("point 1's mps: mps 0 is not above 0")):
         own[1]["mps"] = 0
         planned_route({"points": own})
 
@@ -159,4 +159,10 @@ def test_an_mqtt_route_brings_its_plan_to_the_next_mission_step() -> None:
     assert not circuit and speeds == () and [h for _, h in holds] == [30.0]
     assert holds[0][0] == pytest.approx(road.length, abs=5.0)
     assert service._route_source == "MQTT convoy/route (1 holds, 30 s)"
+    service._new_route = None  # (taken in)
+    service.set_route(topics.parse_convoy_route(json.dumps(payload)))  # (republished)
+    assert service._new_route is None  # (the route in force: left as it is)
+    payload["holds"] = [[1, 45]]
+    service.set_route(topics.parse_convoy_route(json.dumps(payload)))  # (a longer stop)
+    assert service._new_route is not None and service._new_route[1][0][1] == 45.0
     assert any("from MQTT convoy/route (1 holds, 30 s): 2 points" in e for e in service.events)

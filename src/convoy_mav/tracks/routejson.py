@@ -144,7 +144,7 @@ def _marks(
             )
     for i, point in enumerate(own):
         if point_key in point:
-            put(i, json_number(point, point_key), f"point {i}")
+            put(i, json_number(point, point_key), f"point {i}'s {point_key}")
     return tuple(sorted(marks.items()))
 
 
