@@ -188,3 +188,12 @@ def test_forecast_along_the_route_with_holds_and_speeds(benchmark: BenchmarkFixt
     each two holds."""
     model, grid = _forecaster(holds=True, speeds=True)
     benchmark(model.positions, grid)
+
+
+def test_forecast_along_the_route_slowing_for_its_corners(benchmark: BenchmarkFixture) -> None:
+    """The same with the convoy seen to take its corners at 2.5 m/s (``CornerHabit``):
+    the timetable's clock slowed where it is over the corner cap (``corners.warp``)."""
+    model, grid = _forecaster(holds=True, speeds=True)
+    model.corner_habit.samples.extend([2.5, 2.5])
+    assert model.corner_speed == 2.5
+    benchmark(model.positions, grid)

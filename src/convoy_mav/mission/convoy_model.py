@@ -82,6 +82,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from convoy_mav.mission.corners import CornerHabit, warp
 from convoy_mav.planning.road import Road
 from convoy_mav.types import ConvoyEstimate
 
@@ -105,6 +106,7 @@ HOLD_ACCEL = 1.0  # m/s^2: braking into a planned hold and pulling away from it
 _PLAN_STEP = 0.25  # s: the timetable's grid
 _WRAP_M = 100.0  # on a circuit this near its end, the convoy may be on the next lap
 _WRAP_TIE_M = 1.0  # ... there if this much nearer (or, past the end, no farther)
+CORNER_RATIO = 0.6  # corners taken slower than this of the planned speed are forecast so
 
 
 @dataclass(frozen=True, slots=True)
@@ -138,6 +140,9 @@ class ConvoyModel:
         relax_s: Along the route, a convoy faster than its recent mean speed is
             forecast to relax to it with this time constant, s (0: held).
         mean_window_s: ... its mean over this many seconds.
+        corner_curvature: A stretch of the route sharper than this (1/m) is a corner,
+            which a convoy keeping a planned speed may be seen to take slower
+            (``CornerHabit``).
 
     Raises:
         ValueError: If ``relax_s`` is negative or ``mean_window_s`` not positive.
@@ -151,6 +156,7 @@ class ConvoyModel:
         off_route_s: float = 5.0,
         relax_s: float = 0.0,
         mean_window_s: float = 90.0,
+        corner_curvature: float = 0.04,
     ) -> None:
         if not (math.isfinite(relax_s) and relax_s >= 0.0):
             raise ValueError(f"relax_s must be >= 0, got {relax_s!r}")
@@ -182,6 +188,7 @@ class ConvoyModel:
         self._off_since: float | None = None
         self.left_route = False
         self.counters = {"left_route": 0, "back_on_route": 0, "found_again": 0, "laps": 0}
+        self.corner_habit = CornerHabit(corner_curvature, standing_mps=_STANDING_MPS)
 
     @property
     def estimate(self) -> ConvoyEstimate | None:
@@ -302,6 +309,9 @@ class ConvoyModel:
             if self.left_route:
                 self.left_route = False
                 self.counters["back_on_route"] += 1
+        road = self.road
+        if road is not None and not self._off_road:
+            self.corner_habit.observe(est.t, road, self._s, self._along)
 
     def _next_lap(self, route: Road, x: float, y: float, s: float, est: ConvoyEstimate) -> float:
         """``s`` near the end of a circuit, or where the next lap has the convoy (on
@@ -467,11 +477,15 @@ class ConvoyModel:
         """Arc length along the road ``dt`` seconds after the estimate: ``ahead``, or with
         a plan (holds, speeds) the timetable it makes (module rules)."""
         base = self._s + self.ahead(dt)
-        if not (self._holds or self._paces) or self._reversed or len(dt) == 0:
+        road = self.road
+        if not (self._holds or self._paces) or self._reversed or len(dt) == 0 or road is None:
             return base
         here = self._hold_here()
         events = self._plan_ahead()
-        now = self._pace_at(self._s) if self._along >= _CRUISING_MPS else None
+        corner = self.corner_speed
+        # (slow in a corner it takes slowly, it is driving: back up to the plan's speed)
+        driving = self._along >= (_CRUISING_MPS if corner is None else _STANDING_MPS)
+        now = self._pace_at(self._s) if driving else None
         if here is None and not events and now is None:
             return base
         end = float(np.max(dt))
@@ -533,7 +547,21 @@ class ConvoyModel:
             t0, origin, v0, v1 = t_stop + seconds, stop, 0.0, cruise_at(stop)
         later = grid >= t0
         arc[later] = move(grid[later] - t0)
+        if corner is not None:
+            cap = self.corner_habit.cap(road, corner, HOLD_ACCEL)
+            arc = warp(arc, _PLAN_STEP, cap, road.length if self._circuit else 0.0)
         return np.interp(dt, grid, arc)
+
+    @property
+    def corner_speed(self) -> float | None:
+        """The speed the convoy is forecast to take the route's sharp corners at: as it
+        has been seen to (``CornerHabit``), where that is under ``CORNER_RATIO`` of the
+        speed its plan has in force; None otherwise (at its speed)."""
+        pace = self._pace_at(self._s)
+        seen = self.corner_habit.speed
+        if pace is None or seen is None or seen >= CORNER_RATIO * pace:
+            return None
+        return seen
 
     def stopping_short(
         self, times: npt.NDArray[np.float64], curvature: float, short_m: float

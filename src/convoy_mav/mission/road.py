@@ -312,7 +312,10 @@ class RoadMission(Roster):
         )
         self._hedge = self.settings.hedge
         self.model = ConvoyModel(
-            route, relax_s=self.settings.speed_relax_s, mean_window_s=self.settings.speed_mean_s
+            route,
+            relax_s=self.settings.speed_relax_s,
+            mean_window_s=self.settings.speed_mean_s,
+            corner_curvature=self.settings.corner_curvature,
         )
         self._down = down
         self._slots: dict[int, int] = {}  # uav -> slot index in 0..N-1
@@ -1390,6 +1393,7 @@ class RoadMission(Roster):
         """What the report says of the road mission: the pattern, the road, the margins."""
         route = self.model.route
         speeds = self._convoy_speeds
+        corner = self.model.corner_habit.speed
         return {
             "pattern_radius_m": round(self.pattern_radius, 1),
             "road_min_uavs": self.min_uavs,
@@ -1399,6 +1403,8 @@ class RoadMission(Roster):
             "convoy_left_route": self.model.counters["left_route"],
             "convoy_found_again_on_route": self.model.counters["found_again"],
             "convoy_laps": self.model.counters["laps"],
+            # How fast it was seen to take the route's sharp corners (None: not yet).
+            "convoy_corner_speed_mps": None if corner is None else round(corner, 2),
             "convoy_speed_range_mps": None if speeds is None else [round(v, 2) for v in speeds],
             "convoy_fast": {
                 "above_speed_ratio": FAST_CONVOY_RATIO,
