@@ -62,6 +62,11 @@ Design rules:
   waypoint), at the one in force now if it drives slower or faster, and to pull
   away from a hold to the one in force there. Standing where no hold is planned,
   it is forecast standing as without a plan (the drive-off is weighed apart).
+- A convoy keeping a planned speed may still take the route's sharp corners
+  slower, as a rover in AUTO does (``CornerHabit``, ``mission.corners``): seen to
+  take them under ``CORNER_RATIO`` of the plan's speed, it is forecast to slow for
+  the corners ahead as it did for those behind, and one slow in a corner (from
+  ``_STANDING_MPS``, not ``_CRUISING_MPS``) to speed up to the plan's speed again.
 - A route known to be a circuit (``circuit``: a rover's mission that jumps
   back to its first waypoint, DO_JUMP, closed by the drive back there) is
   lapped: past its end the convoy is on the next lap at once, not driving
