@@ -170,7 +170,7 @@ class CornerHabit:
         """:func:`speed_cap` on ``road`` (kept for the last few corner speeds)."""
         key = (id(road), round(speed, 1), accel)
         cap = self._caps.get(key)
-        if cap is None:
+        if cap is None or cap[0] is not road.s:  # (another road where a freed one was)
             if len(self._caps) >= 8:
                 self._caps.clear()
             cap = self._caps[key] = speed_cap(road, self.corners(road), key[1], accel)
