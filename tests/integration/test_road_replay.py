@@ -36,6 +36,17 @@ pytestmark = pytest.mark.integration
 # paths; the three passed alone on the same host).
 
 
+def _replayed(
+    argv: list[str], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> dict[str, Any]:
+    """``convoy-mav replay`` with ``argv``, scored from the mock's ground truth: its report."""
+    report_path = tmp_path / "r.json"
+    assert main([*argv, "--report", str(report_path)]) == 0
+    assert "ground truth" in capsys.readouterr().out
+    report: dict[str, Any] = json.loads(report_path.read_text())
+    return report
+
+
 @pytest.mark.alone
 @pytest.mark.parametrize(
     ("road", "personality", "known"),
@@ -44,17 +55,13 @@ pytestmark = pytest.mark.integration
 def test_a_road_is_protected_as_predicted(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], road: str, personality: str, known: bool
 ) -> None:
-    report_path = tmp_path / "r.json"
     # (the speedup held: these roads are flown at 20x or more; slowing a simulator whose
     # re-plans come late is test_service_faults')
     argv = ["replay", "--road", road, "--duration", "500", "--speedup", str(SPEEDUP)]
     argv.append("--fixed-speedup")
-    argv += ["--personality", personality, "--report", str(report_path), "--quiet"]
+    argv += ["--personality", personality, "--quiet"]
     argv += ["--record-mission", str(tmp_path / "mission.inputs")]
-    assert main(argv + (["--route-known"] if known else [])) == 0
-    out = capsys.readouterr().out
-    assert "ground truth" in out
-    report = json.loads(report_path.read_text())
+    report = _replayed(argv + (["--route-known"] if known else []), tmp_path, capsys)
     assert report["uav_count"] == (6 if known else 7)  # (``road_fleet``)
     planner = report["planner"]
     assert planner["name"] == "road" and planner["route_known"] is known
@@ -106,12 +113,9 @@ def test_a_planned_route_the_convoy_drives_out_and_back_is_flown_as_its_route(
     way = zip(dev.route_north[::10], dev.route_east[::10], strict=True)  # (every 5 m)
     route_csv.write_text("".join(f"{q.lat:.7f},{q.lon:.7f}\n" for q in (
         frame.to_geo(float(n), float(e)) for n, e in way)))  # fmt: skip
-    report_path = tmp_path / "r.json"
-    argv = ["replay", str(drive_csv), "--route", str(route_csv), "--report", str(report_path)]
+    argv = ["replay", str(drive_csv), "--route", str(route_csv)]
     argv += ["--speedup", str(SPEEDUP), "--fixed-speedup", "--quiet"]
-    assert main(argv) == 0
-    assert "ground truth" in capsys.readouterr().out
-    report = json.loads(report_path.read_text())
+    report = _replayed(argv, tmp_path, capsys)
     planner = report["planner"]
     assert report["uav_count"] == 6  # (the count with a route)
     assert planner["name"] == "road" and planner["route_known"]
@@ -218,12 +222,9 @@ def test_the_lead_rovers_mission_is_read_as_the_convoys_route(
     is home) drives the road as its mission, holding where the road stops; the service
     reads that mission over MAVLink and flies it as the route, with its holds, and the
     route's count of UAVs."""
-    report_path = tmp_path / "r.json"
     argv = ["replay", "--road", "stop-and-go", "--route-mission", "--duration", "240"]
     argv += ["--personality", "ardupilot", "--speedup", str(SPEEDUP), "--quiet"]
-    assert main([*argv, "--report", str(report_path)]) == 0
-    assert "ground truth" in capsys.readouterr().out
-    report = json.loads(report_path.read_text())
+    report = _replayed(argv, tmp_path, capsys)
     planner = report["planner"]
     assert report["uav_count"] == 6  # (the count with a route)
     # The road's three stops (120, 120 and 30 s), as its rover's hold times.
@@ -253,12 +254,9 @@ def test_a_json_route_with_its_stops_is_flown_with_them(
     }
     route = tmp_path / "route.geojson"
     route.write_text(json.dumps(plan))
-    report_path = tmp_path / "r.json"
     argv = ["replay", "--road", "stop-and-go", "--route", str(route), "--duration", "420"]
     argv += ["--personality", "px4", "--speedup", str(SPEEDUP), "--quiet"]
-    assert main([*argv, "--report", str(report_path)]) == 0
-    assert "ground truth" in capsys.readouterr().out
-    report = json.loads(report_path.read_text())
+    report = _replayed(argv, tmp_path, capsys)
     planner = report["planner"]
     assert report["uav_count"] == 6  # (the count with a route)
     assert planner["route_source"] == "file (3 holds, 270 s)"
