@@ -3,6 +3,7 @@
     .venv/bin/python checks/rover_mission.py read udpin:127.0.0.1:14550   # ArduRover SITL
     .venv/bin/python checks/rover_mission.py read --mock ardupilot        # the mock's rover
     .venv/bin/python checks/rover_mission.py drive tcp:127.0.0.1:5962 road.csv 8
+    .venv/bin/python checks/rover_mission.py compare mission.tlog road.csv 8 --accel 1
 
 ``read`` checks that the service's reader (``mavlink.missionread``) and the road it
 makes of the items (``tracks.missionroute``) work with the firmware, and that
@@ -22,6 +23,11 @@ DO_CHANGE_SPEED to the speed given (m/s; 0: none, the rover drives its WP_SPEED)
 AUTO and arming, retried until the firmware accepts. Run beside ``convoy-mav run``
 with ``[convoy] route = "mission"``.
 
+``compare`` sets the drive of a real rover (its GLOBAL_POSITION_INT in a tlog, from when
+it first moves to when it last does) beside the mock's rover driving the same road as
+AUTO does (``sitl_mock.drive``, at ``--accel``, ATC_ACCEL_MAX): how long each took, and
+each corner's seconds under 7.5 m/s and its slowest speed.
+
 Not part of ``make test``: it needs a running autopilot (ArduPilot SITL, see the
 project's notes on building it).
 """
@@ -30,9 +36,12 @@ from __future__ import annotations
 
 import argparse
 import csv
+import math
+import statistics
 import subprocess
 import sys
 import time
+from collections.abc import Sequence
 from typing import Any
 
 from pymavlink import mavutil
@@ -42,6 +51,7 @@ from convoy_mav.geo import GeoPoint, LocalFrame
 from convoy_mav.mavlink.missionread import MissionWatch
 from convoy_mav.tracks.missionroute import mission_route
 from convoy_mav.tracks.plannedroute import PlannedRoute
+from sitl_mock.ground import Polyline
 from sitl_mock.mission import DEFAULT_TOLERANCE_M, thin
 
 MISSION = mavlink.MAV_MISSION_TYPE_MISSION
@@ -139,12 +149,19 @@ def report(
     return plan and points[: len(road)] == [(round(a, 6), round(b, 6)) for a, b in road]
 
 
-def road_items(target: tuple[int, int], path: str, speed: float) -> list[Any]:
+def road_corners(path: str) -> tuple[list[tuple[float, float]], list[tuple[float, float]]]:
+    """The road's waypoints (lat, lon), thinned as the mock's rovers thin theirs, and the
+    same in metres north and east of its first fix."""
     with open(path, newline="") as fh:
         rows = [(float(r["lat"]), float(r["lon"])) for r in csv.DictReader(fh)]
     frame = LocalFrame(GeoPoint(rows[0][0], rows[0][1], 0.0))
     xy = [frame.to_ned(GeoPoint(lat, lon, 0.0))[:2] for lat, lon in rows]
-    corners = [rows[i] for i in thin(xy, DEFAULT_TOLERANCE_M)]
+    keep = thin(xy, DEFAULT_TOLERANCE_M)
+    return [rows[i] for i in keep], [xy[i] for i in keep]
+
+
+def road_items(target: tuple[int, int], path: str, speed: float) -> list[Any]:
+    corners, _ = road_corners(path)
     rel = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
     wp = mavlink.MAV_CMD_NAV_WAYPOINT
     first = [mavlink.MAV_FRAME_GLOBAL, wp, 0, 1, 0.0, 0.0, 0.0, 0.0]
@@ -194,6 +211,53 @@ def drive(connection: str, path: str, speed: float) -> int:
         time.sleep(1.0)
     print("the rover refused to arm")
     return 1
+
+
+def _slow_spells(
+    times: Sequence[float], speeds: Sequence[float], below: float = 7.5
+) -> list[tuple[float, float]]:
+    """Each stretch under ``below`` m/s after the first: its seconds and slowest speed."""
+    spells: list[tuple[float, float]] = []
+    since, low = None, math.inf
+    for t, v in zip(times, speeds, strict=True):
+        if v < below:
+            since, low = (t if since is None else since), min(low, v)
+        elif since is not None:
+            spells.append((t - since, low))
+            since, low = None, math.inf
+    return spells[1:]  # (the first: setting off)
+
+
+def compare(tlog: str, path: str, speed: float, accel: float, sysid: int | None) -> int:
+    """A real rover's drive against the mock's (see the module's ``compare``)."""
+    link = mavutil.mavlink_connection(tlog)
+    fixes: dict[float, float] = {}
+    while (msg := link.recv_match(type=["HEARTBEAT", "GLOBAL_POSITION_INT"])) is not None:
+        if msg.get_type() == "HEARTBEAT":
+            if sysid is None and msg.type == mavlink.MAV_TYPE_GROUND_ROVER:
+                sysid = msg.get_srcSystem()
+        elif msg.get_srcSystem() == sysid:
+            fixes[msg.time_boot_ms / 1000.0] = math.hypot(msg.vx, msg.vy) / 100.0
+    moving = [t for t, v in sorted(fixes.items()) if v > 0.5]
+    if not moving:
+        print(f"{tlog}: no rover drives in it (sysid {sysid})", file=sys.stderr)
+        return 2
+    times = [t for t in sorted(fixes) if moving[0] <= t <= moving[-1]]
+    real = _slow_spells(times, [fixes[t] for t in times])
+    _, points = road_corners(path)
+    rover = Polyline(tuple(points), speed, accel=accel)
+    steps = [0.1 * k for k in range(int(rover.arrivals[-1] / 0.1))]
+    mock = _slow_spells(steps, [math.hypot(*rover.velocity(t)) for t in steps])
+    ideal = Polyline(tuple(points), speed).arrivals[-1]
+    print(f"{len(points)} waypoints, {rover.length:.0f} m: {ideal:.0f} s at {speed:g} m/s; "
+          f"the rover (sysid {sysid}) {moving[-1] - moving[0]:.0f} s, the mock "
+          f"{rover.arrivals[-1]:.0f} s")  # fmt: skip
+    for name, spells in (("rover", real), ("mock", mock)):
+        if spells:
+            print(f"{name}: {len(spells)} corners, {statistics.mean(s for s, _ in spells):.1f} s "
+                  f"each under 7.5 m/s, at {min(v for _, v in spells):.1f}-"
+                  f"{max(v for _, v in spells):.1f} m/s at the slowest")  # fmt: skip
+    return 0
 
 
 def read(args: argparse.Namespace) -> int:
@@ -263,7 +327,15 @@ def main() -> int:
     d.add_argument("connection", help="the rover's MAVLink endpoint (another than the service's)")
     d.add_argument("road", help="CSV time,lat,lon")
     d.add_argument("speed", type=float, help="m/s")
+    c = sub.add_parser("compare", help="a rover's drive in a tlog against the mock's rover")
+    c.add_argument("tlog", help="the tlog of the rover's drive")
+    c.add_argument("road", help="the CSV time,lat,lon it was sent down (``drive``)")
+    c.add_argument("speed", type=float, help="m/s, as given to ``drive``")
+    c.add_argument("--accel", type=float, default=1.0, help="the mock's m/s² (ATC_ACCEL_MAX)")
+    c.add_argument("--sysid", type=int, help="the rover's (default: the tlog's ground rover)")
     args = parser.parse_args()
+    if args.command == "compare":
+        return compare(args.tlog, args.road, args.speed, args.accel, args.sysid)
     if args.command == "drive":
         return drive(args.connection, args.road, args.speed)
     return read(args)

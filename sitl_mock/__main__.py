@@ -58,6 +58,13 @@ def _parser() -> argparse.ArgumentParser:
     g.add_argument("--ground-csv", metavar="FILE", help="track with columns time,lat,lon")
     g.add_argument("--ground-spacing", type=float, metavar="M", help="metres between vehicles")
     g.add_argument(
+        "--ground-accel",
+        type=float,
+        metavar="A",
+        help="m/s²: a polyline's rover brakes for its corners and speeds up after, as "
+        "ArduRover's ATC_ACCEL_MAX (1.0) in AUTO (default 0: at once)",
+    )
+    g.add_argument(
         "--ground-mission",
         action="store_true",
         default=None,
@@ -114,6 +121,7 @@ def _overrides(ns: argparse.Namespace) -> dict[str, Any]:
         "speed": ns.ground_speed,
         "heading": ns.ground_heading,
         "spacing": ns.ground_spacing,
+        "accel": ns.ground_accel,
         "csv": os.path.abspath(ns.ground_csv) if ns.ground_csv else None,
         "mission": ns.ground_mission,
     }

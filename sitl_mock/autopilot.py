@@ -628,6 +628,7 @@ class SimVehicle:
     def _knob(self, knob: Knob) -> float:
         fl = self.flight
         params = fl.aircraft.params if fl.aircraft is not None else self.spec.airframe
+        route = self.spec.route
         values = {
             Knob.AIRSPEED: params.airspeed,
             Knob.NAV_SPEED: params.airspeed if self._nav_speed is None else self._nav_speed,
@@ -643,6 +644,8 @@ class SimVehicle:
             Knob.SYSID: float(self.sysid),
             Knob.SPEEDUP: 1.0 if self._speedup is None else self._speedup.speedup,
             Knob.WP_SPEED: _road_speed(self.spec.route),
+            Knob.ROVER_ACCEL: route.accel if isinstance(route, Polyline) else 0.0,
+            Knob.WP_RADIUS: route.wp_radius if isinstance(route, Polyline) else 2.0,
         }
         return values[knob]
 

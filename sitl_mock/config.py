@@ -43,6 +43,13 @@ Schema (every key optional)::
     heading = 90.0                    # degrees cw from north
     points = [[0, 0], [500, 0]]       # polyline vertices, world north/east (m)
     loop = false
+    accel = 0.0                       # polyline: m/s² braking for corners and speeding up
+                                      #   after (ArduRover's ATC_ACCEL_MAX, 1.0; 0: none)
+    wp_radius = 2.0                   # polyline: m, a corner is passed within (WP_RADIUS)
+    jerk = 0.0                        # polyline: m/s³ the accel is reached at (WP_JERK;
+                                      #   0: the accel's value)
+    holds = [[2, 30.0]]               # polyline: [point index, seconds] stood at a point
+    speeds = [[1, 4.0]]               # polyline: [point index, m/s] driven from it on
     csv = "track.csv"                 # time,lat,lon (relative to this file)
     track = [[0.0, 47.3977, 8.5456], [60.0, 47.4019, 8.5456]]  # the csv's rows, inline
     spacing = 20.0                    # m between successive ground vehicles
@@ -141,6 +148,11 @@ _GROUND_KEYS = {
     "heading",
     "points",
     "loop",
+    "accel",
+    "wp_radius",
+    "jerk",
+    "holds",
+    "speeds",
     "csv",
     "track",
     "spacing",
@@ -545,7 +557,7 @@ def _ground_specs(
         heading = math.radians(g.number("heading", 0.0))
         route = StraightLine(start[0], start[1], speed, heading)
     elif kind == "polyline":
-        route = Polyline(_points(g), speed, g.flag("loop", False))
+        route = _polyline(g, speed)
     elif kind == "csv":
         path = g.get("csv")
         if not isinstance(path, str):
@@ -558,6 +570,9 @@ def _ground_specs(
         route = track_from_geo(_inline_track(g), world)
     else:
         raise ConfigError(g.key("route"), kind, "must be stationary, line, polyline, csv or track")
+    for name in ("accel", "wp_radius", "jerk", "holds", "speeds"):
+        if name in g.data and kind != "polyline":
+            raise ConfigError(g.key(name), g.data[name], f"is a polyline's, not route {kind}'s")
     lead_speed = speed if kind not in ("csv", "track") else _track_speed(route)
     mission = g.flag("mission", False)
     if mission and kind not in ("polyline", "csv", "track"):
@@ -584,6 +599,44 @@ def _ground_specs(
             )
         )
     return specs
+
+
+def _polyline(g: _Table, speed: float) -> Polyline:
+    """A polyline route, its drive (corners, holds and speeds) checked by key."""
+    points = _points(g)
+    marks = {name: _marks(g, name, len(points)) for name in ("holds", "speeds")}
+    for k, (index, mps) in enumerate(marks["speeds"]):
+        if mps <= 0.0:
+            raise ConfigError(f"{g.key('speeds')}[{k}]", [index, mps], "its speed must be > 0")
+    return Polyline(
+        points,
+        speed,
+        g.flag("loop", False),
+        accel=g.number("accel", 0.0, lo=0.0),
+        wp_radius=g.number("wp_radius", 2.0, positive=True),
+        jerk=g.number("jerk", 0.0, lo=0.0),
+        holds=marks["holds"],
+        speeds=marks["speeds"],
+    )
+
+
+def _marks(g: _Table, name: str, count: int) -> tuple[tuple[int, float], ...]:
+    """``[[point index, number], ...]``: each a point of the polyline, each point once."""
+    raw = g.get(name, [])
+    if not isinstance(raw, list):
+        raise ConfigError(g.key(name), raw, "must be a list of [point index, number]")
+    out: list[tuple[int, float]] = []
+    for k, mark in enumerate(raw):
+        key = f"{g.key(name)}[{k}]"
+        if not (isinstance(mark, list) and len(mark) == 2 and isinstance(mark[0], int)):
+            raise ConfigError(key, mark, "must be [point index, number]")
+        if isinstance(mark[0], bool) or not 0 <= mark[0] < count:
+            raise ConfigError(key, mark, f"no point {mark[0]!r} (0..{count - 1})")
+        value = _Table({"v": mark[1]}, key).number("v", 0.0, lo=0.0)
+        if any(index == mark[0] for index, _ in out):
+            raise ConfigError(key, mark, f"point {mark[0]} is given twice")
+        out.append((mark[0], value))
+    return tuple(out)
 
 
 def _points(g: _Table) -> tuple[tuple[float, float], ...]:

@@ -15,11 +15,13 @@ import bisect
 import itertools
 import math
 import os
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
 from convoy_mav.geo import LocalFrame
 from convoy_mav.tracks import GeoTrack, parse_csv_track
+from sitl_mock.drive import DriveProfile, Ramps, corner_speed
 
 __all__ = [
     "Polyline",
@@ -97,77 +99,179 @@ class StraightLine:
 
 @dataclass(frozen=True, slots=True)
 class Polyline:
-    """Drive through ``points`` at constant ``speed`` from ``t = 0``.
+    """Drive through ``points`` at ``speed`` from ``t = 0``, as a rover in AUTO drives
+    its waypoints (``sitl_mock.drive``).
 
     Without ``loop`` the vehicle stops at the last point; with it, it drives back to
     the first one and starts over. Repeated consecutive points are skipped.
+
+    ``accel`` (m/s², ArduRover's ``ATC_ACCEL_MAX``; 0: none) brakes it before each corner
+    to the speed it passes it at within ``wp_radius`` (``WP_RADIUS``), and speeds it up
+    after, each change of speed reaching it at ``jerk`` (m/s³, ``WP_JERK``; 0: the
+    accel's value); without it every corner is taken at full speed. ``holds`` are ``(point
+    index, seconds)`` stood at a point (a waypoint's hold time), ``speeds`` ``(point
+    index, m/s)`` driven from a point on (a DO_CHANGE_SPEED), ``speed`` before any.
     """
 
     points: tuple[tuple[float, float], ...]
     speed: float
     loop: bool = False
+    accel: float = 0.0
+    wp_radius: float = 2.0
+    jerk: float = 0.0
+    holds: tuple[tuple[int, float], ...] = ()
+    speeds: tuple[tuple[int, float], ...] = ()
     _nodes: tuple[tuple[float, float], ...] = field(init=False, repr=False, compare=False)
     _cumulative: tuple[float, ...] = field(init=False, repr=False, compare=False)
+    _drive: DriveProfile | None = field(init=False, repr=False, compare=False)
+    vertex_holds: dict[int, float] = field(init=False, repr=False, compare=False)
+    vertex_speeds: dict[int, float] = field(init=False, repr=False, compare=False)  # (a
+    # lap's first vertex has the speed each lap starts at, if it changes speed at all)
 
     def __post_init__(self) -> None:
         if not self.points:
             raise ValueError("Polyline.points must hold at least one point")
-        _check_finite("Polyline", "speed", self.speed)
-        if self.speed < 0.0:
-            raise ValueError(f"Polyline.speed must be >= 0, got {self.speed!r}")
+        for name in ("speed", "accel", "wp_radius", "jerk"):
+            _check_finite("Polyline", name, getattr(self, name))
+            if getattr(self, name) < 0.0:
+                raise ValueError(f"Polyline.{name} must be >= 0, got {getattr(self, name)!r}")
         nodes: list[tuple[float, float]] = []
+        node_of: list[int] = []  # each point's vertex (a repeated point is its first's)
         for i, point in enumerate(self.points):
             if len(point) != 2 or not all(math.isfinite(c) for c in point):
                 raise ValueError(f"Polyline.points[{i}] must be two finite numbers, got {point!r}")
             node = (float(point[0]), float(point[1]))
             if not nodes or node != nodes[-1]:
                 nodes.append(node)
-        if self.loop and len(nodes) > 1 and nodes[-1] != nodes[0]:
-            nodes.append(nodes[0])
+            node_of.append(len(nodes) - 1)
+        if self.loop and len(nodes) > 1:
+            if nodes[-1] != nodes[0]:
+                nodes.append(nodes[0])
+            else:  # (closed by its points: the last is the first vertex)
+                node_of = [0 if k == len(nodes) - 1 else k for k in node_of]
         cumulative = [0.0]
         for (n0, e0), (n1, e1) in itertools.pairwise(nodes):
             cumulative.append(cumulative[-1] + math.hypot(n1 - n0, e1 - e0))
+        holds = _marks("holds", self.holds, node_of, lambda v: v >= 0.0)
+        speeds = _marks("speeds", self.speeds, node_of, lambda v: v > 0.0)
+        if self.loop and speeds and 0 not in speeds:
+            speeds[0] = speeds[max(speeds)]  # (a lap starts at the speed the last one left)
         object.__setattr__(self, "_nodes", tuple(nodes))
         object.__setattr__(self, "_cumulative", tuple(cumulative))
+        object.__setattr__(self, "vertex_holds", holds)
+        object.__setattr__(self, "vertex_speeds", speeds)
+        drive = None
+        if cumulative[-1] > 0.0 and self.speed > 0.0:
+            drive = _drive(nodes, cumulative, self, holds, speeds)
+        object.__setattr__(self, "_drive", drive)
 
     @property
     def length(self) -> float:
         """Length of one pass (with the closing leg when looping), metres."""
         return self._cumulative[-1]
 
-    def _locate(self, t: float) -> tuple[int, float] | None:
-        """Segment index and distance along it at time ``t``; None when standing still."""
-        total = self._cumulative[-1]
-        if t <= 0.0 or total == 0.0 or self.speed == 0.0:
+    @property
+    def vertices(self) -> tuple[tuple[float, float], ...]:
+        """The points driven through, repeats skipped (a loop's closed on its first);
+        ``vertex_holds`` and ``vertex_speeds`` are indexed by them."""
+        return self._nodes
+
+    @property
+    def arrivals(self) -> tuple[float, ...]:
+        """When each vertex is first reached, before its hold (empty: a route that stands)."""
+        return self._drive.arrivals if self._drive is not None else ()
+
+    def _locate(self, t: float) -> tuple[int, float, float] | None:
+        """Segment index, distance along it and speed at ``t``; None when standing still
+        at the start or the end."""
+        drive = self._drive
+        if t <= 0.0 or drive is None or (not self.loop and t >= drive.duration):
             return None
-        s = self.speed * t
-        if self.loop:
-            s %= total
-        elif s >= total:
-            return None
-        i = bisect.bisect_right(self._cumulative, s) - 1
-        return i, s - self._cumulative[i]
+        s, v = drive.at(t, loop=self.loop)
+        cumulative = self._cumulative
+        i = min(bisect.bisect_right(cumulative, s) - 1, len(cumulative) - 2)
+        return i, s - cumulative[i], v
 
     def position(self, t: float) -> tuple[float, float]:
         """Where the vehicle is: the first point before ``t = 0``, the last after the end."""
         where = self._locate(t)
         if where is None:
-            ended = t > 0.0 and self.speed > 0.0 and not self.loop
+            ended = t > 0.0 and self._drive is not None and not self.loop
             return self._nodes[-1] if ended else self._nodes[0]
-        i, along = where
+        i, along, _ = where
         (n0, e0), (n1, e1) = self._nodes[i], self._nodes[i + 1]
         f = along / (self._cumulative[i + 1] - self._cumulative[i])
         return n0 + f * (n1 - n0), e0 + f * (e1 - e0)
 
     def velocity(self, t: float) -> tuple[float, float]:
-        """Along the current leg at ``speed``; zero before the start and after the end."""
+        """Along the current leg at the drive's speed; zero before the start, at a hold
+        and after the end."""
         where = self._locate(t)
         if where is None:
             return 0.0, 0.0
-        i = where[0]
+        i, _, v = where
         (n0, e0), (n1, e1) = self._nodes[i], self._nodes[i + 1]
-        f = self.speed / (self._cumulative[i + 1] - self._cumulative[i])
+        f = v / (self._cumulative[i + 1] - self._cumulative[i])
         return f * (n1 - n0), f * (e1 - e0)
+
+
+def _marks(
+    name: str,
+    marks: tuple[tuple[int, float], ...],
+    node_of: list[int],
+    valid: Callable[[float], bool],
+) -> dict[int, float]:
+    """``(point index, value)`` pairs by vertex, each checked (the error names the entry)."""
+    out: dict[int, float] = {}
+    for k, mark in enumerate(marks):
+        try:
+            index, value = int(mark[0]), float(mark[1])
+        except (TypeError, ValueError, IndexError):
+            raise ValueError(
+                f"Polyline.{name}[{k}] must be (point index, number), got {mark!r}"
+            ) from None
+        if index != mark[0] or not 0 <= index < len(node_of):
+            raise ValueError(f"Polyline.{name}[{k}]: no point {mark[0]!r} (0..{len(node_of) - 1})")
+        if not (math.isfinite(value) and valid(value)):
+            raise ValueError(f"Polyline.{name}[{k}]: {value!r} is out of range")
+        if node_of[index] in out:
+            raise ValueError(f"Polyline.{name}[{k}]: point {index} is given twice")
+        out[node_of[index]] = value
+    return out
+
+
+def _drive(
+    nodes: list[tuple[float, float]],
+    cumulative: list[float],
+    line: Polyline,
+    holds: dict[int, float],
+    speeds: dict[int, float],
+) -> DriveProfile:
+    """The drive over the vertices: each leg's speed (the last set before it), each
+    corner's least speed (its turn), each hold."""
+    n = len(nodes)
+    legs, speed = [], line.speed
+    for j in range(n - 1):
+        speed = speeds.get(j, speed)
+        legs.append(speed)
+    accel = line.accel if line.accel > 0.0 else math.inf
+    ramps = Ramps(accel, line.jerk if line.jerk > 0.0 else accel)
+    corners = [math.inf] * n
+    for j in range(n):
+        a, b = (j - 1, j) if 0 < j < n - 1 else (n - 2, 0) if line.loop and n > 2 else (-1, -1)
+        if a >= 0:
+            turn = _heading(nodes[b], nodes[b + 1]) - _heading(nodes[a], nodes[a + 1])
+            turn = (turn + math.pi) % (2.0 * math.pi) - math.pi
+            leg = min(cumulative[a + 1] - cumulative[a], cumulative[b + 1] - cumulative[b])
+            corners[j] = corner_speed(turn, ramps, line.wp_radius, leg)
+    stands = [holds.get(0 if line.loop and j == n - 1 else j, 0.0) for j in range(n)]
+    return DriveProfile.plan(
+        cumulative, legs, corners=corners, holds=stands, ramps=ramps, loop=line.loop
+    )
+
+
+def _heading(a: tuple[float, float], b: tuple[float, float]) -> float:
+    return math.atan2(b[1] - a[1], b[0] - a[0])
 
 
 @dataclass(frozen=True, slots=True)

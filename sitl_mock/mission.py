@@ -14,6 +14,10 @@ Design rules:
       mission holds: a waypoint there with that hold time (NAV_WAYPOINT param1, as
       ArduRover's ``loiter_duration``), the plan it keeps. No speeds: the track's own
       say how it drives between.
+    * A polyline's holds are its waypoints' hold times, and its speeds DO_CHANGE_SPEED
+      items (param2, ground speed) after the waypoint they are driven from, as the
+      firmware runs a DO command once the NAV command before it is done. A lap that
+      changes speed sets its first leg's too, so every lap is driven alike.
     * Numbering follows the firmware: ArduPilot's item 0 is home (a NAV_WAYPOINT in
       MAV_FRAME_GLOBAL), PX4's items are the waypoints alone.
     * A looping route is a patrol: its waypoints close the lap, and a last item
@@ -24,10 +28,9 @@ Design rules:
 from __future__ import annotations
 
 import bisect
-import itertools
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from pymavlink.dialects.v20 import common as mavlink
 
@@ -73,6 +76,20 @@ class RoverMission:
     times: tuple[float, ...]
     laps: bool = False  # a looping polyline: driven again from the first once at the last
     holds: tuple[float, ...] = ()  # seconds held at each waypoint (none: no holds)
+    speeds: tuple[float, ...] = ()  # m/s driven on from each waypoint (0: as before; none)
+    _entries: tuple[int, ...] = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        # Each item after home: a waypoint's index, or -1 for its DO_CHANGE_SPEED (the
+        # waypoint before it says which), and -2 for a lap's DO_JUMP.
+        entries: list[int] = []
+        for k in range(len(self.waypoints)):
+            entries.append(k)
+            if self.speeds and self.speeds[k] > 0.0:
+                entries.append(-1)
+        if self.laps:
+            entries.append(-2)
+        object.__setattr__(self, "_entries", tuple(entries))
 
     @classmethod
     def of(
@@ -80,6 +97,7 @@ class RoverMission:
     ) -> RoverMission | None:
         """The mission driving ``route``'s road (None: a route with no road to give)."""
         held: dict[int, float] = {}
+        speeds: dict[int, float] = {}
         if isinstance(route, Track):
             points = list(zip(route.norths, route.easts, strict=True))
             stands = standstills(route.times, route.norths, route.easts)
@@ -88,24 +106,22 @@ class RoverMission:
             times = [route.times[i] for i in keep]
             points = [points[i] for i in keep]
             held = {k: held[i] for k, i in enumerate(keep) if i in held}
-        elif isinstance(route, Polyline) and route.speed > 0.0:
-            points = [p for i, p in enumerate(route.points) if i == 0 or p != route.points[i - 1]]
-            if route.loop and points[-1] != points[0]:
-                points.append(points[0])
-            times, run = [0.0], 0.0
-            for (n0, e0), (n1, e1) in itertools.pairwise(points):
-                run += math.hypot(n1 - n0, e1 - e0)
-                times.append(run / route.speed)
+        elif isinstance(route, Polyline) and route.arrivals:
+            points, times = list(route.vertices), list(route.arrivals)
+            held = dict(route.vertex_holds)
+            speeds = dict(route.vertex_speeds)
         else:
             return None
         if len(points) < 2:
             return None
         geo = tuple(world.to_geo(n, e, 0.0) for n, e in points)
         holds = tuple(held.get(k, 0.0) for k in range(len(points))) if held else ()
-        return cls(geo, tuple(times), laps=isinstance(route, Polyline) and route.loop, holds=holds)
+        legs = tuple(speeds.get(k, 0.0) for k in range(len(points))) if speeds else ()
+        laps = isinstance(route, Polyline) and route.loop
+        return cls(geo, tuple(times), laps=laps, holds=holds, speeds=legs)
 
     def count(self, *, home_first: bool) -> int:
-        return len(self.waypoints) + home_first + self.laps
+        return len(self._entries) + home_first
 
     def item(
         self, seq: int, home: GeoPoint, target: tuple[int, int], *, home_first: bool
@@ -113,19 +129,27 @@ class RoverMission:
         """Item ``seq`` as MISSION_ITEM_INT (None: out of range)."""
         if not 0 <= seq < self.count(home_first=home_first):
             return None
-        hold = 0.0
-        if self.laps and seq == self.count(home_first=home_first) - 1:
+        entry = -3 if home_first and seq == 0 else self._entries[seq - home_first]
+        if entry == -2:
             return mavlink.MAVLink_mission_item_int_message(
                 target[0], target[1], seq, mavlink.MAV_FRAME_MISSION, mavlink.MAV_CMD_DO_JUMP,
                 0, 1, float(home_first), -1.0, 0.0, 0.0, 0, 0, 0.0,
                 mavlink.MAV_MISSION_TYPE_MISSION,
             )  # fmt: skip
-        if home_first and seq == 0:
+        if entry == -1:
+            speed = self.speeds[self._entries[seq - home_first - 1]]
+            return mavlink.MAVLink_mission_item_int_message(
+                target[0], target[1], seq, mavlink.MAV_FRAME_MISSION,
+                mavlink.MAV_CMD_DO_CHANGE_SPEED, 0, 1, 1.0, speed, -1.0, 0.0, 0, 0, 0.0,
+                mavlink.MAV_MISSION_TYPE_MISSION,
+            )  # fmt: skip
+        hold = 0.0
+        if entry == -3:
             where, frame = home, mavlink.MAV_FRAME_GLOBAL
         else:
-            where = self.waypoints[seq - home_first]
+            where = self.waypoints[entry]
             frame = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
-            hold = self.holds[seq - home_first] if self.holds else 0.0
+            hold = self.holds[entry] if self.holds else 0.0
         return mavlink.MAVLink_mission_item_int_message(
             target[0], target[1], seq, frame, mavlink.MAV_CMD_NAV_WAYPOINT,
             0, 1, hold, 0.0, 0.0, 0.0,
@@ -141,7 +165,7 @@ class RoverMission:
         i = bisect.bisect_right(self.times, t)
         if i and self.holds and t < self.times[i - 1] + self.holds[i - 1]:
             i -= 1  # (holding there: that waypoint is still the one in force)
-        return min(i, len(self.times) - 1) + home_first
+        return self._entries.index(min(i, len(self.times) - 1)) + home_first
 
 
 def as_float_item(item: mavlink.MAVLink_mission_item_int_message) -> mavlink.MAVLink_message:

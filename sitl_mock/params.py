@@ -44,6 +44,8 @@ class Knob(StrEnum):
     SPEEDUP = "speedup"  # sim s per wall s: the whole mock's clock (ArduPilot SITL's too)
     SYSID = "sysid"  # read-only: the MAVLink system id
     WP_SPEED = "wp_speed"  # m/s, read-only: a rover's speed in AUTO (its road's; 0: none)
+    ROVER_ACCEL = "rover_accel"  # m/s², read-only: a rover's braking and speeding up (0: none)
+    WP_RADIUS = "wp_radius"  # m, read-only: a rover passes its corners within it
 
 
 KnobGetter = Callable[[Knob], float]

@@ -254,11 +254,14 @@ def mock_mapping(
     signing_key: str | None = None,
     aircraft: Sequence[Mapping[str, Any]] = (),
     ground_mission: bool = False,
+    road: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
     """The sitl_mock configuration (as a mapping) for a scenario.
 
     ``ground_mission``: the lead ground vehicle serves its road as its mission (a rover
-    in AUTO), for the service to read as the convoy's route.
+    in AUTO), for the service to read as the convoy's route. ``road``: the mock's
+    ``[ground]`` route keys in place of the scenario's (a rover's own polyline, its
+    corners braked for, its holds and speeds).
 
     ``signing_key`` (hex or a passphrase): every aircraft signs with it and accepts
     only frames signed with it. ``aircraft``: per-aircraft overrides, the mock's
@@ -282,7 +285,11 @@ def mock_mapping(
             "turn_radius": scenario.turn_radius_m * scenario.turn_margin,
             "warmup": 3.0,
         },
-        "ground": {"count": ground, "spacing": 20.0, **scenario.ground_route(duration)},
+        "ground": {
+            "count": ground,
+            "spacing": 20.0,
+            **(scenario.ground_route(duration) if road is None else road),
+        },
     }
     if ground_mission:
         mapping["ground"]["mission"] = True
@@ -348,6 +355,7 @@ async def run_demo(
     mock_process: bool = False,
     speedup_floor: float | None = None,
     aircraft: Sequence[Mapping[str, Any]] = (),
+    road: Mapping[str, Any] | None = None,
 ) -> DemoResult:
     """Start the mock, fly ``duration`` mission seconds, score from ground truth.
 
@@ -380,6 +388,8 @@ async def run_demo(
         speedup_floor: The service halves the mock's speedup (``SIM_SPEEDUP``) when the
             host falls behind it, down to this (``sim_speedup_floor``); None: never.
         aircraft: Per-aircraft overrides of the mock (``mock_mapping``).
+        road: The ground vehicles' route keys in place of the scenario's
+            (``mock_mapping``).
     """
     if mock_process and during is not None:
         raise ValueError("a fault script (during) needs the mock in-process")
@@ -397,6 +407,7 @@ async def run_demo(
         faults=faults or None,
         aircraft=aircraft,
         ground_mission=route_mission,
+        road=road,
         # (the mock takes the key as 64 hex digits: the very key the service reads)
         signing_key=None
         if signing_key_file is None

@@ -1,0 +1,233 @@
+"""How a rover in AUTO drives a polyline: its speed along the road at any time (pure).
+
+ArduRover's waypoint navigation (``AR_WPNav`` on ``SCurve`` legs) brakes before each
+corner and speeds up after it at ``ATC_ACCEL_MAX``, and changes leg at a corner once the
+blend of the two legs would pass the corner within ``WP_RADIUS``
+(``SCurve::advance_target_along_track``). Each leg's S-curve ends at rest, so the blend is
+the old leg braking to a stop while the new one starts from rest, each at ``a``; it
+starts ``T`` before the old leg's end, when its midpoint, ``a T² sin(θ/2) / 4`` from the
+corner, is ``WP_RADIUS`` (θ the turn). At the midpoint the speed is the least,
+``a T cos(θ/2)``: the corner speed ``2 cos(θ/2) sqrt(a WP_RADIUS / sin(θ/2))``, 2.38 m/s
+at a 90° corner with the defaults (1 m/s², 2 m). A road drawn as a curve (short legs
+each turning a little) is driven within the same acceleration: on a curve of radius ρ
+no faster than ``sqrt(a ρ)``, ρ from a vertex's turn and its shorter leg
+(``leg / (2 sin(θ/2))``, a circle's chord), and no faster than a leg that short
+reaches from rest to rest, as each S-curve leg does. Every change of speed is an
+S-curve: the acceleration reached at ``WP_JERK`` (0: the accel's value, 1 m/s³), so a
+change of ``dv`` takes ``dv / a + a / j`` (``2 sqrt(dv / j)`` when too small to reach
+``a``). ArduRover SITL drove the urban grid's 12-m corners (thinned to legs of 8-15 m)
+so: 8 m/s braked at 0.9-1 m/s² to 2.0-2.8 m/s where the curve begins, 3.3-3.4 m/s round
+it, sped up at 1 m/s² after, 16 s under 7.5 m/s a corner.
+
+Design rules:
+    * The drive is one-dimensional, along the polyline: the blend's cut of the corner
+      (under ``WP_RADIUS``) is left out, its speed kept.
+    * Each leg drives at its own speed (a mission's DO_CHANGE_SPEED), slower legs braked
+      for before they begin; a waypoint with a hold is driven to a stop and stood at.
+    * The speed profile is the usual two passes over the corners (no corner faster than
+      the next can be braked for, or the last sped up from), then each leg as
+      accelerate, cruise, brake; each ramp as the constant acceleration that takes its
+      S-curve's time and distance (so a vertex is reached when the firmware reaches
+      it), and the profile is a value computed once.
+    * ``accel = inf`` is the ideal vehicle of before: corners at full speed, every
+      change of speed at once.
+"""
+
+from __future__ import annotations
+
+import bisect
+import itertools
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+__all__ = ["DriveProfile", "Phase", "Ramps", "corner_speed"]
+
+
+def corner_speed(turn: float, ramps: Ramps, wp_radius: float, leg: float = math.inf) -> float:
+    """The least speed through a corner turning ``turn`` rad whose shorter leg is ``leg``
+    metres (the module's rules), m/s."""
+    half, accel = abs(turn) / 2.0, ramps.accel
+    if half < 1e-9 or math.isinf(accel):
+        return math.inf
+    blend = 2.0 * math.cos(half) * math.sqrt(accel * wp_radius / math.sin(half))
+    curve = math.sqrt(accel * leg / (2.0 * math.sin(half)))
+    return min(blend, curve, ramps.peak(0.0, 0.0, leg, math.inf) if leg < math.inf else blend)
+
+
+@dataclass(frozen=True, slots=True)
+class Phase:
+    """From ``t0`` at ``s0`` along the road, speed ``v0`` and acceleration ``a``, for ``span`` s."""
+
+    t0: float
+    s0: float
+    v0: float
+    a: float
+    span: float
+
+    def at(self, t: float) -> tuple[float, float]:
+        """Distance along the road and speed at time ``t`` (inside the phase)."""
+        dt = min(max(t - self.t0, 0.0), self.span)
+        return self.s0 + self.v0 * dt + 0.5 * self.a * dt * dt, self.v0 + self.a * dt
+
+
+@dataclass(frozen=True, slots=True)
+class DriveProfile:
+    """A drive over vertices at ``cumulative`` distances, as the phases it takes.
+
+    ``arrivals[j]`` is when vertex ``j`` is reached (before its hold), ``duration`` the
+    whole drive (one lap of a loop, whose last vertex is its first).
+    """
+
+    phases: tuple[Phase, ...]
+    starts: tuple[float, ...]  # each phase's t0, for bisect
+    arrivals: tuple[float, ...]
+    duration: float
+    length: float
+
+    @classmethod
+    def plan(
+        cls,
+        cumulative: Sequence[float],
+        leg_speeds: Sequence[float],
+        *,
+        corners: Sequence[float],
+        holds: Sequence[float],
+        ramps: Ramps,
+        loop: bool,
+    ) -> DriveProfile:
+        """The drive over ``len(cumulative)`` vertices.
+
+        Args:
+            cumulative: Distance along the road of each vertex, from 0, increasing.
+            leg_speeds: Top speed of each leg (vertex ``i`` to ``i + 1``), > 0.
+            corners: Least speed through each vertex (``inf``: none); a loop's first
+                and last vertex are one corner, the first's value is used.
+            holds: Seconds stood at each vertex (0: none).
+            ramps: Braking and speeding up.
+            loop: The last vertex is the first: a lap, driven again and again, so it
+                starts at the closing corner's speed; else from rest, to rest.
+        """
+        n = len(cumulative)
+        lengths = [b - a for a, b in itertools.pairwise(cumulative)]
+
+        def cap(j: int) -> float:
+            node = 0 if loop and j == n - 1 else j  # (a loop's last vertex is its first)
+            before = leg_speeds[j - 1] if j else leg_speeds[-1] if loop else 0.0
+            after = leg_speeds[j] if j < n - 1 else leg_speeds[0] if loop else 0.0
+            stop = 0.0 if holds[node] > 0.0 else math.inf
+            return min(corners[node], before, after, stop)
+
+        caps = [cap(j) for j in range(n)]
+        reach = _reachable(caps, lengths, ramps, loop)
+        phases: list[Phase] = []
+        arrivals: list[float] = []
+        t = 0.0
+        for j in range(n):
+            arrivals.append(t)
+            if holds[j] > 0.0 and not (loop and j == n - 1):
+                phases.append(Phase(t, cumulative[j], 0.0, 0.0, holds[j]))
+                t += holds[j]
+            if j == n - 1:
+                break
+            ends = reach[j], reach[j + 1]
+            for phase in _leg(cumulative[j], lengths[j], *ends, leg_speeds[j], ramps):
+                phases.append(Phase(t, *phase))
+                t += phase[3]
+        starts = tuple(phase.t0 for phase in phases)
+        return cls(tuple(phases), starts, tuple(arrivals), t, cumulative[-1])
+
+    def at(self, t: float, *, loop: bool) -> tuple[float, float]:
+        """Distance along the road and speed at time ``t`` (the start before it; a loop's
+        lap again and again, else the end after it)."""
+        if t <= 0.0 or not self.phases:
+            return 0.0, 0.0
+        if loop:
+            t %= self.duration
+        elif t >= self.duration:
+            return self.length, 0.0
+        i = max(bisect.bisect_right(self.starts, t) - 1, 0)
+        return self.phases[i].at(t)
+
+
+@dataclass(frozen=True, slots=True)
+class Ramps:
+    """How fast the speed changes: ``accel`` (m/s², ``inf``: at once) reached at ``jerk``
+    (m/s³; ArduRover's ``WP_JERK``, 0 there meaning the accel's value)."""
+
+    accel: float
+    jerk: float
+
+    def time(self, u: float, w: float) -> float:
+        """Seconds from speed ``u`` to ``w`` (an S-curve: jerk, accel, jerk)."""
+        dv = abs(w - u)
+        a, j = self.accel, self.jerk
+        return dv / a + a / j if dv >= a * a / j else 2.0 * math.sqrt(dv / j)
+
+    def distance(self, u: float, w: float) -> float:
+        """Metres from ``u`` to ``w``: the mean speed (the ramp is symmetric) times its time."""
+        return 0.5 * (u + w) * self.time(u, w)
+
+    def fastest(self, u: float, length: float) -> float:
+        """The highest speed ``length`` metres can change ``u`` into (and back)."""
+        lo, hi = u, u + math.sqrt(2.0 * self.accel * length) + 1.0
+        for _ in range(50):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if self.distance(u, mid) <= length else (lo, mid)
+        return lo
+
+    def peak(self, v_in: float, v_out: float, length: float, top: float) -> float:
+        """A leg's top speed: from ``v_in`` up and down to ``v_out`` within ``length``."""
+        lo = max(v_in, v_out)
+        hi = max(min(top, self.fastest(min(v_in, v_out), length)), lo)
+        if self.distance(v_in, hi) + self.distance(hi, v_out) <= length:
+            return hi
+        for _ in range(50):
+            mid = 0.5 * (lo + hi)
+            fits = self.distance(v_in, mid) + self.distance(mid, v_out) <= length
+            lo, hi = (mid, hi) if fits else (lo, mid)
+        return lo
+
+
+def _reachable(cap: list[float], lengths: list[float], ramps: Ramps, loop: bool) -> list[float]:
+    """Each vertex's speed: its cap, and no faster than the next can be braked for over
+    the leg between, or than the last can be sped up from (two passes; a loop's go
+    round twice so a slow corner reaches every other)."""
+    if math.isinf(ramps.accel):
+        return cap
+    n = len(cap)
+    v = list(cap)
+    rounds = 2 if loop else 1
+    for _ in range(rounds):
+        for j in range(1, n):
+            v[j] = min(v[j], ramps.fastest(v[j - 1], lengths[j - 1]))
+        if loop:
+            v[0] = v[-1] = min(v[0], v[-1])
+    for _ in range(rounds):
+        for j in range(n - 2, -1, -1):
+            v[j] = min(v[j], ramps.fastest(v[j + 1], lengths[j]))
+        if loop:
+            v[0] = v[-1] = min(v[0], v[-1])
+    return v
+
+
+def _leg(
+    s0: float, length: float, v_in: float, v_out: float, top: float, ramps: Ramps
+) -> list[tuple[float, float, float, float]]:
+    """One leg as (s0, v0, a, span) phases: speed up to the top, cruise, brake; each
+    ramp at the constant acceleration that takes its S-curve's time and distance."""
+    if math.isinf(ramps.accel):
+        return [(s0, top, 0.0, length / top)] if length > 0.0 else []
+    peak = ramps.peak(v_in, v_out, length, top)
+    up, down = ramps.distance(v_in, peak), ramps.distance(peak, v_out)
+    cruise = max(length - up - down, 0.0)
+    out: list[tuple[float, float, float, float]] = []
+    if peak > v_in:
+        span = ramps.time(v_in, peak)
+        out.append((s0, v_in, (peak - v_in) / span, span))
+    if cruise > 0.0:
+        out.append((s0 + up, peak, 0.0, cruise / peak if peak > 0.0 else 0.0))
+    if peak > v_out:
+        span = ramps.time(peak, v_out)
+        out.append((s0 + up + cruise, peak, (v_out - peak) / span, span))
+    return out
