@@ -400,7 +400,7 @@ class ConvoyService:
         self._planner_why = why
         # A new route (MQTT, a rover's mission) and its plan (holds, whether a circuit,
         # speeds), for the next mission step.
-        self._new_route: tuple[Road, Marks, bool, Marks] | None = None
+        self._new_route: tuple[Road, Marks, bool, Marks, bool] | None = None
         self._route_taken = saved  # (the last route taken, with its plan)
         remarks = "" if saved is None else saved.remarks()
         self._route_source = (
@@ -1902,19 +1902,21 @@ class ConvoyService:
             f"{road.length:.0f} m"
         )
 
-    def _plan_on(self, road: Road, plan: PlannedRoute) -> tuple[Marks, bool, Marks]:
+    def _plan_on(self, road: Road, plan: PlannedRoute) -> tuple[Marks, bool, Marks, bool]:
         """A route's plan on ``road``: its holds (arc length, seconds), whether it is a
-        circuit, its speeds (arc length, m/s); each mark found near the distance driven
+        circuit, its speeds (arc length, m/s), whether an autopilot drives it (keeping a
+        speed of its own where none is planned); each mark found near the distance driven
         to its point (``Road.place``: a route that comes back along itself has the point
         on two passes)."""
         if not (plan.holds or plan.speeds):
-            return (), plan.circuit, ()
+            return (), plan.circuit, (), plan.autopilot
         ned = [self.frame.to_ned(GeoPoint(lat, lon)) for lat, lon in plan.points]
         north, east = [p[0] for p in ned], [p[1] for p in ned]
         return (
             road.place(north, east, plan.holds),
             plan.circuit,
             road.place(north, east, plan.speeds),
+            plan.autopilot,
         )
 
     @property

@@ -34,12 +34,18 @@ CIRCUIT = {
 }
 
 
-@pytest.mark.parametrize("personality", ["ardupilot", "px4"])
-async def test_a_rovers_corners_are_learnt_and_its_convoy_protected(personality: str) -> None:
+@pytest.mark.parametrize(("personality", "planned"), [("ardupilot", True), ("px4", True),
+                                                     ("px4", False)])  # fmt: skip
+async def test_a_rovers_corners_are_learnt_and_its_convoy_protected(
+    personality: str, planned: bool
+) -> None:
+    """With its speeds in the mission; or none (a PX4 rover's default speed is not asked):
+    the speed it keeps between corners learnt from the drive."""
     scenario = SCENARIOS["turning"]
+    road = CIRCUIT if planned else {k: v for k, v in CIRCUIT.items() if k != "speeds"}
     result = await run_demo(
         scenario, duration=700.0, speedup=SPEEDUP, personality=personality,
-        uavs=scenario.fleet(route_known=True), route_mission=True, road=CIRCUIT,
+        uavs=scenario.fleet(route_known=True), route_mission=True, road=road,
     )  # fmt: skip
     report = result.report.to_dict()
     planner = report["planner"]
@@ -47,12 +53,15 @@ async def test_a_rovers_corners_are_learnt_and_its_convoy_protected(personality:
     # The mission read: a circuit of six corners, its hold and both speeds.
     source = planner["route_source"]
     assert source.startswith("ground vehicle") and "mission (a circuit" in source, source
-    assert "1 holds, 30 s, 2 speeds, 6-8 m/s" in source, source
+    said = "1 holds, 30 s, 2 speeds, 6-8 m/s" if planned else "1 holds, 30 s)"
+    assert said in source, source
     # The corners learnt: under 0.6 of the planned 8 m/s, as the rover drives them (2.38
     # m/s at each corner, braked for over 34 m), so the forecast slows for them.
     at_corner = corner_speed(math.pi / 2, Ramps(1.0, 1.0), 2.0)
     learnt = planner["convoy_corner_speed_mps"]
     assert learnt is not None and 0.6 * at_corner < learnt < 0.6 * 8.0, learnt
+    if not planned:  # (its 8 m/s, the 75th percentile of its speeds while driving)
+        assert planner["convoy_cruise_mps"] == pytest.approx(8.0, abs=0.3)
     truth = result.truth
     assert truth is not None and report["protect_start_s"] < 240.0
     # (measured at 15x, 900 s: 99.24 % with the corners forecast, 98.92 % without)

@@ -232,7 +232,7 @@ def test_a_missions_holds_are_placed_on_its_road_each_on_its_own_pass() -> None:
     plan = PlannedRoute(tuple(points), holds=((2, 30.0), (4, 45.0)), speeds=((3, 6.0),))
     service.set_route(plan, source="a test")
     assert service._new_route is not None
-    road, holds, circuit, speeds = service._new_route
+    road, holds, circuit, speeds, _ = service._new_route
     assert [round(h) for _, h in holds] == [30, 45] and not circuit
     ((turn, pace),) = speeds  # (from the far end's second corner, on the way back)
     assert pace == 6.0 and turn == pytest.approx(860.0, abs=15.0)

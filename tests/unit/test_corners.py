@@ -156,3 +156,45 @@ def test_a_convoy_seen_to_slow_for_corners_is_forecast_to_slow_for_the_next() ->
     planless.observe(ConvoyEstimate(200.0, p.y, p.x, 8.0, 0.0))
     assert planless.corner_speed is None
     assert np.allclose(planless._arcs(dt), 100.0 + 8.0 * dt, atol=0.5)
+
+
+def _rover(corner_mps: float, *, keeps_speed: bool = True) -> tuple[ConvoyModel, float]:
+    """A convoy on ``GRID`` at 8 m/s that takes its corners at ``corner_mps``, its route
+    given as a rover's mission with no speed in it; estimates a second through both
+    corners, to 60 m past the second. The model, and the arc it is at."""
+    model = ConvoyModel(GRID)
+    model.set_route(GRID, keeps_speed=keeps_speed)
+    corners = model.corner_habit.corners(GRID)
+    t, s = 0.0, 5.0
+    end = corners[-1][1] + 60.0
+    while s < end:
+        v = corner_mps if any(lo - 1.0 <= s <= hi + 1.0 for lo, hi in corners) else 8.0
+        x, y, h, _ = GRID.arrays(np.array([s]))
+        heading = float(h[0])
+        model.observe(
+            ConvoyEstimate(t, float(y[0]), float(x[0]), v * np.sin(heading), v * np.cos(heading))
+        )
+        t, s = t + 1.0, s + v
+    return model, s - 8.0
+
+
+def test_a_rover_keeping_its_own_speed_is_forecast_at_it_and_slow_in_its_corners() -> None:
+    """A PX4 rover's mission says no speed (its default is not asked): the speed it keeps
+    between corners is learnt from the drive, and with its slow corners it is forecast
+    as a planned one is."""
+    rover, at = _rover(2.5)
+    corner = rover.corner_speed  # (crossings timed between estimates a second apart)
+    assert rover.cruise == pytest.approx(8.0) and corner is not None and 2.5 <= corner < 4.0
+    assert rover._pace_at(at) == pytest.approx(8.0)
+    planned = ConvoyModel(GRID)
+    planned.set_route(GRID, speeds=[(0.0, 8.0)])
+    planned.corner_habit = rover.corner_habit
+    planned.observe(rover.estimate)  # type: ignore[arg-type]
+    dt = np.arange(0.0, 60.0, 1.0)
+    assert np.allclose(rover._arcs(dt), planned._arcs(dt))
+    # Not told it keeps a speed (a route file), or seen to take its corners at its
+    # speed (a drive that keeps none: forecast at one, roundabouts, speed changes and
+    # the recorded drives lost 3-8 points): no speed of its own.
+    assert _rover(2.5, keeps_speed=False)[0].cruise is None
+    brisk, _ = _rover(7.5)
+    assert brisk.corner_habit.speed is not None and brisk.cruise is None

@@ -155,8 +155,9 @@ def test_an_mqtt_route_brings_its_plan_to_the_next_mission_step() -> None:
     payload = {"points": [[o.lat, o.lon], [o.lat + 0.01, o.lon]], "holds": [[1, 30]]}
     service.set_route(topics.parse_convoy_route(json.dumps(payload)))
     assert service._new_route is not None
-    road, holds, circuit, speeds = service._new_route
+    road, holds, circuit, speeds, autopilot = service._new_route
     assert not circuit and speeds == () and [h for _, h in holds] == [30.0]
+    assert not autopilot  # (a plan given with a route: people drive it)
     assert holds[0][0] == pytest.approx(road.length, abs=5.0)
     assert service._route_source == "MQTT convoy/route (1 holds, 30 s)"
     service._new_route = None  # (taken in)

@@ -112,6 +112,9 @@ _PLAN_STEP = 0.25  # s: the timetable's grid
 _WRAP_M = 100.0  # on a circuit this near its end, the convoy may be on the next lap
 _WRAP_TIE_M = 1.0  # ... there if this much nearer (or, past the end, no farther)
 CORNER_RATIO = 0.6  # corners taken slower than this of the planned speed are forecast so
+CRUISE_WINDOW_S = 120.0  # s: a rover keeping its speed: learnt over this much driving ...
+CRUISE_MIN_S = 30.0  # ... once it has driven this long
+CRUISE_QUANTILE = 75.0  # ... the speed it drives at this much of the time or less
 
 
 @dataclass(frozen=True, slots=True)
@@ -187,6 +190,9 @@ class ConvoyModel:
         self._holds: tuple[tuple[float, float], ...] = ()  # planned: (arc on route, s)
         self._circuit = False  # the route is one lap of a circuit driven round and round
         self._paces: tuple[tuple[float, float], ...] = ()  # planned: (arc on route, m/s on)
+        self._keeps_speed = False  # a rover in AUTO: where none is planned, it keeps its own
+        self._driven: deque[tuple[float, float]] = deque()  # (t, speed along) while driving
+        self._kept: tuple[float, float | None] = (math.nan, None)  # (t, learnt) cached
         self._holding: int | None = None  # the hold it stands at (index)
         self._held: set[int] = set()  # holds stood at and left
         self._stood_since: float | None = None  # standing (along the route) since
@@ -230,13 +236,17 @@ class ConvoyModel:
         *,
         circuit: bool = False,
         speeds: Sequence[tuple[float, float]] = (),
+        keeps_speed: bool = False,
     ) -> None:
         """A new route (the convoy is found on it afresh at the next estimate), where
         along it the convoy plans to stand and how long: (arc length, seconds), whether
-        it is one lap of a circuit (its end where it began) driven in laps, and the
-        speeds it plans to drive: (arc length, m/s from there on)."""
+        it is one lap of a circuit (its end where it began) driven in laps, the speeds it
+        plans to drive: (arc length, m/s from there on), and whether it keeps a speed of
+        its own where none is planned (a rover driving the route as its mission, at a
+        default speed the service could not read: ``cruise``)."""
         self._holds = tuple(sorted((float(a), float(h)) for a, h in holds if h > 0.0))
         self._paces = tuple(sorted((float(a), float(v)) for a, v in speeds if v > 0.0))
+        self._keeps_speed = keeps_speed
         self._circuit = circuit
         self._holding, self._held = None, set()
         self.route = route
@@ -303,6 +313,11 @@ class ConvoyModel:
                 ]
                 self._holding = near[0] if near else None
         self._note_speed(est.t, self._along)
+        if self._along >= _CRUISING_MPS:
+            driven = self._driven
+            driven.append((est.t, self._along))
+            while driven[0][0] < est.t - CRUISE_WINDOW_S:
+                driven.popleft()
         if off > self.off_route_m:
             if self._off_since is None:
                 self._off_since = est.t
@@ -454,12 +469,38 @@ class ConvoyModel:
 
     def _pace_at(self, arc: float) -> float | None:
         """The planned speed in force at ``arc`` (the last change at or before it; on a
-        circuit, before the lap's first, the lap's last), None where none is."""
+        circuit, before the lap's first, the lap's last); where none is, the speed a
+        convoy that keeps its own was seen to (``cruise``), else None."""
         paces = self._paces
         k = bisect.bisect_right(paces, (arc, math.inf))
         if k:
             return paces[k - 1][1]
-        return paces[-1][1] if self._circuit and paces else None
+        if self._circuit and paces:
+            return paces[-1][1]
+        return self.cruise
+
+    @property
+    def cruise(self) -> float | None:
+        """The speed a convoy that keeps its own (``set_route(keeps_speed=True)``) drives
+        at: of its speeds along the route while driving over the last
+        ``CRUISE_WINDOW_S``, the ``CRUISE_QUANTILE``-th percentile (its corners, its
+        braking and pulling away are the slower rest), once it has driven
+        ``CRUISE_MIN_S`` and been seen to take the route's sharp corners under
+        ``CORNER_RATIO`` of it, as an autopilot does; None otherwise. (A convoy that
+        keeps no such speed, a recorded drive replayed as a mission, lost 3-8 points on
+        roundabouts, speed changes and the recorded drives when forecast at it.)"""
+        driven, est, corner = self._driven, self._est, self.corner_habit.speed
+        if not self._keeps_speed or est is None or not driven or corner is None:
+            return None
+        if self._kept[0] == est.t:
+            return self._kept[1]
+        speed = None
+        if driven[-1][0] - driven[0][0] >= CRUISE_MIN_S:
+            speed = float(np.percentile([v for _, v in driven], CRUISE_QUANTILE))
+            if corner >= CORNER_RATIO * speed:
+                speed = None
+        self._kept = (est.t, speed)
+        return speed
 
     def _plan_ahead(self) -> list[tuple[float, float, float]]:
         """The plan's events ahead, by arc: (arc, seconds held, 0 for a speed change;
@@ -483,7 +524,8 @@ class ConvoyModel:
         a plan (holds, speeds) the timetable it makes (module rules)."""
         base = self._s + self.ahead(dt)
         road = self.road
-        if not (self._holds or self._paces) or self._reversed or len(dt) == 0 or road is None:
+        planned = self._holds or self._paces or self.cruise is not None
+        if not planned or self._reversed or len(dt) == 0 or road is None:
             return base
         here = self._hold_here()
         events = self._plan_ahead()

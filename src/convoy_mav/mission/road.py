@@ -673,15 +673,17 @@ class RoadMission(Roster):
         holds: Sequence[tuple[float, float]] = (),
         circuit: bool = False,
         speeds: Sequence[tuple[float, float]] = (),
+        keeps_speed: bool = False,
     ) -> None:
         """The route the convoy will drive from now on (a new one over MQTT, a rover's
         mission) and the plan it keeps on it, if any: where it stands (arc length,
-        seconds), whether the route is one lap of a circuit, and the speeds it drives
-        (arc length, m/s from there)."""
+        seconds), whether the route is one lap of a circuit, the speeds it drives (arc
+        length, m/s from there), and whether it keeps a speed of its own where none is
+        planned (``ConvoyModel.set_route``)."""
         if self.recording is not None:
-            plan = (tuple(holds), circuit, tuple(speeds))
+            plan = (tuple(holds), circuit, tuple(speeds), *((True,) if keeps_speed else ()))
             self.recording.add("set_route", (route, *plan) if any(plan) else (route,))
-        self.model.set_route(route, holds, circuit=circuit, speeds=speeds)
+        self.model.set_route(route, holds, circuit=circuit, speeds=speeds, keeps_speed=keeps_speed)
 
     def join(self, uav: int, north: float, east: float, yaw: float, t: float) -> list[MissionEvent]:
         """``join_many`` for one UAV."""
@@ -1394,6 +1396,7 @@ class RoadMission(Roster):
         route = self.model.route
         speeds = self._convoy_speeds
         corner = self.model.corner_habit.speed
+        cruise = self.model.cruise
         return {
             "pattern_radius_m": round(self.pattern_radius, 1),
             "road_min_uavs": self.min_uavs,
@@ -1405,6 +1408,8 @@ class RoadMission(Roster):
             "convoy_laps": self.model.counters["laps"],
             # How fast it was seen to take the route's sharp corners (None: not yet).
             "convoy_corner_speed_mps": None if corner is None else round(corner, 2),
+            # The speed a rover driving its mission keeps where none is planned (learnt).
+            "convoy_cruise_mps": None if cruise is None else round(cruise, 2),
             "convoy_speed_range_mps": None if speeds is None else [round(v, 2) for v in speeds],
             "convoy_fast": {
                 "above_speed_ratio": FAST_CONVOY_RATIO,

@@ -100,6 +100,7 @@ def fly_road(
     holds: Sequence[tuple[float, float]] = (),
     circuit: bool = False,
     speeds: Sequence[tuple[float, float]] = (),
+    keeps_speed: bool = False,
 ) -> RoadRun:
     """Fly ``uavs`` UAVs over a convoy whose fixes are (t, north, east).
 
@@ -133,6 +134,8 @@ def fly_road(
             that jumps back to its first waypoint).
         speeds: The speeds the convoy plans on ``route`` (arc length, m/s from there), as
             a mission's DO_CHANGE_SPEEDs give them.
+        keeps_speed: The convoy keeps a speed of its own where none is planned, as a
+            rover in AUTO drives its default (``ConvoyModel.cruise``).
     """
     ts = np.asarray(t, dtype=np.float64)
     fn, fe = np.asarray(north, dtype=np.float64), np.asarray(east, dtype=np.float64)
@@ -149,8 +152,8 @@ def fly_road(
     mission.set_replan_lag(*replan_lag)
     if holds_known and route is not None and not holds:
         holds = true_holds(route, ts, tn, te)
-    if route is not None and (holds or circuit or speeds):
-        mission.set_route(route, holds, circuit, speeds)
+    if route is not None and (holds or circuit or speeds or keeps_speed):
+        mission.set_route(route, holds, circuit, speeds, keeps_speed)
     tracker = ConvoyTracker(window=4.0)
     vn, ve = (None, None) if reported is None else (np.asarray(v, np.float64) for v in reported)
     # The UAVs start circling near the convoy's first fix, spread around it.

@@ -31,7 +31,8 @@ count, per the MAVLink mission commands a rover flies:
   waypoint, from the start. On a circuit a speed lasts round the jump: the lap's last
   is in force at its start (from the second lap on); one set on the way there, if the
   lap sets none. Before any, the rover drives its own default (``default_speed``:
-  ArduRover's WP_SPEED, read by ``MissionWatch``).
+  ArduRover's WP_SPEED, read by ``MissionWatch``), which, unknown, the road model learns
+  from the drive (``autopilot``: ``ConvoyModel.cruise``).
 """
 
 from __future__ import annotations
@@ -141,10 +142,14 @@ def mission_route(
         before = [default, *(v for i, v in sorted(speeds.items()) if i < lap_from)]
         if before[-1] is not None and not paces:
             paces[0] = before[-1]  # (set on the way there, in force round the lap)
-        return PlannedRoute(tuple(lap), skipped, laps, _sorted(on_lap), True, _sorted(paces))
+        return PlannedRoute(
+            tuple(lap), skipped, laps, _sorted(on_lap), True, _sorted(paces), autopilot=True
+        )
     if default is not None and 0 not in speeds:
         speeds[0] = default
-    return PlannedRoute(tuple(points), skipped, laps, _sorted(holds), speeds=_sorted(speeds))
+    return PlannedRoute(
+        tuple(points), skipped, laps, _sorted(holds), speeds=_sorted(speeds), autopilot=True
+    )
 
 
 def _sorted(marks: dict[int, float]) -> tuple[tuple[int, float], ...]:

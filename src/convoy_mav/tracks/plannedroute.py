@@ -31,11 +31,13 @@ class PlannedRoute:
     holds: PointMarks = ()  # (index in points, seconds it stands there)
     circuit: bool = False  # the points are one lap, closed, driven round and round
     speeds: PointMarks = ()  # (index in points, m/s from there on)
+    autopilot: bool = False  # an autopilot drives it (a mission in AUTO): at a speed of
+    # its own where none is planned, kept but for its corners, stops and speed changes
 
     @property
     def planned(self) -> bool:
-        """Whether it says more than the road: holds, speeds or laps."""
-        return bool(self.holds or self.speeds or self.circuit)
+        """Whether it says more than the road: holds, speeds, laps or an autopilot."""
+        return bool(self.holds or self.speeds or self.circuit or self.autopilot)
 
     def remarks(self) -> str:
         """What the points alone do not say ("" when nothing)."""
