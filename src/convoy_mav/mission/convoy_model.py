@@ -67,6 +67,10 @@ Design rules:
   take them under ``CORNER_RATIO`` of the plan's speed, it is forecast to slow for
   the corners ahead as it did for those behind, and one slow in a corner (from
   ``_STANDING_MPS``, not ``_CRUISING_MPS``) to speed up to the plan's speed again.
+- A route driven by an autopilot (a rover's mission: ``set_route(keeps_speed=True)``)
+  is driven at the rover's own speed where its plan sets none (a PX4 rover's default,
+  not asked): ``cruise``, learnt from the drive once the rover is seen to brake for
+  its corners as an autopilot does, is then the planned speed there.
 - A route known to be a circuit (``circuit``: a rover's mission that jumps
   back to its first waypoint, DO_JUMP, closed by the drive back there) is
   lapped: past its end the convoy is on the next lap at once, not driving
@@ -247,6 +251,7 @@ class ConvoyModel:
         self._holds = tuple(sorted((float(a), float(h)) for a, h in holds if h > 0.0))
         self._paces = tuple(sorted((float(a), float(v)) for a, v in speeds if v > 0.0))
         self._keeps_speed = keeps_speed
+        self._kept = (math.nan, None)
         self._circuit = circuit
         self._holding, self._held = None, set()
         self.route = route
