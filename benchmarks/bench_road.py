@@ -148,10 +148,12 @@ def test_road_estimate_update(benchmark: BenchmarkFixture) -> None:
     benchmark(update)
 
 
-def _forecaster(holds: bool, speeds: bool = False) -> tuple[ConvoyModel, np.ndarray]:
+def _forecaster(
+    holds: bool, speeds: bool = False, keeps_speed: bool = False
+) -> tuple[ConvoyModel, np.ndarray]:
     """A convoy driving a known 25-km route at 8 m/s, with a hold every 500 m ahead or
-    none (and a planned speed of 6 or 10 m/s from each 250 m between), and a re-plan's
-    forecast grid (0.5 s over 200 s)."""
+    none (and a planned speed of 6 or 10 m/s from each 250 m between, or its own kept),
+    and a re-plan's forecast grid (0.5 s over 200 s)."""
     _, north, east = _drive()
     route = Road.from_points(east, north)
     model = ConvoyModel()
@@ -159,11 +161,14 @@ def _forecaster(holds: bool, speeds: bool = False) -> tuple[ConvoyModel, np.ndar
     paces = [
         (float(s), 6.0 + 4.0 * (k % 2)) for k, s in enumerate(np.arange(750.0, route.length, 500.0))
     ]
-    model.set_route(route, stops if holds else (), speeds=paces if speeds else ())
-    for k in range(10):  # (driving up the route, an estimate a second)
-        q = route.point(720.0 + 8.0 * k)
+    model.set_route(
+        route, stops if holds else (), speeds=paces if speeds else (), keeps_speed=keeps_speed
+    )
+    seconds = 40 if keeps_speed else 10  # (its own speed: learnt from 30 s of driving)
+    for k in range(seconds):  # (driving up the route, an estimate a second)
+        q = route.point(720.0 + 8.0 * (k - seconds + 10))
         vx, vy = 8.0 * math.cos(q.heading), 8.0 * math.sin(q.heading)
-        model.observe(ConvoyEstimate(float(k), q.y, q.x, vy, vx))
+        model.observe(ConvoyEstimate(float(k - seconds + 10), q.y, q.x, vy, vx))
     return model, 9.0 + np.arange(0.0, 200.0, 0.5)
 
 
@@ -196,4 +201,13 @@ def test_forecast_along_the_route_slowing_for_its_corners(benchmark: BenchmarkFi
     model, grid = _forecaster(holds=True, speeds=True)
     model.corner_habit.samples.extend([2.5, 2.5])
     assert model.corner_speed == 2.5
+    benchmark(model.positions, grid)
+
+
+def test_forecast_along_the_route_at_its_own_speed(benchmark: BenchmarkFixture) -> None:
+    """The same with no speed planned, a rover keeping its own (``ConvoyModel.cruise``,
+    learnt from the drive: a percentile of the last 120 s, once an estimate)."""
+    model, grid = _forecaster(holds=True, keeps_speed=True)
+    model.corner_habit.samples.extend([2.5, 2.5])
+    assert model.cruise == 8.0 and model.corner_speed == 2.5
     benchmark(model.positions, grid)
