@@ -204,13 +204,16 @@ def test_a_lap_that_changes_speed_sets_its_first_legs_too() -> None:
 
 
 @pytest.mark.parametrize("loop", [False, True])
-def test_the_services_reader_takes_the_holds_and_speeds(loop: bool) -> None:
-    """Through MAVLink bytes, ArduPilot's numbering: the service's route has the hold at
-    its point and the speed from its point on, and WP_SPEED before it."""
+@pytest.mark.parametrize("ardupilot", [True, False])
+def test_the_services_reader_takes_the_holds_and_speeds(loop: bool, ardupilot: bool) -> None:
+    """Through MAVLink bytes, as each firmware numbers the mission: the service's route
+    has the hold at its point and the speed from its point on; before it, an ArduPilot
+    rover's WP_SPEED (a PX4 rover's default is not asked), or on a lap the speed the last
+    lap left (set again at the first waypoint). An autopilot drives it."""
     from sitl_mock.autopilot import Personality
 
     route = Polyline(GRID, speed=8.0, loop=loop, accel=1.0, holds=((2, 30.0),), speeds=((1, 4.0),))
-    gcs = Gcs(rover(Personality.ARDUPILOT, route))
+    gcs = Gcs(rover(Personality.ARDUPILOT if ardupilot else Personality.PX4, route))
     watch = MissionWatch(11)
     gcs.command(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAVLINK_MSG_ID_MISSION_CURRENT, 1e6)
     for msg in gcs.run(2.0):
@@ -220,11 +223,12 @@ def test_the_services_reader_takes_the_holds_and_speeds(loop: bool) -> None:
         sent = [out for msg in sent for reply in gcs.send(msg) for out in watch.handle(reply, 0.0)]
     read = watch.take()
     assert read is not None and read.items is not None
-    planned = mission_route(read.items, home_first=True, default_speed=watch.default_speed)
-    assert planned.holds == ((2, 30.0),)
-    first = 4.0 if loop else 8.0  # (a lap starts as the last one left it)
-    assert planned.speeds in (((0, first), (1, 4.0)), ((0, 4.0),))
-    assert planned.circuit is loop
+    planned = mission_route(read.items, home_first=ardupilot, default_speed=watch.default_speed)
+    assert planned.holds == ((2, 30.0),) and planned.circuit is loop and planned.autopilot
+    if loop:
+        assert planned.speeds == ((0, 4.0), (1, 4.0))
+    else:
+        assert planned.speeds == (((0, 8.0), (1, 4.0)) if ardupilot else ((1, 4.0),))
 
 
 def test_the_config_gives_the_drive_by_key() -> None:
