@@ -84,6 +84,7 @@ class DriveProfile:
     arrivals: tuple[float, ...]
     duration: float
     length: float
+    loop: bool  # a lap, driven again and again
 
     @classmethod
     def plan(
@@ -135,14 +136,14 @@ class DriveProfile:
                 phases.append(Phase(t, *phase))
                 t += phase[3]
         starts = tuple(phase.t0 for phase in phases)
-        return cls(tuple(phases), starts, tuple(arrivals), t, cumulative[-1])
+        return cls(tuple(phases), starts, tuple(arrivals), t, cumulative[-1], loop)
 
-    def at(self, t: float, *, loop: bool) -> tuple[float, float]:
+    def at(self, t: float) -> tuple[float, float]:
         """Distance along the road and speed at time ``t`` (the start before it; a loop's
         lap again and again, else the end after it)."""
         if t <= 0.0 or not self.phases:
             return 0.0, 0.0
-        if loop:
+        if self.loop:
             t %= self.duration
         elif t >= self.duration:
             return self.length, 0.0

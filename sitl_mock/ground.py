@@ -187,7 +187,7 @@ class Polyline:
         drive = self._drive
         if t <= 0.0 or drive is None or (not self.loop and t >= drive.duration):
             return None
-        s, v = drive.at(t, loop=self.loop)
+        s, v = drive.at(t)
         cumulative = self._cumulative
         i = min(bisect.bisect_right(cumulative, s) - 1, len(cumulative) - 2)
         return i, s - cumulative[i], v

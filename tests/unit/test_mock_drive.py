@@ -12,14 +12,14 @@ from hypothesis import strategies as st
 from pymavlink.dialects.v20 import common as mavlink
 
 from convoy_mav.errors import ConfigError
-from convoy_mav.mavlink.missionread import MissionWatch
 from convoy_mav.tracks.missionroute import mission_route
+from sitl_mock.autopilot import Personality
 from sitl_mock.config import MockConfig
 from sitl_mock.drive import Ramps, corner_speed
 from sitl_mock.ground import Polyline
 from sitl_mock.mission import RoverMission
 from tests.fakes import WORLD, Gcs
-from tests.unit.test_mock_mission import rover
+from tests.unit.test_mock_mission import read_mission, rover
 
 GRID = ((0.0, 0.0), (200.0, 0.0), (200.0, 200.0), (0.0, 200.0))
 ROVER = Ramps(1.0, 1.0)  # ArduRover's ATC_ACCEL_MAX, and WP_JERK 0
@@ -210,20 +210,10 @@ def test_the_services_reader_takes_the_holds_and_speeds(loop: bool, ardupilot: b
     has the hold at its point and the speed from its point on; before it, an ArduPilot
     rover's WP_SPEED (a PX4 rover's default is not asked), or on a lap the speed the last
     lap left (set again at the first waypoint). An autopilot drives it."""
-    from sitl_mock.autopilot import Personality
-
     route = Polyline(GRID, speed=8.0, loop=loop, accel=1.0, holds=((2, 30.0),), speeds=((1, 4.0),))
     gcs = Gcs(rover(Personality.ARDUPILOT if ardupilot else Personality.PX4, route))
-    watch = MissionWatch(11)
-    gcs.command(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAVLINK_MSG_ID_MISSION_CURRENT, 1e6)
-    for msg in gcs.run(2.0):
-        watch.handle(msg, gcs.now)
-    sent = watch.poll(gcs.now)
-    while sent:
-        sent = [out for msg in sent for reply in gcs.send(msg) for out in watch.handle(reply, 0.0)]
-    read = watch.take()
-    assert read is not None and read.items is not None
-    planned = mission_route(read.items, home_first=ardupilot, default_speed=watch.default_speed)
+    watch, items = read_mission(gcs)
+    planned = mission_route(items, home_first=ardupilot, default_speed=watch.default_speed)
     assert planned.holds == ((2, 30.0),) and planned.circuit is loop and planned.autopilot
     if loop:
         assert planned.speeds == ((0, 4.0), (1, 4.0))
@@ -259,8 +249,6 @@ def test_the_config_gives_the_drive_by_key() -> None:
 
 def test_the_rover_says_its_accel_and_radius() -> None:
     """ArduRover's ATC_ACCEL_MAX and WP_RADIUS, read-only (the road's drive is scripted)."""
-    from sitl_mock.autopilot import Personality
-
     gcs = Gcs(rover(Personality.ARDUPILOT, Polyline(GRID, speed=8.0, accel=1.0)))
     for name, value in (("ATC_ACCEL_MAX", 1.0), ("WP_RADIUS", 2.0)):
         (reply,) = gcs.send(mavlink.MAVLink_param_request_read_message(11, 1, name.encode(), -1))

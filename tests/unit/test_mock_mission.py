@@ -49,6 +49,22 @@ def test_thinning_keeps_the_corners_and_drops_jitter_along_a_straight() -> None:
     assert thin(points[:2], 3.0) == [0, 1]
 
 
+def read_mission(gcs: Gcs) -> tuple[MissionWatch, list[Any]]:
+    """The service's MissionWatch reading the rover's mission through ``gcs``, as the
+    service asks for it (MISSION_CURRENT at 1 Hz, then the read): the watch and the items."""
+    watch = MissionWatch(11)
+    interval = mavlink.MAV_CMD_SET_MESSAGE_INTERVAL
+    gcs.command(interval, mavlink.MAVLINK_MSG_ID_MISSION_CURRENT, 1e6)
+    for msg in gcs.run(2.0):
+        watch.handle(msg, gcs.now)
+    sent = watch.poll(gcs.now)
+    while sent:
+        sent = [out for msg in sent for reply in gcs.send(msg) for out in watch.handle(reply, 0.0)]
+    read = watch.take()
+    assert read is not None and read.items is not None
+    return watch, list(read.items)
+
+
 def test_a_polyline_is_its_corners_and_a_loop_comes_back_to_the_first() -> None:
     mission = RoverMission.of(Polyline(CORNERS, speed=10.0), WORLD)
     assert mission is not None and len(mission.waypoints) == 4
@@ -113,17 +129,8 @@ def test_the_services_reader_takes_the_rovers_road(personality: Personality, loo
     route it makes is the road's corners (from home, on ArduPilot: the first corner); a
     looping road's is a circuit, its lap closed and a DO_JUMP back to the first corner."""
     gcs = Gcs(rover(personality, Polyline(CORNERS, speed=10.0, loop=loop)))
-    watch = MissionWatch(11)
-    interval = mavlink.MAV_CMD_SET_MESSAGE_INTERVAL
-    gcs.command(interval, mavlink.MAVLINK_MSG_ID_MISSION_CURRENT, 1e6)
-    for msg in gcs.run(2.0):
-        watch.handle(msg, gcs.now)
-    sent = watch.poll(gcs.now)
-    while sent:
-        sent = [out for msg in sent for reply in gcs.send(msg) for out in watch.handle(reply, 0.0)]
-    read = watch.take()
-    assert read is not None and read.items is not None
-    route = mission_route(read.items, home_first=watch.ardupilot, default_speed=watch.default_speed)
+    watch, items = read_mission(gcs)
+    route = mission_route(items, home_first=watch.ardupilot, default_speed=watch.default_speed)
     assert watch.ardupilot is (personality is Personality.ARDUPILOT)
     corners = [WORLD.to_geo(*c) for c in CORNERS + CORNERS[:1] * loop]
     assert route.circuit is loop and route.laps is loop
