@@ -37,6 +37,7 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from convoy_mav.geo import GeoPoint, LocalFrame
 from sitl_mock.clock import Speedup
+from sitl_mock.driveclock import DEFAULT_ACCEL, DriveClock
 from sitl_mock.flight import FlightController, Outcome
 from sitl_mock.ground import Polyline, Route, StraightLine
 from sitl_mock.kinematics import Aircraft, AircraftState, AirframeParams
@@ -50,7 +51,7 @@ from sitl_mock.messages import (
 )
 from sitl_mock.mission import RoverMission, as_float_item
 from sitl_mock.params import Knob, ParamTable
-from sitl_mock.personality import Firmware, Personality, firmware_for
+from sitl_mock.personality import Behaviour, Firmware, Personality, firmware_for
 from sitl_mock.streams import AIRCRAFT_DEFAULT_INTERVALS, GROUND_DEFAULT_INTERVALS, StreamScheduler
 
 __all__ = ["SENSORS", "Personality", "SimVehicle", "TruthRow", "VehicleSpec"]
@@ -227,6 +228,11 @@ class SimVehicle:
         self._nav_speed: float | None = None  # (as set; None: the airframe's airspeed)
         self._battery_s = 0.0
         self._ground_yaw = 0.0
+        # A rover drives its route in AUTO only, armed; told to stand, it brakes and waits.
+        route = spec.route
+        self._drive = DriveClock(
+            route.accel if isinstance(route, Polyline) and route.accel > 0.0 else DEFAULT_ACCEL
+        )
         aircraft = None
         if not ground:
             n, e, d = world.to_ned(spec.home)
@@ -352,10 +358,25 @@ class SimVehicle:
             telemetry comes from ``due_telemetry``.
         """
         self._update_warm(now)
+        if self.flight.aircraft is None:
+            self._drive_or_stand(now)
         events = self.flight.step(now, dt)
         if self.flight.armed and self.flight.aircraft is not None:
             self._battery_s += dt
         return events
+
+    def _drive_or_stand(self, now: float) -> None:
+        """A rover drives its route while armed in its mission mode (AUTO), else stands;
+        held during a waypoint's hold, it stands the whole hold again once back in AUTO
+        (``AP_Mission::resume`` restarts the waypoint, whose hold starts on arrival)."""
+        fl, clock, route = self.flight, self._drive, self.spec.route
+        driving = fl.armed and fl.mode.behaviour is Behaviour.MISSION
+        if route is None or driving == clock.driving:
+            return
+        tau = clock.at(now)
+        if driving and isinstance(route, Polyline) and clock.rate(now) == 0.0:
+            clock.rewind(now, tau := route.hold_began(tau))  # (ArduRover restarts a hold)
+        clock.drive(now, driving, math.hypot(*route.velocity(tau)))
 
     # ================================================================= telemetry
     def due_telemetry(self, now: float) -> list[Message]:
@@ -371,9 +392,11 @@ class SimVehicle:
         """World (n, e, d, vn, ve, vd), yaw, yaw rate and speed at ``now``."""
         ac = self.flight.aircraft
         if ac is None:
-            route = self.spec.route
-            n, e = route.position(now) if route else self.world.to_ned(self.spec.home)[:2]
-            vn, ve = route.velocity(now) if route else (0.0, 0.0)
+            route, clock = self.spec.route, self._drive
+            tau, rate = clock.at(now), clock.rate(now)
+            n, e = route.position(tau) if route else self.world.to_ned(self.spec.home)[:2]
+            vn, ve = route.velocity(tau) if route else (0.0, 0.0)
+            vn, ve = vn * rate, ve * rate
             speed = math.hypot(vn, ve)
             if speed > 0.05:
                 self._ground_yaw = math.atan2(ve, vn)
@@ -444,7 +467,7 @@ class SimVehicle:
             return {}
         home_first = self.firmware.is_ardupilot
         return {
-            "mission_seq": mission.current(now, home_first=home_first),
+            "mission_seq": mission.current(self._drive.at(now), home_first=home_first),
             # (ArduPilot leaves its home item out of the total: GCS_MAVLINK)
             "mission_total": mission.count(home_first=False),
         }

@@ -150,6 +150,17 @@ class DriveProfile:
         i = max(bisect.bisect_right(self.starts, t) - 1, 0)
         return self.phases[i].at(t)
 
+    def hold_began(self, t: float) -> float:
+        """When the hold stood at time ``t`` began (a lap's, on a loop); ``t`` itself if
+        none is stood then."""
+        if t <= 0.0 or not self.phases or (not self.loop and t >= self.duration):
+            return t
+        lap = math.floor(t / self.duration) * self.duration if self.loop else 0.0
+        i = max(bisect.bisect_right(self.starts, t - lap) - 1, 0)
+        phase = self.phases[i]
+        held = phase.v0 == 0.0 and phase.a == 0.0 and phase.span > 0.0
+        return lap + phase.t0 if held else t
+
 
 @dataclass(frozen=True, slots=True)
 class Ramps:

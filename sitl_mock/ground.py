@@ -181,6 +181,11 @@ class Polyline:
         """When each vertex is first reached, before its hold (empty: a route that stands)."""
         return self._drive.arrivals if self._drive is not None else ()
 
+    def hold_began(self, t: float) -> float:
+        """When the hold stood at ``t`` began (``t`` if none is): where a rover that its
+        operator held during a waypoint's hold starts it again, back in AUTO."""
+        return t if self._drive is None else self._drive.hold_began(t)
+
     def _locate(self, t: float) -> tuple[int, float, float] | None:
         """Segment index, distance along it and speed at ``t``; None when standing still
         at the start or the end."""

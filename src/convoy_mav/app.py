@@ -50,6 +50,7 @@ from convoy_mav.mavlink.autopilots.base import (
 )
 from convoy_mav.mavlink.codec import GCS_COMPONENT, GCS_SYSTEM, MavCodec
 from convoy_mav.mavlink.missionread import MissionWatch
+from convoy_mav.mavlink.rovermode import RoverMode, rover_mode
 from convoy_mav.mavlink.signing import Signing, load_key
 from convoy_mav.mission import (
     Mission,
@@ -76,7 +77,7 @@ from convoy_mav.streaming import SetpointStreamer
 from convoy_mav.tracks import load_planned_route
 from convoy_mav.tracks.missionroute import mission_route
 from convoy_mav.tracks.plannedroute import PlannedRoute
-from convoy_mav.types import ConvoyEstimate, Setpoint, Telemetry, VehicleStatus
+from convoy_mav.types import ConvoyDrive, ConvoyEstimate, Setpoint, Telemetry, VehicleStatus
 from convoy_mav.vehicle import EventKind, Vehicle, VehicleEvent
 
 __all__ = ["ConvoyService", "Progress", "ServiceReport"]
@@ -111,6 +112,7 @@ _LAUNCH_CLEARANCE = 1.5  # a pad is clear of UAVs this many horizontal minima aw
 _LAUNCH_HEADROOM = 2.0  # ... or this many vertical minima above it, bound higher
 _SETTING_UP = frozenset({VehicleStatus.WAITING_FIX, VehicleStatus.SETTING_UP})
 _FINISH_WALL_S = 15.0  # wall s the end-of-mission commands are waited for at most
+_MODES_KEPT = 1000  # the lead ground vehicle's mode changes kept for the report
 _JOINABLE = frozenset({"pending", "protect"})
 """Phases a join starts from: a UAV without a slot, or one far off its slot (``_off_slot``)."""
 _OFF_SLOT_S = 5.0  # mission s a protecting UAV is farther than R off its slot before...
@@ -408,6 +410,12 @@ class ConvoyService:
             if config.convoy.route_file is not None
             else ("given" if self.route is not None else None)  # (replay --route-known)
         )
+        # The lead ground vehicle's mode (a rover's: its mission, a stand, or else), as
+        # heard, each change for the road mission's next step and the report.
+        self._lead_id = config.convoy.vehicles[0].sysid if config.convoy.vehicles else None
+        self._lead_mode: RoverMode | None = None
+        self._new_drive: ConvoyDrive | None = None
+        self.convoy_modes: list[tuple[float, str]] = []
         # The lead ground vehicle's own mission, read as the convoy's route.
         self._mission_watch = (
             MissionWatch(config.convoy.vehicles[0].sysid)
@@ -475,7 +483,9 @@ class ConvoyService:
         watch = self._mission_watch
         if watch is not None and sysid == watch.target[0]:
             self._mission_sends(watch.handle(msg, time.monotonic()))
-        if sysid in self._ground_ids and msg.get_type() == "PARAM_VALUE":
+        if sysid == self._lead_id and msg.get_type() == "HEARTBEAT":
+            self._lead_heartbeat(sysid, msg)
+        elif sysid in self._ground_ids and msg.get_type() == "PARAM_VALUE":
             if msg.param_id == "SIM_SPEEDUP":  # (a simulated convoy slowed with the UAVs)
                 self.clock.rate_set(float(msg.param_value), sysid)
         elif sysid in self._ground_ids and msg.get_type() == "GLOBAL_POSITION_INT":
@@ -492,6 +502,24 @@ class ConvoyService:
             velocity = (msg.vx * 0.01, msg.vy * 0.01)
             self.tracker.update(t, north, east, source=sysid, velocity=velocity)
             self._ground_heard[sysid] = t
+
+    def _lead_heartbeat(self, sysid: int, msg: Any) -> None:
+        """The lead ground vehicle's mode: a change is noted and told the road mission
+        (``ConvoyModel.set_drive``)."""
+        mode = rover_mode(msg)
+        if mode is None or mode == self._lead_mode:
+            return
+        was, self._lead_mode = self._lead_mode, mode
+        self._new_drive = mode.drive
+        if len(self.convoy_modes) < _MODES_KEPT:
+            self.convoy_modes.append((round(self.clock.now(), 1), mode.name))
+        what = {
+            ConvoyDrive.MISSION: "drives its mission",
+            ConvoyDrive.HELD: "stands until its mode changes: the convoy is forecast standing",
+            ConvoyDrive.OTHER: "is driven otherwise: its mission's plan is set aside",
+        }[mode.drive]
+        since = "" if was is None else f" (was {was.name})"
+        self._note(f"ground vehicle {sysid} in {mode.name}{since}: it {what}")
 
     def _mission_sends(self, out: Sequence[Any]) -> None:
         """Send a mission read's requests to the lead ground vehicle; take a finished read."""
@@ -1525,10 +1553,13 @@ class ConvoyService:
         mission = self.mission
         events: list[Any] = []
         road, self._new_route = self._new_route, None
+        drive, self._new_drive = self._new_drive, None
         road_mission = mission if isinstance(mission, RoadMission) else None
         if road_mission is not None:
             if road is not None:
                 road_mission.set_route(*road)
+            if drive is not None:
+                road_mission.set_drive(drive, t)
             road_mission.set_replan_lag(*lead)
         plans_before = 0 if road_mission is None else road_mission.uav_plans
         if est is not None:
@@ -1929,6 +1960,8 @@ class ConvoyService:
         out["route_source"] = self._route_source
         if self._mission_watch is not None:
             out["mission_reads"] = self._mission_watch.reads
+        # The lead ground vehicle's modes as heard: (mission time, name), in order.
+        out["convoy_modes"] = [{"t": t, "mode": name} for t, name in self.convoy_modes]
         # Convoy estimates whose velocity was the vehicles' own, and the fixes' slope.
         out["convoy_velocity"] = {k: self.tracker.counters[k] for k in _VELOCITY_SOURCES}
         if isinstance(self.mission, RoadMission):

@@ -17,7 +17,7 @@ from enum import StrEnum
 
 from convoy_mav.values import value
 
-__all__ = ["ConvoyEstimate", "Setpoint", "Telemetry", "VehicleStatus"]
+__all__ = ["ConvoyDrive", "ConvoyEstimate", "Setpoint", "Telemetry", "VehicleStatus"]
 
 
 @value
@@ -89,6 +89,14 @@ class Telemetry:
     lat: float
     lon: float
     alt: float
+
+
+class ConvoyDrive(StrEnum):
+    """What drives the convoy's lead vehicle now, as its autopilot's mode says."""
+
+    MISSION = "mission"  # its mission (AUTO): the plan read from it holds
+    HELD = "held"  # it stands until told otherwise (HOLD, disarmed)
+    OTHER = "other"  # a driver or another command (MANUAL, GUIDED, RTL): no plan holds
 
 
 @dataclass(frozen=True, slots=True)

@@ -5,17 +5,25 @@ braking at 1 m/s² to 2-3 m/s for each corner, a hold, a slower stretch set by
 DO_CHANGE_SPEED), and serves it as its mission. The service reads the route, its hold and
 its speeds over MAVLink (``[convoy] route = "mission"``), learns how slowly the convoy
 takes its corners, and protects it; over real UDP against ``sitl_mock`` at 40x, both
-personalities, scored from the mock's ground truth.
+personalities, scored from the mock's ground truth. And its operator holds it a minute
+(HOLD, then AUTO, from a ground station of their own): the rover stands, the service
+hears it and watches a standing convoy.
 """
 
 from __future__ import annotations
 
+import asyncio
 import math
+from typing import Any
 
 import pytest
+from pymavlink import mavutil
+from pymavlink.dialects.v20 import common as mavlink
 
+from convoy_mav.app import ConvoyService
 from convoy_mav.demo import SCENARIOS, run_demo
 from sitl_mock.drive import Ramps, corner_speed
+from sitl_mock.server import MockFleet
 from tests.hostspeed import host_speedup
 
 SPEEDUP = host_speedup(40.0)
@@ -72,3 +80,74 @@ async def test_a_rovers_corners_are_learnt_and_its_convoy_protected(
     assert truth.longest_gap_s <= 12.0, truth
     # (1.5 points, as the road replays allow a flight beside another at 40x)
     assert report["predicted_coverage"] == pytest.approx(truth.fraction, abs=0.015)
+
+
+_ARDUROVER_HOLD, _ARDUROVER_AUTO = 4, 10
+
+
+@pytest.mark.alone
+async def test_a_rover_its_operator_holds_stands_and_is_watched_standing() -> None:
+    scenario = SCENARIOS["turning"]
+    marks: dict[str, Any] = {}
+
+    async def operator(fleet: MockFleet, service: ConvoyService) -> None:
+        """Holds every ground vehicle of the convoy, as its operator does, then AUTO."""
+        lead = service.config.convoy.vehicles[0].sysid
+
+        async def until(t: float) -> None:
+            while fleet.now < t:
+                await asyncio.sleep(0.01)
+
+        while service.monitor.protect_start is None:
+            await asyncio.sleep(0.01)
+        await until(250.0)
+        gcs = {
+            v.sysid: mavutil.mavlink_connection(
+                f"udpout:127.0.0.1:{fleet.endpoint(v.sysid).connect.rsplit(':', 1)[1]}",
+                source_system=250,
+            )
+            for v in service.config.convoy.vehicles
+        }
+        flag = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
+        try:
+            for mode, name, hold_s in (
+                (_ARDUROVER_HOLD, "held", 60.0),
+                (_ARDUROVER_AUTO, "auto", 20.0),
+            ):
+                marks[name] = fleet.now
+                for _ in range(3):  # (UDP: as a ground station repeats itself)
+                    for sysid, link in gcs.items():
+                        link.mav.set_mode_send(sysid, flag, mode)
+                    await asyncio.sleep(0.02)
+                await until(marks[name] + 15.0)
+                marks[f"{name}+15"] = fleet.truth(lead)
+                await until(marks[name] + hold_s)
+                marks[f"{name}+end"] = fleet.truth(lead)
+        finally:
+            for link in gcs.values():
+                link.close()
+
+    result = await run_demo(
+        scenario, duration=480.0, speedup=SPEEDUP, personality="ardupilot",
+        uavs=scenario.fleet(route_known=True), route_mission=True, road=CIRCUIT, during=operator,
+    )  # fmt: skip
+    report = result.report.to_dict()
+    assert "auto+end" in marks, marks
+    # The rover braked to a stand within 15 s and stood the minute; in AUTO it drove on.
+    stood, still = marks["held+15"], marks["held+end"]
+    assert stood.mode == "HOLD" and stood.speed == 0.0, stood
+    assert (still.north, still.east) == (stood.north, stood.east)
+    assert marks["auto+15"].mode == "AUTO" and marks["auto+15"].speed > 2.0, marks["auto+15"]
+    # The service heard each mode, in order, and said what it makes of it.
+    modes = [m["mode"] for m in report["planner"]["convoy_modes"]]
+    assert modes == ["AUTO", "HOLD", "AUTO"], modes
+    heard = report["planner"]["convoy_modes"][1]["t"]  # (mission time: the mock's clock)
+    assert marks["held"] - 1.0 <= heard <= marks["held"] + 5.0  # (HEARTBEAT at 1 Hz, at 40x)
+    assert any("in HOLD (was AUTO): it stands" in e for e in report["events"]), report["events"]
+    truth = result.truth
+    assert truth is not None
+    # (four flights at 40x: 97.1-98.8 %, predicted 0.4-1.5 points higher, as the UAVs fly
+    # their legs a little late at this speedup; 98.1-98.3 % without the hold)
+    assert truth.fraction >= 0.96, (truth, report["predicted_coverage"])
+    assert truth.longest_gap_s <= 12.0, truth
+    assert report["predicted_coverage"] == pytest.approx(truth.fraction, abs=0.02)

@@ -16,7 +16,7 @@ from convoy_mav.planning.pattern import PatternClock
 from convoy_mav.planning.plan import Trajectory
 from convoy_mav.planning.road import Road
 from convoy_mav.tracks.roads import junction
-from convoy_mav.types import ConvoyEstimate
+from convoy_mav.types import ConvoyDrive, ConvoyEstimate
 
 CORNER_AT = 600.0  # m up the junction's road (north), where it turns 90 deg left (west)
 JUNCTION = junction(25.0, 90.0, CORNER_AT)
@@ -395,3 +395,33 @@ def test_a_hold_is_not_planned_for_a_convoy_off_its_route_or_without_a_plan() ->
     off.observe(ConvoyEstimate(16.0, 200.0, 136.0, 0.0, 8.0))
     x, _ = off.positions(np.array([16.0 + 100.0]))
     assert x[0] == pytest.approx(136.0 + 800.0)  # its own velocity
+
+
+# ------------------------------------------------------- the lead vehicle's mode
+
+
+def test_told_to_stand_at_a_planned_hold_it_stands_on_and_back_in_auto_the_hold_restarts() -> None:
+    model = _holding(80.0, 60.0, [(10.0, 8.0), (20.0, 0.0)])  # standing there 20 s
+    dt = np.arange(0.0, 200.0, 1.0)
+    assert _ahead(model, dt)[45] > 0.5  # (its plan: away 60 s after it stopped)
+    model.set_drive(ConvoyDrive.HELD)  # its operator: HOLD
+    assert model.drive is ConvoyDrive.HELD
+    assert np.all(np.abs(_ahead(model, dt)) < 1e-6)  # stands until told otherwise
+    model.set_drive(ConvoyDrive.MISSION)  # AUTO again: the waypoint's hold starts again
+    arc = _ahead(model, dt)
+    assert np.all(np.abs(arc[:60]) < 1e-6) and arc[65] > 0.5
+
+
+def test_driven_otherwise_its_plan_is_set_aside_and_its_speed_not_learnt() -> None:
+    dt = np.arange(0.0, 120.0, 1.0)
+    planned = _driven([(10.0, 5.0)], paces=[(0.0, 10.0)])
+    plain = _driven([(10.0, 5.0)])
+    assert _ahead(planned, dt)[60] > _ahead(plain, dt)[60] + 100.0  # (to its 10 m/s)
+    planned.set_drive(ConvoyDrive.OTHER)  # MANUAL: a driver
+    assert _ahead(planned, dt) == pytest.approx(_ahead(plain, dt))
+    keeps = ConvoyModel(STRAIGHT)
+    keeps.set_route(STRAIGHT, keeps_speed=True)
+    keeps.set_drive(ConvoyDrive.OTHER)
+    for t in range(200):
+        keeps.observe(ConvoyEstimate(float(t), 0.0, 6.0 * t, 0.0, 6.0))
+    assert not keeps._driven  # (a driver's speeds are not the rover's)

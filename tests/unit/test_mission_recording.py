@@ -13,7 +13,9 @@ from convoy_mav.mission.recording import MissionRecording, load_recording
 from convoy_mav.mission.road import RoadMission, RoadSettings
 from convoy_mav.mission.simulate import fly_road
 from convoy_mav.planning import PlanRequest
+from convoy_mav.planning.road import Road
 from convoy_mav.tracks.roads import corner
+from convoy_mav.types import ConvoyDrive
 
 REQUEST = PlanRequest(150.0, 100.0, 18.0)
 
@@ -113,3 +115,23 @@ def test_a_lag_scaled_replay_is_the_flight_on_a_host_a_little_slower(
     assert any(a.setpoint(u, 400.0) != b.setpoint(u, 400.0) for u in recording.uav_ids)
     with pytest.raises(ValueError, match="factor"):
         recording.with_lag_scaled(math.nan)
+
+
+def test_the_lead_vehicles_modes_are_recorded_and_replayed() -> None:
+    """A mission's holds, its rover held by its operator through one (HOLD, then AUTO):
+    the modes are inputs too, stamped with their time."""
+    t, north, east = corner(-60.0, 300.0, then_s=120.0)
+    route = Road.from_points(east, north)
+    drives = [(150.0, ConvoyDrive.HELD), (200.0, ConvoyDrive.MISSION)]
+    run = fly_road(
+        t, north, east, REQUEST, 6, route=route, holds=[(400.0, 30.0)], drives=drives,
+        record=True,
+    )  # fmt: skip
+    assert run.recording is not None
+    told = [args for method, args in run.recording.calls if method == "set_drive"]
+    assert [d for d, _ in told] == [ConvoyDrive.HELD, ConvoyDrive.MISSION]
+    assert [when for _, when in told] == pytest.approx([150.0, 200.0], abs=0.5)
+    replay = RoadMission.replayed(run.recording)
+    assert replay.model.drive is ConvoyDrive.MISSION
+    assert replay.predicted_coverage == run.predicted_coverage
+    assert RoadMission.replayed(run.recording, until=180.0).model.drive is ConvoyDrive.HELD

@@ -71,6 +71,14 @@ Design rules:
   is driven at the rover's own speed where its plan sets none (a PX4 rover's default,
   not asked): ``cruise``, learnt from the drive once the rover is seen to brake for
   its corners as an autopilot does, is then the planned speed there.
+- What drives the lead vehicle, as its autopilot's mode says (``set_drive``; not said,
+  its mission). Told to stand (HOLD, disarmed) at a planned hold, it is not forecast to
+  pull away when the hold's time is up: it stands until its operator says otherwise;
+  back in its mission there, the hold starts again (ArduRover restarts the waypoint).
+  Driven otherwise (MANUAL, GUIDED, RTL), the plan is set aside and its speeds are not
+  learnt as the rover's: a driver keeps none of them. Braking and pulling away are
+  still forecast from its fixes: forecast from the mode (at once, seconds before the
+  fixes show them) they measured no better in simulation (``docs/road-planner.md``).
 - A route known to be a circuit (``circuit``: a rover's mission that jumps
   back to its first waypoint, DO_JUMP, closed by the drive back there) is
   lapped: past its end the convoy is on the next lap at once, not driving
@@ -93,7 +101,7 @@ import numpy.typing as npt
 
 from convoy_mav.mission.corners import CornerHabit, warp
 from convoy_mav.planning.road import Road
-from convoy_mav.types import ConvoyEstimate
+from convoy_mav.types import ConvoyDrive, ConvoyEstimate
 
 __all__ = ["HOLD_ACCEL", "ConvoyModel", "RoadMotion"]
 
@@ -197,6 +205,7 @@ class ConvoyModel:
         self._keeps_speed = False  # a rover in AUTO: where none is planned, it keeps its own
         self._driven: deque[tuple[float, float]] = deque()  # (t, speed along) while driving
         self._kept: tuple[float, float | None] = (math.nan, None)  # (t, learnt) cached
+        self._drive: ConvoyDrive | None = None  # what drives it (None: not said)
         self._holding: int | None = None  # the hold it stands at (index)
         self._held: set[int] = set()  # holds stood at and left
         self._stood_since: float | None = None  # standing (along the route) since
@@ -264,6 +273,26 @@ class ConvoyModel:
         if est is not None:
             self.observe(est)
 
+    def set_drive(self, drive: ConvoyDrive | None) -> None:
+        """What drives the convoy's lead vehicle from now on (its mode; None: not said,
+        as its mission). Back in its mission while standing at a planned hold, the hold
+        starts again, as ArduRover restarts the waypoint it stands at."""
+        was, self._drive = self._drive, drive
+        est = self._est
+        back = drive is ConvoyDrive.MISSION and was not in (None, ConvoyDrive.MISSION)
+        if back and est is not None and self._holding is not None:
+            self._stood_since = est.t
+
+    @property
+    def drive(self) -> ConvoyDrive | None:
+        """What drives the lead vehicle, as last said (None: never said)."""
+        return self._drive
+
+    @property
+    def _plan_holds(self) -> bool:
+        """The convoy keeps its plan: it drives its mission (or nobody said otherwise)."""
+        return self._drive in (None, ConvoyDrive.MISSION)
+
     def observe(self, est: ConvoyEstimate) -> None:
         """Fold in a fresh estimate (stale ones say nothing new: skip them)."""
         if est.stale or not all(map(math.isfinite, (est.north, est.east, est.vn, est.ve))):
@@ -318,7 +347,7 @@ class ConvoyModel:
                 ]
                 self._holding = near[0] if near else None
         self._note_speed(est.t, self._along)
-        if self._along >= _CRUISING_MPS:
+        if self._along >= _CRUISING_MPS and self._plan_holds:
             driven = self._driven
             driven.append((est.t, self._along))
             while driven[0][0] < est.t - CRUISE_WINDOW_S:
@@ -445,11 +474,7 @@ class ConvoyModel:
         est = self._est
         if est is None:
             return 0.0, 0.0
-        dt = max(t - est.t, 0.0)
-        road = self.road
-        if road is None or self._off_road:
-            return est.east + est.ve * dt, est.north + est.vn * dt
-        x, y, _, _ = road.arrays(self._lapped(road, self._arcs(np.array([dt]))))
+        x, y = self.positions(np.array([t]))
         return float(x[0]), float(y[0])
 
     def positions(self, times: npt.NDArray[np.float64]) -> tuple[FloatArray, FloatArray]:
@@ -470,12 +495,17 @@ class ConvoyModel:
         if est is None or since is None or k is None:
             return None
         arc, seconds = self._holds[k]
+        if self._drive is ConvoyDrive.HELD:  # (told to stand: until told otherwise)
+            return arc, math.inf
         return arc, max(0.0, seconds - (est.t - since))
 
     def _pace_at(self, arc: float) -> float | None:
         """The planned speed in force at ``arc`` (the last change at or before it; on a
         circuit, before the lap's first, the lap's last); where none is, the speed a
-        convoy that keeps its own was seen to (``cruise``), else None."""
+        convoy that keeps its own was seen to (``cruise``), else None (and None while
+        the plan is set aside, ``set_drive``)."""
+        if not self._plan_holds:
+            return None
         paces = self._paces
         k = bisect.bisect_right(paces, (arc, math.inf))
         if k:
@@ -530,7 +560,7 @@ class ConvoyModel:
         base = self._s + self.ahead(dt)
         road = self.road
         planned = self._holds or self._paces or self.cruise is not None
-        if not planned or self._reversed or len(dt) == 0 or road is None:
+        if not (planned and self._plan_holds) or self._reversed or len(dt) == 0 or road is None:
             return base
         here = self._hold_here()
         events = self._plan_ahead()

@@ -3,7 +3,7 @@
 The road planner is pure: the same inputs, in the same order, give the same
 plans to the last bit, whatever the host or the speedup of the flight that
 made them. So a flight's planning can be reproduced without the flight: the
-convoy estimates, joins, losses, returns, ticks and routes a ``RoadMission``
+convoy estimates, joins, losses, returns, ticks, routes and lead vehicle's modes a ``RoadMission``
 was fed, each with its arguments, replayed into a new one
 (``RoadMission.replayed``). That answers why a
 UAV flew where it did (step through the replay, look at any re-plan), and checks
@@ -42,6 +42,7 @@ INPUTS = (
     "tick",
     "set_route",
     "set_replan_lag",
+    "set_drive",
 )
 """The ``RoadMission`` methods that take the world in: all a replay needs."""
 
@@ -133,4 +134,6 @@ def _stamp(method: str, args: tuple[Any, ...]) -> float:
         return float(args[1])
     if method == "tick":
         return float(args[0])
+    if method == "set_drive":
+        return float(args[1])
     return float("-inf")

@@ -110,7 +110,7 @@ from convoy_mav.planning.pattern import (
 from convoy_mav.planning.plan import PlanRequest, Trajectory
 from convoy_mav.planning.road import Road
 from convoy_mav.schedule import setpoint_on, yaw_to_heading
-from convoy_mav.types import ConvoyEstimate, Setpoint
+from convoy_mav.types import ConvoyDrive, ConvoyEstimate, Setpoint
 
 __all__ = ["FAST_CONVOY_RATIO", "RoadMission", "RoadSettings"]
 
@@ -684,6 +684,13 @@ class RoadMission(Roster):
             plan = (tuple(holds), circuit, tuple(speeds), *((True,) if keeps_speed else ()))
             self.recording.add("set_route", (route, *plan) if any(plan) else (route,))
         self.model.set_route(route, holds, circuit=circuit, speeds=speeds, keeps_speed=keeps_speed)
+
+    def set_drive(self, drive: ConvoyDrive | None, t: float) -> None:
+        """What drives the convoy's lead vehicle from mission time ``t`` on, as its mode
+        says (``ConvoyModel.set_drive``): its mission, a stand it is told to, or else."""
+        if self.recording is not None:
+            self.recording.add("set_drive", (drive, t))
+        self.model.set_drive(drive)
 
     def join(self, uav: int, north: float, east: float, yaw: float, t: float) -> list[MissionEvent]:
         """``join_many`` for one UAV."""

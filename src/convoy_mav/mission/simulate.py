@@ -29,6 +29,7 @@ from convoy_mav.mission.road import RoadMission, RoadSettings
 from convoy_mav.planning.plan import PlanRequest
 from convoy_mav.planning.road import Road, path_lengths
 from convoy_mav.tracks.stops import standstills
+from convoy_mav.types import ConvoyDrive
 
 __all__ = ["RoadRun", "chord_velocity", "fly_road"]
 
@@ -101,6 +102,7 @@ def fly_road(
     circuit: bool = False,
     speeds: Sequence[tuple[float, float]] = (),
     keeps_speed: bool = False,
+    drives: Sequence[tuple[float, ConvoyDrive]] = (),
 ) -> RoadRun:
     """Fly ``uavs`` UAVs over a convoy whose fixes are (t, north, east).
 
@@ -136,6 +138,9 @@ def fly_road(
             a mission's DO_CHANGE_SPEEDs give them.
         keeps_speed: The convoy keeps a speed of its own where none is planned, as a
             rover in AUTO drives its default (``ConvoyModel.cruise``).
+        drives: What drives the lead vehicle from each time on (time, drive), as its
+            mode says (``RoadMission.set_drive``), told the mission at the first step
+            at or after it: an operator's HOLD, AUTO again.
     """
     ts = np.asarray(t, dtype=np.float64)
     fn, fe = np.asarray(north, dtype=np.float64), np.asarray(east, dtype=np.float64)
@@ -165,7 +170,10 @@ def fly_road(
     k = 0
     busy_until = -math.inf  # (the step in progress, with a lag)
     step_times = np.arange(float(ts[0]), end, dt)
+    told = sorted(drives, key=lambda d: d[0])
     for now in step_times.tolist():
+        while told and told[0][0] <= now:
+            mission.set_drive(told.pop(0)[1], now)
         while k < len(ts) and ts[k] <= now:
             velocity = None if vn is None or ve is None else (float(vn[k]), float(ve[k]))
             tracker.update(float(ts[k]), float(fn[k]), float(fe[k]), velocity=velocity)

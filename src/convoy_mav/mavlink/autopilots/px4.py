@@ -39,7 +39,7 @@ from convoy_mav.mavlink.autopilots.base import (
 )
 from convoy_mav.types import Setpoint
 
-__all__ = ["PX4"]
+__all__ = ["PX4", "px4_mode_name"]
 
 _MAIN = {
     1: "MANUAL",
@@ -83,6 +83,20 @@ _MODES: dict[str, tuple[int, int]] = {name: (main, 0) for main, name in _MAIN.it
 _MODES.update({f"AUTO.{name}": (4, sub) for sub, name in _AUTO_SUB.items()})
 
 
+def px4_mode_name(custom_mode: int) -> str:
+    """The name of a PX4 HEARTBEAT.custom_mode (``"OFFBOARD"``, ``"AUTO.MISSION"``...;
+    ``"MODE(main,sub)"`` if unknown)."""
+    main = (custom_mode >> 16) & 0xFF
+    sub = (custom_mode >> 24) & 0xFF
+    name = _MAIN.get(main)
+    if name is None:
+        return f"MODE({main},{sub})"
+    if main == 4:
+        sub_name = _AUTO_SUB.get(sub or 4)  # AUTO without a sub mode is a mission
+        return f"AUTO.{sub_name}" if sub_name else f"AUTO({sub})"
+    return name
+
+
 class PX4(Autopilot):
     """PX4 multicopter or fixed-wing in OFFBOARD."""
 
@@ -111,15 +125,7 @@ class PX4(Autopilot):
 
     def mode_name(self, custom_mode: int) -> str:
         """``"OFFBOARD"``, ``"AUTO.LOITER"``... (``"MODE(main,sub)"`` if unknown)."""
-        main = (custom_mode >> 16) & 0xFF
-        sub = (custom_mode >> 24) & 0xFF
-        name = _MAIN.get(main)
-        if name is None:
-            return f"MODE({main},{sub})"
-        if main == 4:
-            sub_name = _AUTO_SUB.get(sub or 4)  # AUTO without a sub mode is a mission
-            return f"AUTO.{sub_name}" if sub_name else f"AUTO({sub})"
-        return name
+        return px4_mode_name(custom_mode)
 
     @property
     def external_mode(self) -> str:

@@ -1,0 +1,74 @@
+"""What a ground vehicle's HEARTBEAT says of its drive: its mission, a stand, or else.
+
+A rover driving its mission in AUTO keeps the mission's plan (its holds, its speeds),
+which the service reads as the convoy's (``[convoy] route = "mission"``). Switched to
+HOLD, or disarmed, it stands until its operator switches it back, and does not pull
+away at the end of a planned hold; back in AUTO it pulls away at once, seconds before
+its fixes can show it. In MANUAL, GUIDED or RTL something other than the mission
+drives it, at speeds the plan does not say. So the lead vehicle's mode tells the road
+model which forecast holds (``ConvoyModel.set_drive``). Modes by firmware:
+
+- ArduRover (``Rover/mode.h``): AUTO 10 drives the mission, HOLD 4 stands (it cuts
+  the throttle: ``ModeHold::update``); LOITER 5 holds a point, a stand for a car.
+- PX4's rovers: AUTO.MISSION drives the mission, AUTO.LOITER is their hold.
+- Other autopilots (a phone, a tracker sending positions): nothing is said (None).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from pymavlink.dialects.v20 import common as mavlink
+
+from convoy_mav.mavlink.autopilots.px4 import px4_mode_name
+from convoy_mav.types import ConvoyDrive
+
+__all__ = ["RoverMode", "rover_mode"]
+
+_ARDUROVER = {
+    0: "MANUAL",
+    1: "ACRO",
+    3: "STEERING",
+    4: "HOLD",
+    5: "LOITER",
+    6: "FOLLOW",
+    7: "SIMPLE",
+    8: "DOCK",
+    9: "CIRCLE",
+    10: "AUTO",
+    11: "RTL",
+    12: "SMART_RTL",
+    15: "GUIDED",
+    16: "INITIALISING",
+}
+_MISSION = frozenset({"AUTO", "AUTO.MISSION"})
+_STANDS = frozenset({"HOLD", "LOITER", "AUTO.LOITER"})
+_GROUND = frozenset({mavlink.MAV_TYPE_GROUND_ROVER, mavlink.MAV_TYPE_SURFACE_BOAT})
+
+
+@dataclass(frozen=True, slots=True)
+class RoverMode:
+    """A rover's mode: what drives it, and the mode's name as its firmware calls it."""
+
+    drive: ConvoyDrive
+    name: str  # "AUTO", "HOLD", "AUTO.MISSION", "AUTO, disarmed"
+
+
+def rover_mode(heartbeat: Any) -> RoverMode | None:
+    """What a HEARTBEAT says drives the rover; None if it is no ArduPilot or PX4 rover
+    (or boat), whose modes are not known here."""
+    if heartbeat.type not in _GROUND:
+        return None
+    custom = int(heartbeat.custom_mode)
+    if heartbeat.autopilot == mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA:
+        name = _ARDUROVER.get(custom, f"MODE({custom})")
+    elif heartbeat.autopilot == mavlink.MAV_AUTOPILOT_PX4:
+        name = px4_mode_name(custom)
+    else:
+        return None
+    if not heartbeat.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED:
+        return RoverMode(ConvoyDrive.HELD, f"{name}, disarmed")
+    if name in _MISSION:
+        return RoverMode(ConvoyDrive.MISSION, name)
+    return RoverMode(ConvoyDrive.HELD if name in _STANDS else ConvoyDrive.OTHER, name)
