@@ -52,6 +52,8 @@
 # mission sets the speed with a DO_CHANGE_SPEED, which the service reads as the convoy's
 # planned speed; ROVER_NO_PLAN_SPEED=1 leaves it out (the rover drives its WP_SPEED, the
 # same, and the service has no planned speed), to weigh the plan against the firmware.
+# ROVER_HOLDS="AT:FOR ..." has its operator hold it (HOLD at its boot time AT s, AUTO
+# again FOR s later; checks/rover_mission.py drive --hold): the service hears each mode.
 #
 # SITL_DIR is an ArduPilot tree with build/sitl/bin/arducopter and arduplane built
 # (see the project's notes on building SITL; it is not part of `make test`).
@@ -142,8 +144,10 @@ PY
     pids+=($!)
     mission_speed=${ROVER_SPEED:-8}
     [ -n "${ROVER_NO_PLAN_SPEED:-}" ] && mission_speed=0  # (no DO_CHANGE_SPEED: WP_SPEED)
+    holds=()
+    for h in ${ROVER_HOLDS:-}; do holds+=(--hold "$h"); done  # (its operator's HOLDs)
     "$py" checks/rover_mission.py drive tcp:127.0.0.1:5962 "$out/road.csv" "$mission_speed" \
-      >"$out/rover_drive.log" 2>&1 &
+      "${holds[@]}" >"$out/rover_drive.log" 2>&1 &
     pids+=($!)
   else
     .venv/bin/sitl-mock --aircraft $((uavs + 1)) --ground 2 --personality ardupilot \
@@ -243,6 +247,7 @@ if [ -n "${ROVER:-}" ]; then
 import json, sys
 planner = json.load(open(sys.argv[1]))['planner']
 print('route:', planner.get('route_source'), planner.get('route_length_m'), 'm; mission reads:', planner.get('mission_reads'))
+print('modes heard:', [(m['t'], m['mode']) for m in planner.get('convoy_modes', [])])
 " "$out/report.json"
 fi
 if [ -n "${KILL:-}" ]; then

@@ -3,6 +3,7 @@
     .venv/bin/python checks/rover_mission.py read udpin:127.0.0.1:14550   # ArduRover SITL
     .venv/bin/python checks/rover_mission.py read --mock ardupilot        # the mock's rover
     .venv/bin/python checks/rover_mission.py drive tcp:127.0.0.1:5962 road.csv 8
+    .venv/bin/python checks/rover_mission.py drive tcp:127.0.0.1:5962 road.csv 8 --hold 300:60
     .venv/bin/python checks/rover_mission.py compare mission.tlog road.csv 8 --accel 1
 
 ``read`` checks that the service's reader (``mavlink.missionread``) and the road it
@@ -21,7 +22,10 @@ time,lat,lon, as ``checks/ardupilot_sitl.sh`` writes for ROAD=KIND, thinned as t
 mock's rovers thin theirs, ``sitl_mock.mission.thin``) as waypoints after a
 DO_CHANGE_SPEED to the speed given (m/s; 0: none, the rover drives its WP_SPEED), then
 AUTO and arming, retried until the firmware accepts. Run beside ``convoy-mav run``
-with ``[convoy] route = "mission"``.
+with ``[convoy] route = "mission"``. ``--hold AT:FOR`` (repeatable) is its operator
+holding it: HOLD at the rover's own boot time AT s, AUTO again FOR s later; each prints
+where the rover was, how far it ran on after HOLD and how long it took to stand, and
+whether it drove on in AUTO.
 
 ``compare`` sets the drive of a real rover (its GLOBAL_POSITION_INT in a tlog, from when
 it first moves to when it last does) beside the mock's rover driving the same road as
@@ -55,7 +59,8 @@ from sitl_mock.ground import Polyline
 from sitl_mock.mission import DEFAULT_TOLERANCE_M, thin
 
 MISSION = mavlink.MAV_MISSION_TYPE_MISSION
-ROVER_AUTO = 10  # ArduRover's custom mode
+ROVER_AUTO = 10  # ArduRover's custom modes
+ROVER_HOLD = 4
 REL = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
 FIRST = ((-35.3620, 149.1650), (-35.3600, 149.1650), (-35.3600, 149.1680))
 SECOND = (*FIRST, (-35.3620, 149.1680), (-35.3630, 149.1660))
@@ -179,7 +184,9 @@ def road_items(target: tuple[int, int], path: str, speed: float) -> list[Any]:
     ]
 
 
-def drive(connection: str, path: str, speed: float) -> int:
+def drive(
+    connection: str, path: str, speed: float, holds: Sequence[tuple[float, float]] = ()
+) -> int:
     """Upload the road, AUTO, arm (see the module's ``drive``)."""
     link = mavutil.mavlink_connection(connection, source_system=250, source_component=190)
     hb = link.wait_heartbeat(timeout=60)
@@ -207,10 +214,53 @@ def drive(connection: str, path: str, speed: float) -> int:
         arm = mavlink.MAV_CMD_COMPONENT_ARM_DISARM
         if ack is not None and ack.command == arm and ack.result == mavlink.MAV_RESULT_ACCEPTED:
             print(f"{time.strftime('%H:%M:%S')} armed in AUTO", flush=True)
-            return 0
+            return _operator_holds(link, target, holds)
         time.sleep(1.0)
     print("the rover refused to arm")
     return 1
+
+
+def _operator_holds(
+    link: Any, target: tuple[int, int], holds: Sequence[tuple[float, float]]
+) -> int:
+    """HOLD at each (boot time, seconds), then AUTO; what the rover did, printed."""
+    if not holds:
+        return 0
+    link.mav.request_data_stream_send(*target, mavlink.MAV_DATA_STREAM_POSITION, 4, 1)
+    frame: LocalFrame | None = None
+
+    def fix() -> tuple[float, float, float, float]:
+        """(boot s, north, east, speed) of the rover's next position."""
+        nonlocal frame
+        while True:
+            m = link.recv_match(type="GLOBAL_POSITION_INT", blocking=True, timeout=30.0)
+            if m is None:
+                raise TimeoutError("the rover sends no position")
+            geo = GeoPoint(m.lat * 1e-7, m.lon * 1e-7, 0.0)
+            frame = frame or LocalFrame(geo)
+            n, e, _ = frame.to_ned(geo)
+            return m.time_boot_ms * 1e-3, n, e, math.hypot(m.vx, m.vy) * 0.01
+
+    flag = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
+    for at, seconds in sorted(holds):
+        t, n0, e0, v0 = fix()
+        while t < at:
+            t, n0, e0, v0 = fix()
+        link.mav.set_mode_send(target[0], flag, ROVER_HOLD)
+        stood: tuple[float, float] | None = None  # (boot s, metres run on) once standing
+        while t < at + seconds:
+            t, n, e, v = fix()
+            if stood is None and v < 0.1:
+                stood = (t - at, math.hypot(n - n0, e - e0))
+        link.mav.set_mode_send(target[0], flag, ROVER_AUTO)
+        while t < at + seconds + 15.0:
+            t, n, e, v = fix()
+        said = (
+            "never stood" if stood is None else f"stood {stood[0]:.1f} s later, {stood[1]:.1f} m on"
+        )
+        print(f"HOLD at {at:.0f} s (boot), {v0:.1f} m/s: {said}; AUTO at {at + seconds:.0f} s: "
+              f"{v:.1f} m/s 15 s later", flush=True)  # fmt: skip
+    return 0
 
 
 def _slow_spells(
@@ -316,6 +366,14 @@ def read(args: argparse.Namespace) -> int:
             mock.wait()
 
 
+def _hold(text: str) -> tuple[float, float]:
+    at, _, seconds = text.partition(":")
+    try:
+        return float(at), float(seconds)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: give AT:FOR in seconds") from None
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -327,6 +385,10 @@ def main() -> int:
     d.add_argument("connection", help="the rover's MAVLink endpoint (another than the service's)")
     d.add_argument("road", help="CSV time,lat,lon")
     d.add_argument("speed", type=float, help="m/s")
+    d.add_argument(
+        "--hold", action="append", default=[], type=_hold, metavar="AT:FOR",
+        help="HOLD at the rover's boot time AT s, AUTO again FOR s later (repeatable)",
+    )  # fmt: skip
     c = sub.add_parser("compare", help="a rover's drive in a tlog against the mock's rover")
     c.add_argument("tlog", help="the tlog of the rover's drive")
     c.add_argument("road", help="the CSV time,lat,lon it was sent down (``drive``)")
@@ -337,7 +399,7 @@ def main() -> int:
     if args.command == "compare":
         return compare(args.tlog, args.road, args.speed, args.accel, args.sysid)
     if args.command == "drive":
-        return drive(args.connection, args.road, args.speed)
+        return drive(args.connection, args.road, args.speed, args.hold)
     return read(args)
 
 
