@@ -11,9 +11,10 @@ speed at that drive time: it brakes and pulls away at ``a`` (ArduRover's
 ``ATC_ACCEL_MAX``, 1 m/s² by default).
 
 ArduRover's HOLD cuts the throttle (``ModeHold::update``) and leaves the stop to the
-vehicle: SITL's rover then coasts to a stand with a 2-s time constant (16 m from
-8 m/s). The mock brakes evenly at the accel instead (32 m from 8 m/s at 1 m/s²):
-a rover with no motor braking is the slower of the two to stand.
+vehicle: SITL's rover coasts to a stand with a 2-s time constant (measured with
+``checks/rover_mission.py drive --hold``: 17-18 m on and 9-10 s from 8 m/s). The mock
+brakes evenly at the accel instead (32 m and 8 s): a real rover's stop is its drive
+train's, which neither models.
 """
 
 from __future__ import annotations

@@ -290,8 +290,9 @@ class ConvoyModel:
 
     @property
     def _plan_holds(self) -> bool:
-        """The convoy keeps its plan: it drives its mission (or nobody said otherwise)."""
-        return self._drive in (None, ConvoyDrive.MISSION)
+        """The convoy keeps its plan: it drives its mission, or stands where it was told
+        to (it will drive its mission on from there), or nobody said otherwise."""
+        return self._drive is not ConvoyDrive.OTHER
 
     def observe(self, est: ConvoyEstimate) -> None:
         """Fold in a fresh estimate (stale ones say nothing new: skip them)."""

@@ -1,0 +1,204 @@
+"""A rover's operator at work, in simulation: its mode told the road model, or not.
+
+    .venv/bin/python benchmarks/rover_modes.py            # three testbeds, 14 drives each (~6 min)
+    .venv/bin/python benchmarks/rover_modes.py --drives 6
+
+The convoy is a rover driving the urban grid (``tracks.roads``) as its mission, the
+grid's corners as waypoints (thinned as the mock's rovers and ``checks/rover_mission.py``
+thin them; the road ArduRover SITL drives for ``ROAD=urban ROVER=1``), at 8 m/s with
+ArduRover's 1 m/s² (``sitl_mock.drive``), four 30-s holds at random waypoints, and a
+DO_CHANGE_SPEED to 8 m/s: its plan, as the service reads it. Its operator then, per
+drive (seeded):
+
+- ``holds``: holds it 45-120 s longer at one to three of its planned holds (HOLD 10 s
+  into the hold, then AUTO: the hold starts again, as ArduRover restarts the waypoint);
+- ``manual``: drives it in MANUAL for two or three stretches of 60-180 s at 0.5-0.7 of
+  its mission's speed, along the same road;
+- ``stands``: holds it 20-120 s at three random points (HOLD, then AUTO).
+
+Each drive is flown twice by the demo's six planes (``fly_road``, with the fixes' own
+velocity as the mock's rovers report it): the mode told (``drives``, 0.5 s after the
+change, as a 1-Hz HEARTBEAT tells it on average) and not. Printed per testbed: the mean
+coverage both ways and the paired difference with its standard error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import statistics
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor
+
+import numpy as np
+
+from convoy_mav.mission.simulate import RoadRun, fly_road
+from convoy_mav.planning.plan import PlanRequest
+from convoy_mav.planning.road import Road
+from convoy_mav.tracks.roads import road_kind
+from convoy_mav.types import ConvoyDrive
+from sitl_mock.driveclock import DriveClock
+from sitl_mock.ground import Polyline
+from sitl_mock.mission import DEFAULT_TOLERANCE_M, thin
+
+REQUEST = PlanRequest(150.0, 100.0, 18.0)  # the demo's planes
+UAVS = 6  # the road's count with a route
+SPEED = 8.0
+HORIZON_S = 900.0
+STEP_S = 0.1  # the drive's truth, sampled at 1 Hz for the fixes
+HEARD_S = 0.5
+
+Drive = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+Told = list[tuple[float, ConvoyDrive]]
+
+
+def _waypoints() -> tuple[tuple[float, float], ...]:
+    grid = road_kind("urban")
+    xy = list(zip(grid.true_north.tolist(), grid.true_east.tolist(), strict=True))
+    return tuple(xy[i] for i in thin(xy, DEFAULT_TOLERANCE_M))
+
+
+WAYPOINTS = _waypoints()
+ROAD = Road.from_points(np.array([e for _, e in WAYPOINTS]), np.array([n for n, _ in WAYPOINTS]))
+
+
+def _planned(rng: np.random.Generator) -> tuple[Polyline, list[int]]:
+    """The mission: four 30-s holds at random waypoints."""
+    at = sorted(rng.choice(np.arange(3, len(WAYPOINTS) - 3), 4, replace=False).tolist())
+    line = Polyline(WAYPOINTS, speed=SPEED, accel=1.0, holds=tuple((int(i), 30.0) for i in at))
+    return line, at
+
+
+def _sample(line: Polyline, rate_at: Callable[[float, float], float]) -> Drive:
+    """The rover's fixes at 1 Hz: its road at drive time, whose rate ``rate_at(t, tau)``
+    sets (each call advances it ``STEP_S``)."""
+    times = np.arange(0.0, HORIZON_S, STEP_S)
+    rows = []
+    tau = 0.0
+    for t in times.tolist():
+        rate = rate_at(t, tau)
+        n, e = line.position(tau)
+        vn, ve = line.velocity(tau)
+        rows.append((n, e, vn * rate, ve * rate))
+        tau += rate * STEP_S
+    out = np.array(rows)[:: round(1.0 / STEP_S)]
+    return times[:: round(1.0 / STEP_S)], out[:, 0], out[:, 1], out[:, 2], out[:, 3]
+
+
+def _clocked(
+    line: Polyline, stands: list[tuple[float, float]], *, drive_time: bool
+) -> tuple[Drive, Told]:
+    """Driven as the mock's rover is (``DriveClock``), told to stand at each (when, for how
+    long): ``when`` in sim time, or in drive time (``drive_time``: where it is along its
+    timetable, as at a waypoint's hold); and what it was told, when."""
+    clock, pending, told = DriveClock(1.0), sorted(stands), []
+    resume: list[float] = []
+
+    def rate_at(t: float, tau: float) -> float:
+        if pending and clock.driving and (tau if drive_time else t) >= pending[0][0]:
+            clock.drive(t, False, math.hypot(*line.velocity(tau)))
+            resume.append(t + pending.pop(0)[1])
+            told.append((t, ConvoyDrive.HELD))
+        if resume and t >= resume[0]:
+            resume.pop(0)
+            held = clock.at(t)
+            clock.rewind(t, back := line.hold_began(held))  # (ArduRover restarts a hold)
+            clock.drive(t, True, math.hypot(*line.velocity(back)))
+            told.append((t, ConvoyDrive.MISSION))
+        return (clock.at(t + STEP_S) - clock.at(t)) / STEP_S
+
+    return _sample(line, rate_at), told
+
+
+def _holds(seed: int) -> tuple[list[int], Drive, Told]:
+    rng = np.random.default_rng(seed)
+    line, at = _planned(rng)
+    longer = [i for i in at if rng.random() < 0.6] or at[:1]
+    stands = [(line.arrivals[i] + 10.0, float(rng.uniform(45.0, 120.0))) for i in longer]
+    drive, told = _clocked(line, stands, drive_time=True)
+    return at, drive, told
+
+
+def _stands(seed: int) -> tuple[list[int], Drive, Told]:
+    rng = np.random.default_rng(seed)
+    line, at = _planned(rng)
+    stands: list[tuple[float, float]] = []
+    t = 60.0 + float(rng.uniform(0.0, 120.0))
+    while t < HORIZON_S - 150.0:
+        seconds = float(rng.uniform(20.0, 120.0))
+        stands.append((t, seconds))
+        t += seconds + float(rng.uniform(100.0, 250.0))
+    drive, told = _clocked(line, stands, drive_time=False)
+    return at, drive, told
+
+
+def _manual(seed: int) -> tuple[list[int], Drive, Told]:
+    rng = np.random.default_rng(seed)
+    line, at = _planned(rng)
+    spells, t = [], 80.0 + float(rng.uniform(0.0, 100.0))
+    while t < HORIZON_S - 150.0:
+        seconds = float(rng.uniform(60.0, 180.0))
+        spells.append((t, t + seconds, float(rng.uniform(0.5, 0.7))))
+        t += seconds + float(rng.uniform(100.0, 200.0))
+    rate = [1.0]
+
+    def rate_at(t: float, _tau: float) -> float:
+        target = next((f for a, b, f in spells if a <= t < b), 1.0)
+        rate[0] += float(np.clip(target - rate[0], -0.02, 0.02))  # (about 1 m/s² at 8 m/s)
+        return rate[0]
+
+    told = sorted(
+        [(a, ConvoyDrive.OTHER) for a, _, _ in spells]
+        + [(b, ConvoyDrive.MISSION) for _, b, _ in spells]
+    )
+    return at, _sample(line, rate_at), told
+
+
+TESTBEDS = {"holds": _holds, "manual": _manual, "stands": _stands}
+
+
+def _flown(job: tuple[str, int, bool]) -> RoadRun:
+    testbed, seed, tell = job
+    at, (t, n, e, vn, ve), told = TESTBEDS[testbed](seed)
+    holds = [(ROAD.project(WAYPOINTS[i][1], WAYPOINTS[i][0], None), 30.0) for i in at]
+    drives = [(when + HEARD_S, d) for when, d in told] if tell else []
+    return fly_road(
+        t, n, e, REQUEST, UAVS, reported=(vn, ve), route=ROAD, holds=holds,
+        speeds=[(0.0, SPEED)], keeps_speed=True, drives=drives,
+    )  # fmt: skip
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--drives", type=int, default=14, help="drives per testbed")
+    parser.add_argument("--testbed", choices=sorted(TESTBEDS), action="append")
+    args = parser.parse_args()
+    testbeds = args.testbed or list(TESTBEDS)
+    jobs = [(b, s, tell) for b in testbeds for s in range(args.drives) for tell in (True, False)]
+    with ProcessPoolExecutor(os.cpu_count()) as pool:
+        runs = dict(zip(jobs, pool.map(_flown, jobs), strict=True))
+    print(f"urban grid mission, {len(WAYPOINTS)} waypoints, {ROAD.length:.0f} m; {UAVS} planes")
+    print(
+        "| testbed | drives | told | not told | paired difference | higher / lower "
+        "| longest gap, either |"
+    )
+    print("|---|---|---|---|---|---|---|")
+    for b in testbeds:
+        told = [100.0 * runs[(b, s, True)].coverage for s in range(args.drives)]
+        plain = [100.0 * runs[(b, s, False)].coverage for s in range(args.drives)]
+        diff = [a - c for a, c in zip(told, plain, strict=True)]
+        se = statistics.stdev(diff) / math.sqrt(len(diff)) if len(diff) > 1 else math.nan
+        gaps = [
+            runs[(b, s, tell)].longest_gap_s for s in range(args.drives) for tell in (True, False)
+        ]
+        print(
+            f"| {b} | {args.drives} | {statistics.mean(told):.2f} % | "
+            f"{statistics.mean(plain):.2f} % | {statistics.mean(diff):+.2f} ± {se:.2f} | "
+            f"{sum(d > 0 for d in diff)} / {sum(d < 0 for d in diff)} | "
+            f"{max(gaps):.1f} s |"
+        )
+
+
+if __name__ == "__main__":
+    main()
