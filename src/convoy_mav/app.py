@@ -515,7 +515,7 @@ class ConvoyService:
             self.convoy_modes.append((round(self.clock.now(), 1), mode.name))
         what = {
             ConvoyDrive.MISSION: "drives its mission",
-            ConvoyDrive.HELD: "stands until its mode changes: the convoy is forecast standing",
+            ConvoyDrive.HELD: "stands until its mode changes",
             ConvoyDrive.OTHER: "is driven otherwise: its mission's plan is set aside",
         }[mode.drive]
         since = "" if was is None else f" (was {was.name})"
