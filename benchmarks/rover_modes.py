@@ -97,14 +97,12 @@ def _clocked(
 
     def rate_at(t: float, tau: float) -> float:
         if pending and clock.driving and (tau if drive_time else t) >= pending[0][0]:
-            clock.drive(t, False, math.hypot(*line.velocity(tau)))
+            clock.follow(t, False, line)
             resume.append(t + pending.pop(0)[1])
             told.append((t, ConvoyDrive.HELD))
         if resume and t >= resume[0]:
             resume.pop(0)
-            held = clock.at(t)
-            clock.rewind(t, back := line.hold_began(held))  # (ArduRover restarts a hold)
-            clock.drive(t, True, math.hypot(*line.velocity(back)))
+            clock.follow(t, True, line)  # (a held waypoint's hold starts again)
             told.append((t, ConvoyDrive.MISSION))
         return (clock.at(t + STEP_S) - clock.at(t)) / STEP_S
 

@@ -369,14 +369,12 @@ class SimVehicle:
         """A rover drives its route while armed in its mission mode (AUTO), else stands;
         held during a waypoint's hold, it stands the whole hold again once back in AUTO
         (``AP_Mission::resume`` restarts the waypoint, whose hold starts on arrival)."""
-        fl, clock, route = self.flight, self._drive, self.spec.route
+        fl, route = self.flight, self.spec.route
         driving = fl.armed and fl.mode.behaviour is Behaviour.MISSION
-        if route is None or driving == clock.driving:
-            return
-        tau = clock.at(now)
-        if driving and isinstance(route, Polyline) and clock.rate(now) == 0.0:
-            clock.rewind(now, tau := route.hold_began(tau))  # (ArduRover restarts a hold)
-        clock.drive(now, driving, math.hypot(*route.velocity(tau)))
+        if isinstance(route, Polyline):
+            self._drive.follow(now, driving, route)
+        elif route is not None and driving != self._drive.driving:
+            self._drive.drive(now, driving, math.hypot(*route.velocity(self._drive.at(now))))
 
     # ================================================================= telemetry
     def due_telemetry(self, now: float) -> list[Message]:

@@ -21,11 +21,20 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Protocol
 
-__all__ = ["DEFAULT_ACCEL", "DriveClock"]
+__all__ = ["DEFAULT_ACCEL", "Drivable", "DriveClock"]
 
 DEFAULT_ACCEL = 1.0
 """m/s²: ArduRover's ``ATC_ACCEL_MAX`` default (``AR_ATTCONTROL_THR_ACCEL_MAX``)."""
+
+
+class Drivable(Protocol):
+    """A rover's route as the clock needs it (``sitl_mock.ground.Polyline``)."""
+
+    def velocity(self, t: float) -> tuple[float, float]: ...
+
+    def hold_began(self, t: float) -> float: ...
 
 
 @dataclass(slots=True)
@@ -71,6 +80,17 @@ class DriveClock:
         u = min(dt, ramp)
         tau = self._tau0 + self._rate0 * u + 0.5 * slope * u * u
         return tau + self._to * (dt - u)
+
+    def follow(self, t: float, driving: bool, route: Drivable) -> None:
+        """From sim time ``t`` the rover drives ``route`` (True) or stands (False), as
+        ArduRover does: back to driving during a waypoint's hold, it stands the whole
+        hold again (``AP_Mission::resume`` restarts the waypoint)."""
+        if driving == self.driving:
+            return
+        tau = self.at(t)
+        if driving and self.rate(t) == 0.0:
+            self.rewind(t, tau := route.hold_began(tau))
+        self.drive(t, driving, math.hypot(*route.velocity(tau)))
 
     def rewind(self, t: float, tau: float) -> None:
         """Standing, from sim time ``t`` at drive time ``tau`` instead (a waypoint's hold
