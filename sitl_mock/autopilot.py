@@ -370,11 +370,8 @@ class SimVehicle:
         held during a waypoint's hold, it stands the whole hold again once back in AUTO
         (``AP_Mission::resume`` restarts the waypoint, whose hold starts on arrival)."""
         fl, route = self.flight, self.spec.route
-        driving = fl.armed and fl.mode.behaviour is Behaviour.MISSION
-        if isinstance(route, Polyline):
-            self._drive.follow(now, driving, route)
-        elif route is not None and driving != self._drive.driving:
-            self._drive.drive(now, driving, math.hypot(*route.velocity(self._drive.at(now))))
+        if route is not None:
+            self._drive.follow(now, fl.armed and fl.mode.behaviour is Behaviour.MISSION, route)
 
     # ================================================================= telemetry
     def due_telemetry(self, now: float) -> list[Message]:

@@ -21,18 +21,23 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Protocol, runtime_checkable
 
-__all__ = ["DEFAULT_ACCEL", "Drivable", "DriveClock"]
+__all__ = ["DEFAULT_ACCEL", "Drivable", "DriveClock", "Holds"]
 
 DEFAULT_ACCEL = 1.0
 """m/s²: ArduRover's ``ATC_ACCEL_MAX`` default (``AR_ATTCONTROL_THR_ACCEL_MAX``)."""
 
 
 class Drivable(Protocol):
-    """A rover's route as the clock needs it (``sitl_mock.ground.Polyline``)."""
+    """A rover's route as the clock needs it (any ``sitl_mock.ground.Route``)."""
 
     def velocity(self, t: float) -> tuple[float, float]: ...
+
+
+@runtime_checkable
+class Holds(Protocol):
+    """A route with waypoints' holds (``sitl_mock.ground.Polyline``)."""
 
     def hold_began(self, t: float) -> float: ...
 
@@ -88,7 +93,7 @@ class DriveClock:
         if driving == self.driving:
             return
         tau = self.at(t)
-        if driving and self.rate(t) == 0.0:
+        if driving and self.rate(t) == 0.0 and isinstance(route, Holds):
             self.rewind(t, tau := route.hold_began(tau))
         self.drive(t, driving, math.hypot(*route.velocity(tau)))
 

@@ -418,8 +418,8 @@ class ConvoyService:
         self.convoy_modes: list[tuple[float, str]] = []
         # The lead ground vehicle's own mission, read as the convoy's route.
         self._mission_watch = (
-            MissionWatch(config.convoy.vehicles[0].sysid)
-            if config.convoy.route_from_mission
+            MissionWatch(self._lead_id)
+            if config.convoy.route_from_mission and self._lead_id is not None
             else None
         )
         # The mission step running in its worker thread, if one is.

@@ -21,27 +21,12 @@ from typing import Any
 
 from pymavlink.dialects.v20 import common as mavlink
 
+from convoy_mav.mavlink.autopilots.ardupilot import ROVER_MODES, ardupilot_mode_name
 from convoy_mav.mavlink.autopilots.px4 import px4_mode_name
 from convoy_mav.types import ConvoyDrive
 
 __all__ = ["RoverMode", "rover_mode"]
 
-_ARDUROVER = {
-    0: "MANUAL",
-    1: "ACRO",
-    3: "STEERING",
-    4: "HOLD",
-    5: "LOITER",
-    6: "FOLLOW",
-    7: "SIMPLE",
-    8: "DOCK",
-    9: "CIRCLE",
-    10: "AUTO",
-    11: "RTL",
-    12: "SMART_RTL",
-    15: "GUIDED",
-    16: "INITIALISING",
-}
 _MISSION = frozenset({"AUTO", "AUTO.MISSION"})
 _STANDS = frozenset({"HOLD", "LOITER", "AUTO.LOITER"})
 _GROUND = frozenset({mavlink.MAV_TYPE_GROUND_ROVER, mavlink.MAV_TYPE_SURFACE_BOAT})
@@ -62,7 +47,7 @@ def rover_mode(heartbeat: Any) -> RoverMode | None:
         return None
     custom = int(heartbeat.custom_mode)
     if heartbeat.autopilot == mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA:
-        name = _ARDUROVER.get(custom, f"MODE({custom})")
+        name = ardupilot_mode_name(ROVER_MODES, custom)
     elif heartbeat.autopilot == mavlink.MAV_AUTOPILOT_PX4:
         name = px4_mode_name(custom)
     else:

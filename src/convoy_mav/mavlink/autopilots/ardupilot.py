@@ -60,7 +60,7 @@ from convoy_mav.mavlink.autopilots.base import (
 from convoy_mav.mavlink.autopilots.loiter import LoiterModel
 from convoy_mav.types import Setpoint
 
-__all__ = ["ArduCopter", "ArduPilot", "ArduPlane"]
+__all__ = ["ROVER_MODES", "ArduCopter", "ArduPilot", "ArduPlane", "ardupilot_mode_name"]
 
 _LEARNT_SAMPLES = 200
 """Loiter samples (10 s at 20 Hz) before the learnt overshoot is trusted to judge a plan."""
@@ -108,6 +108,29 @@ _PLANE_MODES = {
     20: "QLAND",
     21: "QRTL",
 }
+ROVER_MODES = {
+    0: "MANUAL",
+    1: "ACRO",
+    3: "STEERING",
+    4: "HOLD",
+    5: "LOITER",
+    6: "FOLLOW",
+    7: "SIMPLE",
+    8: "DOCK",
+    9: "CIRCLE",
+    10: "AUTO",
+    11: "RTL",
+    12: "SMART_RTL",
+    15: "GUIDED",
+    16: "INITIALISING",
+}
+"""ArduRover's mode numbers (``Rover/mode.h``): the convoy's rovers, not flown here."""
+
+
+def ardupilot_mode_name(modes: Mapping[int, str], custom_mode: int) -> str:
+    """A HEARTBEAT.custom_mode's name in one vehicle's ``modes`` (``"MODE(n)"`` if unknown)."""
+    return modes.get(custom_mode, f"MODE({custom_mode})")
+
 
 _STREAM_GROUPS: Mapping[int, tuple[int, ...]] = {
     _M.MAV_DATA_STREAM_POSITION: (_M.MAVLINK_MSG_ID_GLOBAL_POSITION_INT,),
@@ -132,7 +155,7 @@ class ArduPilot(Autopilot):
 
     def mode_name(self, custom_mode: int) -> str:
         """``"GUIDED"``, ``"LOITER"``... (``"MODE(n)"`` if unknown)."""
-        return self.modes.get(custom_mode, f"MODE({custom_mode})")
+        return ardupilot_mode_name(self.modes, custom_mode)
 
     @property
     def external_mode(self) -> str:
