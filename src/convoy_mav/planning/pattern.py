@@ -236,8 +236,12 @@ class PatternClock:
         rate = uav_speed / (2.0 * radius)
         v = math.hypot(vx, vy)
         beta = _beta_at(self.speed * per_step, table, slopes)
-        while self.t < t - 1e-9:
-            dt = min(_CLOCK_STEP, t - self.t)
+        # Cut the span as ``forecast`` does, to the bit: a span of a nanosecond or
+        # less is no step, and the clock then lands on ``t`` exactly.
+        span = t - self.t
+        count = math.ceil((span - _MIN_SPAN) / _CLOCK_STEP) if span > _MIN_SPAN else 0
+        for k in range(count):
+            dt = _CLOCK_STEP if k < count - 1 else span - (count - 1) * _CLOCK_STEP
             self.phase += rate / beta * dt
             a = -math.expm1(-dt / self.tau)
             self.fx += (vx - self.fx) * a
@@ -247,7 +251,7 @@ class PatternClock:
             if speed > _COURSE_MIN_SPEED:
                 self.course = math.atan2(self.fy, self.fx)
             beta = _beta_at(speed * per_step, table, slopes)
-            self.t += dt
+        self.t = max(self.t, t)
 
     def state(self, uav_speed: float) -> tuple[float, float, float]:
         """(phase, course, beta) now."""
@@ -273,7 +277,9 @@ class PatternClock:
         # Each time's span from the one before, cut into integration steps.
         ends = np.maximum.accumulate(np.concatenate(([self.t], times)))
         spans = np.diff(ends)
-        counts = np.where(spans > 1e-9, np.ceil((spans - 1e-9) / _CLOCK_STEP), 0.0).astype(int)
+        counts = np.where(
+            spans > _MIN_SPAN, np.ceil((spans - _MIN_SPAN) / _CLOCK_STEP), 0.0
+        ).astype(int)
         last = np.cumsum(counts) - 1  # each time's last step (-1: none yet)
         dt = np.full(int(counts.sum()), _CLOCK_STEP)
         ran = counts > 0
@@ -334,4 +340,5 @@ _RUN_DECAY = 30.0  # e-folds of a low-pass run solved at once (1 / P below e^30)
 
 
 _CLOCK_STEP = 0.5  # s: integration step of the pattern clock
+_MIN_SPAN = 1e-9  # s: a span no longer than this is no step (rounding, not time)
 _COURSE_MIN_SPEED = 0.3  # m/s: slower, the course is held (a stopped convoy has none)
