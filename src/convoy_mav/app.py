@@ -26,10 +26,10 @@ import logging
 import math
 import sys
 import time
-from collections import Counter
+from collections import Counter, deque
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypeVar
 
 from pymavlink.dialects.v20 import common as mavlink
 
@@ -272,6 +272,19 @@ def _firmware_family(vehicle: Vehicle) -> str | None:
     return "px4" if vehicle.firmware.name == "PX4" else "ardupilot"
 
 
+_T = TypeVar("_T")
+
+
+def _drained(queue: deque[_T]) -> list[_T]:
+    """Every item in ``queue``, taken out in order (safe beside another thread's
+    ``append``: each ``popleft`` is atomic, where a swap of the whole could drop one)."""
+    out: list[_T] = []
+    with contextlib.suppress(IndexError):
+        while True:
+            out.append(queue.popleft())
+    return out
+
+
 class _Stop(Exception):
     """Raised inside the task group to end the run after a clean hold."""
 
@@ -401,8 +414,9 @@ class ConvoyService:
             self.mission = Mission(request, uav_ids, down=self._down, thresholds=thresholds)
         self._planner_why = why
         # A new route (MQTT, a rover's mission) and its plan (holds, whether a circuit,
-        # speeds), for the next mission step.
-        self._new_route: tuple[Road, Marks, bool, Marks, bool] | None = None
+        # speeds), for the next mission step: the newest is taken. (A deque: appended on
+        # the event loop, drained in the mission's worker thread, and neither loses one.)
+        self._new_routes: deque[tuple[Road, Marks, bool, Marks, bool]] = deque()
         self._route_taken = saved  # (the last route taken, with its plan)
         remarks = "" if saved is None else saved.remarks()
         self._route_source = (
@@ -411,10 +425,11 @@ class ConvoyService:
             else ("given" if self.route is not None else None)  # (replay --route-known)
         )
         # The lead ground vehicle's mode (a rover's: its mission, a stand, or else), as
-        # heard, each change for the road mission's next step and the report.
+        # heard, each change for the road mission's next step (every one, in order: a
+        # HOLD then AUTO between two steps restarts a held hold) and the report.
         self._lead_id = config.convoy.vehicles[0].sysid if config.convoy.vehicles else None
         self._lead_mode: RoverMode | None = None
-        self._new_drive: ConvoyDrive | None = None
+        self._new_drives: deque[ConvoyDrive] = deque()
         self.convoy_modes: list[tuple[float, str]] = []
         # The lead ground vehicle's own mission, read as the convoy's route.
         self._mission_watch = (
@@ -510,7 +525,7 @@ class ConvoyService:
         if mode is None or mode == self._lead_mode:
             return
         was, self._lead_mode = self._lead_mode, mode
-        self._new_drive = mode.drive
+        self._new_drives.append(mode.drive)
         if len(self.convoy_modes) < _MODES_KEPT:
             self.convoy_modes.append((round(self.clock.now(), 1), mode.name))
         what = {
@@ -1552,13 +1567,12 @@ class ConvoyService:
         re-planned (a road mission's, for ``ReplanLag``), last."""
         mission = self.mission
         events: list[Any] = []
-        road, self._new_route = self._new_route, None
-        drive, self._new_drive = self._new_drive, None
+        roads, drives = _drained(self._new_routes), _drained(self._new_drives)
         road_mission = mission if isinstance(mission, RoadMission) else None
         if road_mission is not None:
-            if road is not None:
-                road_mission.set_route(*road)
-            if drive is not None:
+            if roads:
+                road_mission.set_route(*roads[-1])
+            for drive in drives:
                 road_mission.set_drive(drive, t)
             road_mission.set_replan_lag(*lead)
         plans_before = 0 if road_mission is None else road_mission.uav_plans
@@ -1924,7 +1938,7 @@ class ConvoyService:
         except PlanningError as exc:
             self._note(f"route of {len(points)} points from {source} refused: {exc}")
             return
-        self._new_route = (road, *self._plan_on(road, route))
+        self._new_routes.append((road, *self._plan_on(road, route)))
         self._route_taken = route
         remarks = route.remarks()
         self._route_source = source + (f" ({remarks})" if remarks else "")

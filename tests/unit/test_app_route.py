@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 from types import SimpleNamespace
+from typing import Any
 
 import pytest
 
@@ -38,16 +39,19 @@ def test_the_scripted_route_starts_when_the_mission_does() -> None:
     assert service._report().route_start_s == boot
 
 
-def _road_config() -> MissionConfig:
+def _road_doc() -> dict[str, Any]:
     """Six planes on the road planner (nothing listens at their ports)."""
     uavs = [{"connection": f"udpin:127.0.0.1:{14560 + i}", "sysid": i + 1} for i in range(6)]
-    return parse_config(
-        {
-            "mission": {"sensor_radius_m": 100.0, "planner": "road"},
-            "aircraft": {"airspeed_mps": 18.0, "turn_radius_m": 150.0},
-            "uav": uavs,
-        }
-    )
+    return {
+        "mission": {"sensor_radius_m": 100.0, "planner": "road"},
+        "aircraft": {"airspeed_mps": 18.0, "turn_radius_m": 150.0},
+        "uav": uavs,
+    }
+
+
+def _road_config() -> MissionConfig:
+    """Six planes on the road planner (nothing listens at their ports)."""
+    return parse_config(_road_doc())
 
 
 def test_a_planner_falling_behind_is_said_once_and_its_catching_up_too(
@@ -231,8 +235,7 @@ def test_a_missions_holds_are_placed_on_its_road_each_on_its_own_pass() -> None:
     points = [(g.lat, g.lon) for g in geo]
     plan = PlannedRoute(tuple(points), holds=((2, 30.0), (4, 45.0)), speeds=((3, 6.0),))
     service.set_route(plan, source="a test")
-    assert service._new_route is not None
-    road, holds, circuit, speeds, _ = service._new_route
+    ((road, holds, circuit, speeds, _),) = service._new_routes
     assert [round(h) for _, h in holds] == [30, 45] and not circuit
     ((turn, pace),) = speeds  # (from the far end's second corner, on the way back)
     assert pace == 6.0 and turn == pytest.approx(860.0, abs=15.0)
@@ -242,3 +245,39 @@ def test_a_missions_holds_are_placed_on_its_road_each_on_its_own_pass() -> None:
     # corners: 1,660 m drawn, shorter driven), not the way out's 400.
     assert road.length - back == pytest.approx(400.0, abs=10.0)
     assert road.length == pytest.approx(1660.0, abs=40.0)
+
+
+def test_every_mode_the_lead_rover_changes_to_between_two_mission_steps_is_told_in_order(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A HOLD then AUTO heard within one step both reach the road mission (the last
+    alone would leave a held hold unrestarted)."""
+    from pymavlink.dialects.v20 import common as mavlink
+
+    from convoy_mav.types import ConvoyDrive
+
+    rover = {"connection": "udpin:127.0.0.1:14600", "sysid": 60}
+    doc = {**_road_doc(), "convoy": {"source": "mavlink", "vehicle": [rover]}}
+    service = ConvoyService(parse_config(doc))
+    mission = service.mission
+    assert isinstance(mission, RoadMission)
+    told: list[tuple[ConvoyDrive | None, float]] = []
+    real = mission.set_drive
+
+    def set_drive(drive: ConvoyDrive | None, t: float) -> None:
+        told.append((drive, t))
+        real(drive, t)
+
+    monkeypatch.setattr(mission, "set_drive", set_drive)
+    armed = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mavlink.MAV_MODE_FLAG_SAFETY_ARMED
+    for custom in (10, 4, 4, 10):  # AUTO, HOLD (heard twice: one change), AUTO
+        heartbeat = mavlink.MAVLink_heartbeat_message(
+            mavlink.MAV_TYPE_GROUND_ROVER, mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA, armed, custom, 4, 3
+        )
+        service._lead_heartbeat(60, heartbeat)
+    service._mission_step(5.0, None, [], [], {}, set(), (0.0, 0.0))
+    assert told == [(ConvoyDrive.MISSION, 5.0), (ConvoyDrive.HELD, 5.0), (ConvoyDrive.MISSION, 5.0)]
+    assert mission.model.drive is ConvoyDrive.MISSION
+    assert [mode for _, mode in service.convoy_modes] == ["AUTO", "HOLD", "AUTO"]
+    service._mission_step(6.0, None, [], [], {}, set(), (0.0, 0.0))
+    assert len(told) == 3  # (each told once)

@@ -154,16 +154,15 @@ def test_an_mqtt_route_brings_its_plan_to_the_next_mission_step() -> None:
     o = service.config.origin
     payload = {"points": [[o.lat, o.lon], [o.lat + 0.01, o.lon]], "holds": [[1, 30]]}
     service.set_route(topics.parse_convoy_route(json.dumps(payload)))
-    assert service._new_route is not None
-    road, holds, circuit, speeds, autopilot = service._new_route
+    ((road, holds, circuit, speeds, autopilot),) = service._new_routes
     assert not circuit and speeds == () and [h for _, h in holds] == [30.0]
     assert not autopilot  # (a plan given with a route: people drive it)
     assert holds[0][0] == pytest.approx(road.length, abs=5.0)
     assert service._route_source == "MQTT convoy/route (1 holds, 30 s)"
-    service._new_route = None  # (taken in)
+    service._new_routes.clear()  # (taken in)
     service.set_route(topics.parse_convoy_route(json.dumps(payload)))  # (republished)
-    assert service._new_route is None  # (the route in force: left as it is)
+    assert not service._new_routes  # (the route in force: left as it is)
     payload["holds"] = [[1, 45]]
     service.set_route(topics.parse_convoy_route(json.dumps(payload)))  # (a longer stop)
-    assert service._new_route is not None and service._new_route[1][0][1] == 45.0
+    assert len(service._new_routes) == 1 and service._new_routes[0][1][0][1] == 45.0
     assert any("from MQTT convoy/route (1 holds, 30 s): 2 points" in e for e in service.events)
