@@ -90,6 +90,7 @@ SENSORS = (  # SYS_STATUS sensors a healthy mock reports present and healthy
 """SYS_STATUS sensors: with GPS and PREARM_CHECK healthy MAVSDK reports the global
 position OK and the vehicle armable; both turn healthy at the end of warm-up."""
 _GPS_FIX_SHARE = 0.5
+_ROVER_SPEED_MIN = 0.05  # m/s: the least a rover is told (ArduRover's AR_WPNAV_SPEED_MIN)
 """Share of the warm-up after which GPS_RAW_INT reports a 3D fix (the estimator needs
 the rest: real ArduPilot SITL refuses arming for about 40 s after its first fix)."""
 _NEEDS_WARMUP = (
@@ -229,7 +230,10 @@ class SimVehicle:
         self._battery_s = 0.0
         self._ground_yaw = 0.0
         # A rover drives its route in AUTO only, armed; told to stand, it brakes and waits.
+        # Told a speed (DO_CHANGE_SPEED), it drives the route retimed: ``_route``.
         route = spec.route
+        self._route = route
+        self._told_until = math.inf  # (drive time the speed told gives way to the plan's)
         self._drive = DriveClock(
             route.accel if isinstance(route, Polyline) and route.accel > 0.0 else DEFAULT_ACCEL
         )
@@ -280,7 +284,7 @@ class SimVehicle:
             _R.MAV_CMD_DO_SET_MODE: self._cmd_do_set_mode,
             _R.MAV_CMD_NAV_TAKEOFF: fl.takeoff,
             _R.MAV_CMD_DO_REPOSITION: fl.reposition,
-            _R.MAV_CMD_DO_CHANGE_SPEED: fl.change_speed,
+            _R.MAV_CMD_DO_CHANGE_SPEED: self._cmd_change_speed,
             _R.MAV_CMD_NAV_RETURN_TO_LAUNCH: fl.return_to_launch,
             _R.MAV_CMD_NAV_LAND: fl.land,
             _R.MAV_CMD_DO_SET_HOME: self._cmd_set_home,
@@ -369,9 +373,48 @@ class SimVehicle:
         """A rover drives its route while armed in its mission mode (AUTO), else stands;
         held during a waypoint's hold, it stands the whole hold again once back in AUTO
         (``AP_Mission::resume`` restarts the waypoint, whose hold starts on arrival)."""
-        fl, route = self.flight, self.spec.route
-        if route is not None:
-            self._drive.follow(now, fl.armed and fl.mode.behaviour is Behaviour.MISSION, route)
+        fl, route, clock = self.flight, self._route, self._drive
+        if route is None:
+            return
+        driving = fl.armed and fl.mode.behaviour is Behaviour.MISSION
+        if isinstance(route, Polyline):
+            if driving and not clock.driving and self.firmware.is_ardupilot:
+                # AUTO again: AR_WPNav::init drives WP_SPEED until the next DO_CHANGE_SPEED
+                self._tell_speed(now, _road_speed(self.spec.route))
+            elif route.told is not None and clock.at(now) >= self._told_until:
+                # The mission's next speed: its own plan from here, entered at its speed.
+                after = route.after_told()
+                tau = route.moment_on(after, clock.at(now))
+                self._tell_speed(now, after.planned_speed(tau), after, tau)
+            route = self._route if self._route is not None else route
+        clock.follow(now, driving, route)
+
+    def _tell_speed(
+        self, now: float, speed: float, on: Polyline | None = None, tau: float | None = None
+    ) -> None:
+        """Drive on at ``speed`` until the mission's next speed (ArduRover's
+        DO_CHANGE_SPEED command: ``Polyline.with_speed_from``), on the route driven or on
+        ``on`` (the same road) from drive time ``tau`` there."""
+        route, tau_was = self._route, self._drive.at(now)
+        if not isinstance(route, Polyline) or not speed > 0.0:
+            return
+        if on is None and route.told is None and route.planned_speed(tau_was) == speed:
+            return  # (the speed it drives at already)
+        moving = self._drive.rate(now) * math.hypot(*route.velocity(tau_was))
+        on, tau = (route, tau_was) if on is None or tau is None else (on, tau)
+        told, tau = on.with_speed_from(tau, speed, moving)
+        self._retime(now, told, tau)
+
+    def _retime(self, now: float, route: Polyline, tau: float) -> None:
+        """Drive ``route`` from now on, at drive time ``tau`` (the same place and moment)."""
+        was, clock = self._route, self._drive
+        if not isinstance(was, Polyline):
+            return
+        tau_was = clock.at(now)
+        speed_was = math.hypot(*was.velocity(tau_was))
+        clock.retime(now, tau, speed_was, math.hypot(*route.velocity(tau)))
+        self._route = route
+        self._told_until = route.told_until(tau)
 
     # ================================================================= telemetry
     def due_telemetry(self, now: float) -> list[Message]:
@@ -387,7 +430,7 @@ class SimVehicle:
         """World (n, e, d, vn, ve, vd), yaw, yaw rate and speed at ``now``."""
         ac = self.flight.aircraft
         if ac is None:
-            route, clock = self.spec.route, self._drive
+            route, clock = self._route, self._drive
             tau, rate = clock.at(now), clock.rate(now)
             n, e = route.position(tau) if route else self.world.to_ned(self.spec.home)[:2]
             vn, ve = route.velocity(tau) if route else (0.0, 0.0)
@@ -462,7 +505,9 @@ class SimVehicle:
             return {}
         home_first = self.firmware.is_ardupilot
         return {
-            "mission_seq": mission.current(self._drive.at(now), home_first=home_first),
+            "mission_seq": mission.current(
+                self._drive.at(now), home_first=home_first, times=_arrivals(self._route)
+            ),
             # (ArduPilot leaves its home item out of the total: GCS_MAVLINK)
             "mission_total": mission.count(home_first=False),
         }
@@ -754,6 +799,25 @@ class SimVehicle:
             mode = self.firmware.decode_do_set_mode(c.p2, c.p3)
         return self.flight.request_mode(mode, now)
 
+    def _cmd_change_speed(self, c: Command, now: float) -> Outcome:
+        """MAV_CMD_DO_CHANGE_SPEED: an aircraft's (``FlightController.change_speed``), or
+        a rover's, in AUTO: param1 the speed type (ground or air: both the ground speed;
+        climb and descent refused), param2 m/s (-1: no change), until the mission's next
+        DO_CHANGE_SPEED (ArduRover ``handle_command_int_packet``, ``AR_WPNav``)."""
+        if self.flight.aircraft is not None:
+            return self.flight.change_speed(c, now)
+        fl = self.flight
+        if c.p1 not in (_R.SPEED_TYPE_AIRSPEED, _R.SPEED_TYPE_GROUNDSPEED):
+            return _R.MAV_RESULT_DENIED, []
+        if not isinstance(self._route, Polyline) or fl.mode.behaviour is not Behaviour.MISSION:
+            return _R.MAV_RESULT_FAILED, []  # (Mode::set_desired_speed: AUTO's alone)
+        if c.p2 == -1.0:
+            return _R.MAV_RESULT_ACCEPTED, []
+        if not (math.isfinite(c.p2) and c.p2 >= _ROVER_SPEED_MIN):
+            return _R.MAV_RESULT_FAILED, []
+        self._tell_speed(now, float(c.p2))
+        return _R.MAV_RESULT_ACCEPTED, []
+
     def _cmd_set_home(self, c: Command, now: float) -> Outcome:
         """MAV_CMD_DO_SET_HOME: param1 1 uses the current position, else lat/lon/alt."""
         fl = self.flight
@@ -811,6 +875,11 @@ class SimVehicle:
 
 def _msg_id(value: float) -> int:
     return int(value) if math.isfinite(value) and value >= 0.0 else -1
+
+
+def _arrivals(route: Route | None) -> tuple[float, ...] | None:
+    """When a polyline's drive reaches each vertex (None: another route's own times)."""
+    return route.arrivals if isinstance(route, Polyline) else None
 
 
 def _road_speed(route: Route | None) -> float:

@@ -96,6 +96,7 @@ class DriveProfile:
         holds: Sequence[float],
         ramps: Ramps,
         loop: bool,
+        entered: Sequence[int] = (),
     ) -> DriveProfile:
         """The drive over ``len(cumulative)`` vertices.
 
@@ -108,6 +109,8 @@ class DriveProfile:
             ramps: Braking and speeding up.
             loop: The last vertex is the first: a lap, driven again and again, so it
                 starts at the closing corner's speed; else from rest, to rest.
+            entered: Vertices passed at their corner's speed even above the next leg's
+                top (a speed told lower there: braked for after it, not before).
         """
         n = len(cumulative)
         lengths = [b - a for a, b in itertools.pairwise(cumulative)]
@@ -116,11 +119,13 @@ class DriveProfile:
             node = 0 if loop and j == n - 1 else j  # (a loop's last vertex is its first)
             before = leg_speeds[j - 1] if j else leg_speeds[-1] if loop else 0.0
             after = leg_speeds[j] if j < n - 1 else leg_speeds[0] if loop else 0.0
+            if j in entered:
+                after = math.inf
             stop = 0.0 if holds[node] > 0.0 else math.inf
             return min(corners[node], before, after, stop)
 
         caps = [cap(j) for j in range(n)]
-        reach = _reachable(caps, lengths, ramps, loop)
+        reach = _reachable(caps, lengths, ramps, loop, set(entered))
         phases: list[Phase] = []
         arrivals: list[float] = []
         t = 0.0
@@ -149,6 +154,24 @@ class DriveProfile:
             return self.length, 0.0
         i = max(bisect.bisect_right(self.starts, t) - 1, 0)
         return self.phases[i].at(t)
+
+    def time_at(self, arc: float) -> float:
+        """When the drive first reaches ``arc`` within its first lap (before standing
+        there; the start before it, the end after it)."""
+        if arc <= 0.0 or not self.phases:
+            return 0.0
+        for phase in self.phases:
+            reach = phase.v0 * phase.span + 0.5 * phase.a * phase.span**2
+            if phase.s0 + reach < arc - 1e-9:
+                continue
+            gone = max(arc - phase.s0, 0.0)
+            if phase.a == 0.0:
+                dt = gone / phase.v0 if phase.v0 > 0.0 else 0.0
+            else:
+                root = max(phase.v0 * phase.v0 + 2.0 * phase.a * gone, 0.0)
+                dt = (math.sqrt(root) - phase.v0) / phase.a
+            return phase.t0 + min(max(dt, 0.0), phase.span)
+        return self.duration
 
     def hold_began(self, t: float) -> float:
         """When the hold stood at time ``t`` began (a lap's, on a loop); ``t`` itself if
@@ -201,10 +224,13 @@ class Ramps:
         return lo
 
 
-def _reachable(cap: list[float], lengths: list[float], ramps: Ramps, loop: bool) -> list[float]:
+def _reachable(
+    cap: list[float], lengths: list[float], ramps: Ramps, loop: bool, entered: set[int]
+) -> list[float]:
     """Each vertex's speed: its cap, and no faster than the next can be braked for over
     the leg between, or than the last can be sped up from (two passes; a loop's go
-    round twice so a slow corner reaches every other)."""
+    round twice so a slow corner reaches every other); an ``entered`` one is reached at
+    its cap however it was come to (the speed a rover has when told a speed there)."""
     if math.isinf(ramps.accel):
         return cap
     n = len(cap)
@@ -212,7 +238,8 @@ def _reachable(cap: list[float], lengths: list[float], ramps: Ramps, loop: bool)
     rounds = 2 if loop else 1
     for _ in range(rounds):
         for j in range(1, n):
-            v[j] = min(v[j], ramps.fastest(v[j - 1], lengths[j - 1]))
+            if j not in entered:
+                v[j] = min(v[j], ramps.fastest(v[j - 1], lengths[j - 1]))
         if loop:
             v[0] = v[-1] = min(v[0], v[-1])
     for _ in range(rounds):
@@ -220,6 +247,14 @@ def _reachable(cap: list[float], lengths: list[float], ramps: Ramps, loop: bool)
             v[j] = min(v[j], ramps.fastest(v[j + 1], lengths[j]))
         if loop:
             v[0] = v[-1] = min(v[0], v[-1])
+    # Entered at its speed then, it brakes at the accel from there: to the next vertex's
+    # speed if it can, else as near it as it can (braked on after it: ``_leg_down``).
+    two_a = 2.0 * ramps.accel
+    for k in sorted(entered):
+        v[k], j = cap[k], k
+        while j + 1 < n and v[j] ** 2 > v[j + 1] ** 2 + two_a * lengths[j] + 1e-9:
+            v[j + 1] = math.sqrt(v[j] ** 2 - two_a * lengths[j])
+            j += 1
     return v
 
 
@@ -230,8 +265,12 @@ def _leg(
     ramp at the constant acceleration that takes its S-curve's time and distance."""
     if math.isinf(ramps.accel):
         return [(s0, top, 0.0, length / top)] if length > 0.0 else []
+    if v_in > top + 1e-9:  # (entered above its top: a speed told lower)
+        return _leg_down(s0, length, v_in, v_out, top, ramps)
     peak = ramps.peak(v_in, v_out, length, top)
     up, down = ramps.distance(v_in, peak), ramps.distance(peak, v_out)
+    if peak == v_in > v_out and down > length:  # (no room for its S-curve: a speed told)
+        return _leg_down(s0, length, v_in, v_out, v_in, ramps)
     cruise = max(length - up - down, 0.0)
     out: list[tuple[float, float, float, float]] = []
     if peak > v_in:
@@ -242,4 +281,25 @@ def _leg(
     if peak > v_out:
         span = ramps.time(peak, v_out)
         out.append((s0 + up + cruise, peak, (v_out - peak) / span, span))
+    return out
+
+
+def _leg_down(
+    s0: float, length: float, v_in: float, v_out: float, top: float, ramps: Ramps
+) -> list[tuple[float, float, float, float]]:
+    """A leg entered above its top speed: brake to the top, cruise, brake to the end's
+    speed; too short for both ramps, one even braking the whole leg (no harder than the
+    accel: the speed at its start can be braked to its end's over it)."""
+    first, last = ramps.distance(v_in, top), ramps.distance(top, v_out)
+    if first + last > length:
+        a = (v_out * v_out - v_in * v_in) / (2.0 * length)
+        return [(s0, v_in, a, (v_out - v_in) / a if a < 0.0 else length / v_in)]
+    span = ramps.time(v_in, top)
+    out = [(s0, v_in, (top - v_in) / span, span)]
+    cruise = length - first - last
+    if cruise > 0.0:
+        out.append((s0 + first, top, 0.0, cruise / top))
+    if top > v_out:
+        span = ramps.time(top, v_out)
+        out.append((s0 + first + cruise, top, (v_out - top) / span, span))
     return out

@@ -104,6 +104,19 @@ class DriveClock:
             raise ValueError("only a standing rover's drive time is set back")
         self._t0, self._tau0, self._rate0 = t, tau, 0.0
 
+    def retime(self, t: float, tau: float, speed_was: float, speed_now: float) -> None:
+        """From sim time ``t``, drive time ``tau`` on the route retimed (a speed its
+        operator told, or its mission's again): ``speed_was`` the old timetable's speed
+        then, ``speed_now`` the new one's there. The rover's own speed is kept, and the
+        rate ramps from it at the accel, to driving or to standing as before."""
+        actual = self.rate(t) * speed_was
+        self._t0, self._tau0 = t, tau
+        if speed_now > 0.0 and math.isfinite(speed_now):
+            self._rate0 = actual / speed_now
+            self._slope = self.accel / speed_now
+        else:
+            self._rate0, self._slope = self._to, math.inf
+
     def drive(self, t: float, driving: bool, speed: float) -> None:
         """From sim time ``t`` the rover drives (True) or stands (False); ``speed`` is
         its route's speed (m/s) at the drive time then: braking from it, or pulling away

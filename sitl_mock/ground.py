@@ -16,7 +16,7 @@ import itertools
 import math
 import os
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Protocol, runtime_checkable
 
 from convoy_mav.geo import LocalFrame
@@ -111,6 +111,9 @@ class Polyline:
     accel's value); without it every corner is taken at full speed. ``holds`` are ``(point
     index, seconds)`` stood at a point (a waypoint's hold time), ``speeds`` ``(point
     index, m/s)`` driven from a point on (a DO_CHANGE_SPEED), ``speed`` before any.
+    ``told`` is ``(arc length within the lap, m/s, m/s)``: a speed its operator
+    commanded there, and the speed it drove at then, in force until the next of
+    ``speeds`` (``with_speed_from``).
     """
 
     points: tuple[tuple[float, float], ...]
@@ -121,9 +124,14 @@ class Polyline:
     jerk: float = 0.0
     holds: tuple[tuple[int, float], ...] = ()
     speeds: tuple[tuple[int, float], ...] = ()
+    told: tuple[float, float, float] | None = None
     _nodes: tuple[tuple[float, float], ...] = field(init=False, repr=False, compare=False)
     _cumulative: tuple[float, ...] = field(init=False, repr=False, compare=False)
     _drive: DriveProfile | None = field(init=False, repr=False, compare=False)
+    _own: tuple[int, ...] = field(init=False, repr=False, compare=False)  # (_drive's vertices
+    # of its own, for a told speed)
+    _told_at: int | None = field(init=False, repr=False, compare=False)  # (_drive's index)
+    _told_end: int | None = field(init=False, repr=False, compare=False)  # (_drive's index)
     vertex_holds: dict[int, float] = field(init=False, repr=False, compare=False)
     vertex_speeds: dict[int, float] = field(init=False, repr=False, compare=False)  # (a
     # lap's first vertex has the speed each lap starts at, if it changes speed at all)
@@ -160,10 +168,23 @@ class Polyline:
         object.__setattr__(self, "_cumulative", tuple(cumulative))
         object.__setattr__(self, "vertex_holds", holds)
         object.__setattr__(self, "vertex_speeds", speeds)
-        drive = None
+        if self.told is not None:
+            arc, speed, now = self.told
+            told_ok = 0.0 <= arc <= cumulative[-1] and math.isfinite(speed) and speed > 0.0
+            if not (told_ok and now >= 0.0):
+                raise ValueError(
+                    f"Polyline.told must be (arc, m/s > 0, m/s >= 0), got {self.told!r}"
+                )
+        drive: DriveProfile | None = None
+        own: tuple[int, ...] = ()
+        at: int | None = None
+        end: int | None = None
         if cumulative[-1] > 0.0 and self.speed > 0.0:
-            drive = _drive(nodes, cumulative, self, holds, speeds)
+            drive, own, at, end = _drive(nodes, cumulative, self, holds, speeds)
+        object.__setattr__(self, "_told_at", at)
         object.__setattr__(self, "_drive", drive)
+        object.__setattr__(self, "_own", own)
+        object.__setattr__(self, "_told_end", end)
 
     @property
     def length(self) -> float:
@@ -179,7 +200,102 @@ class Polyline:
     @property
     def arrivals(self) -> tuple[float, ...]:
         """When each vertex is first reached, before its hold (empty: a route that stands)."""
-        return self._drive.arrivals if self._drive is not None else ()
+        if self._drive is None:
+            return ()
+        arrivals = self._drive.arrivals
+        return tuple(a for k, a in enumerate(arrivals) if k not in self._own)
+
+    def with_speed_from(
+        self, tau: float, speed: float, now: float | None = None
+    ) -> tuple[Polyline, float]:
+        """The same road driven at ``speed`` from where it is at drive time ``tau`` until
+        its next speed mark, and the drive time of that place and moment on it.
+
+        ArduRover's DO_CHANGE_SPEED command (``AR_WPNav::set_speed_max``) sets the speed
+        its waypoint navigation drives at until the mission's next DO_CHANGE_SPEED, or
+        until it enters AUTO again (``AR_WPNav::init``: WP_SPEED). A loop without speed
+        marks keeps it every lap. Any speed told before is replaced. ``now`` is the
+        rover's speed then (None: its drive's), from which it changes at its accel: so
+        its own plan's speed there, told, is the plan entered at the rover's speed.
+        """
+        base = self.as_planned()
+        drive = base._drive
+        if drive is None or not math.isfinite(tau):
+            return self, tau
+        laps, arc, held = self._place(tau)
+        at = bisect.bisect_left(base._cumulative, arc - 1e-6)
+        on = at < len(base._cumulative) and abs(base._cumulative[at] - arc) <= 1e-6
+        if base.loop and at == len(base._nodes) - 1:
+            at = 0  # (a lap's end is its start)
+        if on and at in base.vertex_speeds:  # (at a speed mark: its own comes as it leaves)
+            speed = base.vertex_speeds[at]
+        here = math.hypot(*self.velocity(tau)) if now is None else now
+        told = replace(base, told=(arc, speed, here))
+        drive, k = told._drive, told._told_at
+        if drive is not None and k is not None:  # (there, at its speed then)
+            return told, laps * drive.duration + drive.arrivals[k] + held
+        return told, told._moment(laps, arc, held)
+
+    def planned_speed(self, tau: float) -> float:
+        """The speed its plan sets for where it is at drive time ``tau`` (its last speed
+        mark's, else ``speed``), told or not."""
+        if self._drive is None:
+            return self.speed
+        _, arc, _ = self._place(tau)
+        j = bisect.bisect_right(self._cumulative, arc + 1e-6) - 1
+        marks = [k for k in self.vertex_speeds if k <= j]
+        return self.vertex_speeds[max(marks)] if marks else self.speed
+
+    def as_planned(self) -> Polyline:
+        """The road without a speed its operator told (``with_speed_from``)."""
+        return self if self.told is None else replace(self, told=None)
+
+    def told_until(self, tau: float) -> float:
+        """The drive time, ``tau`` or after, at which a told speed gives way to the next
+        speed mark (inf: it never does)."""
+        drive, end = self._drive, self._told_end
+        if drive is None or end is None or self.told is None:
+            return math.inf
+        at = drive.arrivals[end]
+        if not self.loop:
+            return at if at >= tau else math.inf
+        lap = math.floor((tau - at) / drive.duration) + 1 if tau > at else 0
+        return at + lap * drive.duration
+
+    def after_told(self) -> Polyline:
+        """The road as driven once a told speed gives way: as planned, but a loop with
+        no speed marks, which keeps the told speed every lap."""
+        base = self.as_planned()
+        if self.told is not None and self.loop and not self.vertex_speeds:
+            return replace(base, speed=self.told[1])
+        return base
+
+    def moment_on(self, other: Polyline, tau: float) -> float:
+        """The drive time on ``other`` (the same road, other speeds) of the place and
+        moment this drive is at at drive time ``tau``: the lap, the arc, and how long it
+        has stood there."""
+        if self._drive is None or other._drive is None:
+            return tau
+        return other._moment(*self._place(tau))
+
+    def _place(self, tau: float) -> tuple[int, float, float]:
+        """(laps done, arc length within the lap, seconds into a stand there) at drive
+        time ``tau``."""
+        drive = self._drive
+        assert drive is not None
+        laps = 0
+        if drive.loop and tau > 0.0:
+            laps = math.floor(tau / drive.duration)
+            tau -= laps * drive.duration
+        arc, speed = drive.at(tau)
+        began = drive.hold_began(tau)
+        return laps, arc, (tau - began) if speed == 0.0 and tau > 0.0 else 0.0
+
+    def _moment(self, laps: int, arc: float, held: float) -> float:
+        """The drive time at ``arc`` in lap ``laps``, ``held`` s into a stand there."""
+        drive = self._drive
+        assert drive is not None
+        return laps * drive.duration + drive.time_at(arc) + held
 
     def hold_began(self, t: float) -> float:
         """When the hold stood at ``t`` began (``t`` if none is): where a rover that its
@@ -251,9 +367,12 @@ def _drive(
     line: Polyline,
     holds: dict[int, float],
     speeds: dict[int, float],
-) -> DriveProfile:
+) -> tuple[DriveProfile, tuple[int, ...], int | None, int | None]:
     """The drive over the vertices: each leg's speed (the last set before it), each
-    corner's least speed (its turn), each hold."""
+    corner's least speed (its turn), each hold; and a speed told (``line.told``): from
+    a vertex of the drive's own at its arc (unless one is there), passed at the speed it
+    had, braking to it over a leg of its own when slower, to the next speed mark. With
+    the drive's indices of its own vertices, and of the mark (None: it never gives way)."""
     n = len(nodes)
     legs, speed = [], line.speed
     for j in range(n - 1):
@@ -270,9 +389,58 @@ def _drive(
             leg = min(cumulative[a + 1] - cumulative[a], cumulative[b + 1] - cumulative[b])
             corners[j] = corner_speed(turn, ramps, line.wp_radius, leg)
     stands = [holds.get(0 if line.loop and j == n - 1 else j, 0.0) for j in range(n)]
-    return DriveProfile.plan(
-        cumulative, legs, corners=corners, holds=stands, ramps=ramps, loop=line.loop
+    arcs, marks = list(cumulative), set(speeds)
+    inserted: list[int] = []
+    entered: tuple[int, ...] = ()
+    end = None
+    if line.told is not None:
+        arc, pace, now = line.told
+        i = bisect.bisect_right(arcs, arc + 1e-6) - 1  # (the vertex at it, or before it)
+        if i >= n - 1:  # (at the end: a loop's is its start)
+            i = 0 if line.loop else n - 1
+        k = i  # (the vertex it is told at: one of its own mid-leg, passed at its speed now)
+        if i < n - 1 and arc - arcs[i] > 1e-6:
+            k = i + 1
+            _split(arcs, legs, corners, stands, k, arc, now)
+            marks = {j + (j > i) for j in marks}
+            inserted.append(k)
+        else:
+            corners[k] = min(corners[k], now)
+        entered = (k, len(arcs) - 1) if line.loop and k == 0 else (k,)
+        ends = [j for j in sorted(marks) if j > k]
+        for j in range(k, ends[0] if ends else len(legs)):
+            legs[j] = pace
+        if not ends and line.loop and marks:  # (on into the next lap, to its first mark)
+            first = min(marks)
+            for j in range(first):
+                legs[j] = pace
+            ends = [first]
+        elif line.loop and not marks:  # (every lap: from its next vertex, ``after_told``)
+            ends = [k + 1]
+        if k > 0 or line.loop:  # (however fast it was planned to come, it comes at its speed)
+            legs[k - 1] = max(legs[k - 1], now)
+        end = ends[0] if ends else None
+    profile = DriveProfile.plan(
+        arcs, legs, corners=corners, holds=stands, ramps=ramps, loop=line.loop, entered=entered
     )
+    return profile, tuple(inserted), entered[0] if entered else None, end
+
+
+def _split(
+    arcs: list[float],
+    legs: list[float],
+    corners: list[float],
+    stands: list[float],
+    at: int,
+    arc: float,
+    cap: float,
+) -> None:
+    """A vertex of the drive's own at ``arc`` (index ``at``): no turn, no hold, passed
+    no faster than ``cap``; the leg it splits keeps its speed on both sides."""
+    arcs.insert(at, arc)
+    legs.insert(at, legs[at - 1])
+    corners.insert(at, cap)
+    stands.insert(at, 0.0)
 
 
 def _heading(a: tuple[float, float], b: tuple[float, float]) -> float:

@@ -158,14 +158,17 @@ class RoverMission:
             mavlink.MAV_MISSION_TYPE_MISSION,
         )  # fmt: skip
 
-    def current(self, t: float, *, home_first: bool) -> int:
-        """The item being driven to, or held at, at sim time ``t`` (the last once arrived)."""
+    def current(self, t: float, *, home_first: bool, times: Sequence[float] | None = None) -> int:
+        """The item being driven to, or held at, at drive time ``t`` (the last once
+        arrived); ``times``: when each waypoint is reached if not ``self.times`` (a
+        drive retimed by a speed its operator told)."""
+        times = self.times if times is None or len(times) != len(self.times) else times
         if self.laps and t > 0.0:
-            t %= self.times[-1]
-        i = bisect.bisect_right(self.times, t)
-        if i and self.holds and t < self.times[i - 1] + self.holds[i - 1]:
+            t %= times[-1]
+        i = bisect.bisect_right(times, t)
+        if i and self.holds and t < times[i - 1] + self.holds[i - 1]:
             i -= 1  # (holding there: that waypoint is still the one in force)
-        return self._entries.index(min(i, len(self.times) - 1)) + home_first
+        return self._entries.index(min(i, len(times) - 1)) + home_first
 
 
 def as_float_item(item: mavlink.MAVLink_mission_item_int_message) -> mavlink.MAVLink_message:
