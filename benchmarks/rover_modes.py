@@ -1,6 +1,6 @@
-"""A rover's operator at work, in simulation: its mode told the road model, or not.
+"""A rover's operator at work, in simulation: its mode or speed told the road model, or not.
 
-    .venv/bin/python benchmarks/rover_modes.py            # three testbeds, 14 drives each (~6 min)
+    .venv/bin/python benchmarks/rover_modes.py            # four testbeds, 14 drives each (~8 min)
     .venv/bin/python benchmarks/rover_modes.py --drives 6
 
 The convoy is a rover driving the urban grid (``tracks.roads``) as its mission, the
@@ -14,12 +14,17 @@ drive (seeded):
   into the hold, then AUTO: the hold starts again, as ArduRover restarts the waypoint);
 - ``manual``: drives it in MANUAL for two or three stretches of 60-180 s at 0.5-0.7 of
   its mission's speed, along the same road;
-- ``stands``: holds it 20-120 s at three random points (HOLD, then AUTO).
+- ``stands``: holds it 20-120 s at three random points (HOLD, then AUTO);
+- ``speeds``: its mission also changes speed (DO_CHANGE_SPEED to 6 or 8 m/s at three
+  random waypoints), and its operator tells it another two or three times
+  (DO_CHANGE_SPEED by command, 0.5-1.3 of its plan's speed there, at least 3 m/s), each
+  in force until the mission's next (``sitl_mock.roverdrive``).
 
 Each drive is flown twice by the demo's six planes (``fly_road``, with the fixes' own
 velocity as the mock's rovers report it): the mode told (``drives``, 0.5 s after the
-change, as a 1-Hz HEARTBEAT tells it on average) and not. Printed per testbed: the mean
-coverage both ways and the paired difference with its standard error.
+change, as a 1-Hz HEARTBEAT tells it on average) and not; for ``speeds``, the speed it
+keeps seen (``ConvoyModel.kept``) and not (``kept_window_s`` 0). Printed per testbed:
+the mean coverage both ways and the paired difference with its standard error.
 """
 
 from __future__ import annotations
@@ -30,9 +35,11 @@ import os
 import statistics
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
+from dataclasses import replace
 
 import numpy as np
 
+from convoy_mav.mission.road import RoadSettings
 from convoy_mav.mission.simulate import RoadRun, fly_road
 from convoy_mav.planning.plan import PlanRequest
 from convoy_mav.planning.road import Road
@@ -41,6 +48,7 @@ from convoy_mav.types import ConvoyDrive
 from sitl_mock.driveclock import DriveClock
 from sitl_mock.ground import Polyline
 from sitl_mock.mission import DEFAULT_TOLERANCE_M, thin
+from sitl_mock.roverdrive import RoverDrive
 
 REQUEST = PlanRequest(150.0, 100.0, 18.0)  # the demo's planes
 UAVS = 6  # the road's count with a route
@@ -153,26 +161,66 @@ def _manual(seed: int) -> tuple[list[int], Drive, Told]:
     return at, _sample(line, rate_at), told
 
 
-TESTBEDS = {"holds": _holds, "manual": _manual, "stands": _stands}
+def _speeds(seed: int) -> tuple[list[int], Drive, Told, list[tuple[int, float]]]:
+    rng = np.random.default_rng(seed)
+    line, at = _planned(rng)
+    where = sorted(rng.choice(np.arange(4, len(WAYPOINTS) - 4), 3, replace=False).tolist())
+    marks = [(int(i), float(rng.choice([6.0, 8.0]))) for i in where]
+    line = replace(line, speeds=((0, SPEED), *marks))
+    rover = RoverDrive(line)
+    commands: list[tuple[float, float]] = []
+    t = 60.0 + float(rng.uniform(0.0, 120.0))
+    while t < HORIZON_S - 120.0 and len(commands) < 3:
+        commands.append((t, float(rng.uniform(0.5, 1.3))))
+        t += float(rng.uniform(150.0, 300.0))
+    rows = []
+    times = np.arange(0.0, HORIZON_S, STEP_S)
+    for now in times.tolist():
+        if commands and now >= commands[0][0]:
+            _, share = commands.pop(0)
+            route = rover.route
+            assert isinstance(route, Polyline)
+            rover.tell(now, max(3.0, share * route.planned_speed(rover.at(now))))
+        rover.follow(now, True, reset_speed=True)
+        rows.append(rover.state(now))
+    out = np.array(rows)[:: round(1.0 / STEP_S)]
+    drive = times[:: round(1.0 / STEP_S)], out[:, 0], out[:, 1], out[:, 2], out[:, 3]
+    return at, drive, [], marks
+
+
+TESTBEDS: dict[str, Callable[[int], tuple[list[int], Drive, Told]]] = {
+    "holds": _holds,
+    "manual": _manual,
+    "stands": _stands,
+}
 
 
 def _flown(job: tuple[str, int, bool]) -> RoadRun:
     testbed, seed, tell = job
-    at, (t, n, e, vn, ve), told = TESTBEDS[testbed](seed)
+    marks: list[tuple[int, float]] = []
+    if testbed == "speeds":
+        at, (t, n, e, vn, ve), told, marks = _speeds(seed)
+    else:
+        at, (t, n, e, vn, ve), told = TESTBEDS[testbed](seed)
     holds = [(ROAD.project(WAYPOINTS[i][1], WAYPOINTS[i][0], None), 30.0) for i in at]
+    paces = [(0.0, SPEED)] + [
+        (ROAD.project(WAYPOINTS[i][1], WAYPOINTS[i][0], None), v) for i, v in marks
+    ]
     drives = [(when + HEARD_S, d) for when, d in told] if tell else []
+    settings = RoadSettings() if tell else RoadSettings(kept_window_s=0.0)
     return fly_road(
         t, n, e, REQUEST, UAVS, reported=(vn, ve), route=ROAD, holds=holds,
-        speeds=[(0.0, SPEED)], keeps_speed=True, drives=drives,
+        speeds=paces, keeps_speed=True, drives=drives,
+        settings=settings if testbed == "speeds" else None,
     )  # fmt: skip
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--drives", type=int, default=14, help="drives per testbed")
-    parser.add_argument("--testbed", choices=sorted(TESTBEDS), action="append")
+    parser.add_argument("--testbed", choices=[*sorted(TESTBEDS), "speeds"], action="append")
     args = parser.parse_args()
-    testbeds = args.testbed or list(TESTBEDS)
+    testbeds = args.testbed or [*TESTBEDS, "speeds"]
     jobs = [(b, s, tell) for b in testbeds for s in range(args.drives) for tell in (True, False)]
     with ProcessPoolExecutor(os.cpu_count()) as pool:
         runs = dict(zip(jobs, pool.map(_flown, jobs), strict=True))

@@ -37,7 +37,6 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from convoy_mav.geo import GeoPoint, LocalFrame
 from sitl_mock.clock import Speedup
-from sitl_mock.driveclock import DEFAULT_ACCEL, DriveClock
 from sitl_mock.flight import FlightController, Outcome
 from sitl_mock.ground import Polyline, Route, StraightLine
 from sitl_mock.kinematics import Aircraft, AircraftState, AirframeParams
@@ -52,6 +51,7 @@ from sitl_mock.messages import (
 from sitl_mock.mission import RoverMission, as_float_item
 from sitl_mock.params import Knob, ParamTable
 from sitl_mock.personality import Behaviour, Firmware, Personality, firmware_for
+from sitl_mock.roverdrive import RoverDrive
 from sitl_mock.streams import AIRCRAFT_DEFAULT_INTERVALS, GROUND_DEFAULT_INTERVALS, StreamScheduler
 
 __all__ = ["SENSORS", "Personality", "SimVehicle", "TruthRow", "VehicleSpec"]
@@ -230,13 +230,8 @@ class SimVehicle:
         self._battery_s = 0.0
         self._ground_yaw = 0.0
         # A rover drives its route in AUTO only, armed; told to stand, it brakes and waits.
-        # Told a speed (DO_CHANGE_SPEED), it drives the route retimed: ``_route``.
-        route = spec.route
-        self._route = route
-        self._told_until = math.inf  # (drive time the speed told gives way to the plan's)
-        self._drive = DriveClock(
-            route.accel if isinstance(route, Polyline) and route.accel > 0.0 else DEFAULT_ACCEL
-        )
+        # Told a speed (DO_CHANGE_SPEED), it drives the route retimed (``RoverDrive``).
+        self._ground = RoverDrive(spec.route) if spec.route is not None else None
         aircraft = None
         if not ground:
             n, e, d = world.to_ned(spec.home)
@@ -373,48 +368,10 @@ class SimVehicle:
         """A rover drives its route while armed in its mission mode (AUTO), else stands;
         held during a waypoint's hold, it stands the whole hold again once back in AUTO
         (``AP_Mission::resume`` restarts the waypoint, whose hold starts on arrival)."""
-        fl, route, clock = self.flight, self._route, self._drive
-        if route is None:
-            return
-        driving = fl.armed and fl.mode.behaviour is Behaviour.MISSION
-        if isinstance(route, Polyline):
-            if driving and not clock.driving and self.firmware.is_ardupilot:
-                # AUTO again: AR_WPNav::init drives WP_SPEED until the next DO_CHANGE_SPEED
-                self._tell_speed(now, _road_speed(self.spec.route))
-            elif route.told is not None and clock.at(now) >= self._told_until:
-                # The mission's next speed: its own plan from here, entered at its speed.
-                after = route.after_told()
-                tau = route.moment_on(after, clock.at(now))
-                self._tell_speed(now, after.planned_speed(tau), after, tau)
-            route = self._route if self._route is not None else route
-        clock.follow(now, driving, route)
-
-    def _tell_speed(
-        self, now: float, speed: float, on: Polyline | None = None, tau: float | None = None
-    ) -> None:
-        """Drive on at ``speed`` until the mission's next speed (ArduRover's
-        DO_CHANGE_SPEED command: ``Polyline.with_speed_from``), on the route driven or on
-        ``on`` (the same road) from drive time ``tau`` there."""
-        route, tau_was = self._route, self._drive.at(now)
-        if not isinstance(route, Polyline) or not speed > 0.0:
-            return
-        if on is None and route.told is None and route.planned_speed(tau_was) == speed:
-            return  # (the speed it drives at already)
-        moving = self._drive.rate(now) * math.hypot(*route.velocity(tau_was))
-        on, tau = (route, tau_was) if on is None or tau is None else (on, tau)
-        told, tau = on.with_speed_from(tau, speed, moving)
-        self._retime(now, told, tau)
-
-    def _retime(self, now: float, route: Polyline, tau: float) -> None:
-        """Drive ``route`` from now on, at drive time ``tau`` (the same place and moment)."""
-        was, clock = self._route, self._drive
-        if not isinstance(was, Polyline):
-            return
-        tau_was = clock.at(now)
-        speed_was = math.hypot(*was.velocity(tau_was))
-        clock.retime(now, tau, speed_was, math.hypot(*route.velocity(tau)))
-        self._route = route
-        self._told_until = route.told_until(tau)
+        fl, ground = self.flight, self._ground
+        if ground is not None:
+            driving = fl.armed and fl.mode.behaviour is Behaviour.MISSION
+            ground.follow(now, driving, reset_speed=self.firmware.is_ardupilot)
 
     # ================================================================= telemetry
     def due_telemetry(self, now: float) -> list[Message]:
@@ -430,11 +387,11 @@ class SimVehicle:
         """World (n, e, d, vn, ve, vd), yaw, yaw rate and speed at ``now``."""
         ac = self.flight.aircraft
         if ac is None:
-            route, clock = self._route, self._drive
-            tau, rate = clock.at(now), clock.rate(now)
-            n, e = route.position(tau) if route else self.world.to_ned(self.spec.home)[:2]
-            vn, ve = route.velocity(tau) if route else (0.0, 0.0)
-            vn, ve = vn * rate, ve * rate
+            ground = self._ground
+            if ground is None:
+                (n, e, _), vn, ve = self.world.to_ned(self.spec.home), 0.0, 0.0
+            else:
+                n, e, vn, ve = ground.state(now)
             speed = math.hypot(vn, ve)
             if speed > 0.05:
                 self._ground_yaw = math.atan2(ve, vn)
@@ -500,13 +457,13 @@ class SimVehicle:
         )
 
     def _mission_progress(self, now: float) -> dict[str, int]:
-        mission = self.mission
-        if mission is None:
+        mission, ground = self.mission, self._ground
+        if mission is None or ground is None:
             return {}
         home_first = self.firmware.is_ardupilot
         return {
             "mission_seq": mission.current(
-                self._drive.at(now), home_first=home_first, times=_arrivals(self._route)
+                ground.at(now), home_first=home_first, times=_arrivals(ground.route)
             ),
             # (ArduPilot leaves its home item out of the total: GCS_MAVLINK)
             "mission_total": mission.count(home_first=False),
@@ -809,14 +766,15 @@ class SimVehicle:
         fl = self.flight
         if c.p1 not in (_R.SPEED_TYPE_AIRSPEED, _R.SPEED_TYPE_GROUNDSPEED):
             return _R.MAV_RESULT_DENIED, []
-        if not isinstance(self._route, Polyline) or fl.mode.behaviour is not Behaviour.MISSION:
+        ground = self._ground
+        if ground is None or fl.mode.behaviour is not Behaviour.MISSION:
             return _R.MAV_RESULT_FAILED, []  # (Mode::set_desired_speed: AUTO's alone)
         if c.p2 == -1.0:
             return _R.MAV_RESULT_ACCEPTED, []
         if not (math.isfinite(c.p2) and c.p2 >= _ROVER_SPEED_MIN):
             return _R.MAV_RESULT_FAILED, []
-        self._tell_speed(now, float(c.p2))
-        return _R.MAV_RESULT_ACCEPTED, []
+        told = ground.tell(now, float(c.p2))
+        return (_R.MAV_RESULT_ACCEPTED if told else _R.MAV_RESULT_FAILED), []
 
     def _cmd_set_home(self, c: Command, now: float) -> Outcome:
         """MAV_CMD_DO_SET_HOME: param1 1 uses the current position, else lat/lon/alt."""

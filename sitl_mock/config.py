@@ -84,6 +84,7 @@ from convoy_mav.tracks import GeoTrack
 from sitl_mock.autopilot import Personality, VehicleSpec
 from sitl_mock.faults import FaultSpec, TimedFault
 from sitl_mock.ground import (
+    Lagged,
     Polyline,
     Route,
     Stationary,
@@ -172,22 +173,6 @@ _FAULT_KEYS = {
     "sysids",
     "seed",
 }
-
-
-@dataclass(frozen=True, slots=True)
-class Lagged:
-    """A route followed ``lag`` seconds behind: the convoy's later vehicles."""
-
-    inner: Route
-    lag: float
-
-    def position(self, t: float) -> tuple[float, float]:
-        """World (north, east) of the leader ``lag`` seconds earlier."""
-        return self.inner.position(t - self.lag)
-
-    def velocity(self, t: float) -> tuple[float, float]:
-        """World (vn, ve) of the leader ``lag`` seconds earlier."""
-        return self.inner.velocity(t - self.lag)
 
 
 @dataclass(frozen=True, slots=True)

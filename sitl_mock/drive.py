@@ -265,11 +265,11 @@ def _leg(
     ramp at the constant acceleration that takes its S-curve's time and distance."""
     if math.isinf(ramps.accel):
         return [(s0, top, 0.0, length / top)] if length > 0.0 else []
-    if v_in > top + 1e-9:  # (entered above its top: a speed told lower)
+    if v_in > top + 1e-9 and length > 1e-6:  # (entered above its top: a speed told lower)
         return _leg_down(s0, length, v_in, v_out, top, ramps)
     peak = ramps.peak(v_in, v_out, length, top)
     up, down = ramps.distance(v_in, peak), ramps.distance(peak, v_out)
-    if peak == v_in > v_out and down > length:  # (no room for its S-curve: a speed told)
+    if peak == v_in > v_out and down > length > 1e-6:  # (no room for its S-curve: told)
         return _leg_down(s0, length, v_in, v_out, v_in, ramps)
     cruise = max(length - up - down, 0.0)
     out: list[tuple[float, float, float, float]] = []

@@ -24,6 +24,7 @@ from convoy_mav.tracks import GeoTrack, parse_csv_track
 from sitl_mock.drive import DriveProfile, Ramps, corner_speed
 
 __all__ = [
+    "Lagged",
     "Polyline",
     "Route",
     "Stationary",
@@ -32,6 +33,9 @@ __all__ = [
     "load_csv_track",
     "track_from_geo",
 ]
+
+
+_SAME_POINT_M = 1e-6  # m: consecutive points nearer than this are one (a denormal leg: none)
 
 
 @runtime_checkable
@@ -98,12 +102,29 @@ class StraightLine:
 
 
 @dataclass(frozen=True, slots=True)
+class Lagged:
+    """A route followed ``lag`` seconds behind: the convoy's later vehicles."""
+
+    inner: Route
+    lag: float
+
+    def position(self, t: float) -> tuple[float, float]:
+        """World (north, east) of the leader ``lag`` seconds earlier."""
+        return self.inner.position(t - self.lag)
+
+    def velocity(self, t: float) -> tuple[float, float]:
+        """World (vn, ve) of the leader ``lag`` seconds earlier."""
+        return self.inner.velocity(t - self.lag)
+
+
+@dataclass(frozen=True, slots=True)
 class Polyline:
     """Drive through ``points`` at ``speed`` from ``t = 0``, as a rover in AUTO drives
     its waypoints (``sitl_mock.drive``).
 
     Without ``loop`` the vehicle stops at the last point; with it, it drives back to
-    the first one and starts over. Repeated consecutive points are skipped.
+    the first one and starts over. Repeated consecutive points (within a micrometre)
+    are skipped.
 
     ``accel`` (m/s², ArduRover's ``ATC_ACCEL_MAX``; 0: none) brakes it before each corner
     to the speed it passes it at within ``wp_radius`` (``WP_RADIUS``), and speeds it up
@@ -149,11 +170,11 @@ class Polyline:
             if len(point) != 2 or not all(math.isfinite(c) for c in point):
                 raise ValueError(f"Polyline.points[{i}] must be two finite numbers, got {point!r}")
             node = (float(point[0]), float(point[1]))
-            if not nodes or node != nodes[-1]:
+            if not nodes or math.dist(node, nodes[-1]) > _SAME_POINT_M:
                 nodes.append(node)
             node_of.append(len(nodes) - 1)
         if self.loop and len(nodes) > 1:
-            if nodes[-1] != nodes[0]:
+            if math.dist(nodes[-1], nodes[0]) > _SAME_POINT_M:
                 nodes.append(nodes[0])
             else:  # (closed by its points: the last is the first vertex)
                 node_of = [0 if k == len(nodes) - 1 else k for k in node_of]

@@ -7,7 +7,8 @@ its speeds over MAVLink (``[convoy] route = "mission"``), learns how slowly the 
 takes its corners, and protects it; over real UDP against ``sitl_mock`` at 40x, both
 personalities, scored from the mock's ground truth. And its operator holds it a minute
 (HOLD, then AUTO, from a ground station of their own): the rover stands, the service
-hears it and watches a standing convoy.
+hears it and watches a standing convoy; or tells it a slower speed (DO_CHANGE_SPEED): the
+rover keeps it until its mission's next, and the service forecasts it at that.
 """
 
 from __future__ import annotations
@@ -93,21 +94,8 @@ async def test_a_rover_its_operator_holds_stands_and_is_watched_standing() -> No
     async def operator(fleet: MockFleet, service: ConvoyService) -> None:
         """Holds every ground vehicle of the convoy, as its operator does, then AUTO."""
         lead = service.config.convoy.vehicles[0].sysid
-
-        async def until(t: float) -> None:
-            while fleet.now < t:
-                await asyncio.sleep(0.01)
-
-        while service.monitor.protect_start is None:
-            await asyncio.sleep(0.01)
-        await until(250.0)
-        gcs = {
-            v.sysid: mavutil.mavlink_connection(
-                f"udpout:127.0.0.1:{fleet.endpoint(v.sysid).connect.rsplit(':', 1)[1]}",
-                source_system=250,
-            )
-            for v in service.config.convoy.vehicles
-        }
+        await _until_protected(fleet, service, 250.0)
+        gcs = _ground_station(fleet, service)
         flag = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
         try:
             for mode, name, hold_s in (
@@ -119,9 +107,9 @@ async def test_a_rover_its_operator_holds_stands_and_is_watched_standing() -> No
                     for sysid, link in gcs.items():
                         link.mav.set_mode_send(sysid, flag, mode)
                     await asyncio.sleep(0.02)
-                await until(marks[name] + 15.0)
+                await _until(fleet, marks[name] + 15.0)
                 marks[f"{name}+15"] = fleet.truth(lead)
-                await until(marks[name] + hold_s)
+                await _until(fleet, marks[name] + hold_s)
                 marks[f"{name}+end"] = fleet.truth(lead)
         finally:
             for link in gcs.values():
@@ -149,6 +137,74 @@ async def test_a_rover_its_operator_holds_stands_and_is_watched_standing() -> No
     # (seven flights at 40x: 95.2-98.8 %, predicted 0.0-1.5 points higher, as the UAVs fly
     # their legs a little late at this speedup; 98.1-98.3 % without the hold. Over 360 s
     # of protection one 10-s gap is 2.8 points.)
+    assert truth.fraction >= 0.94, (truth, report["predicted_coverage"])
+    assert truth.longest_gap_s <= 12.0, truth
+    assert report["predicted_coverage"] == pytest.approx(truth.fraction, abs=0.02)
+
+
+async def _until(fleet: MockFleet, t: float) -> None:
+    """Sleep until the mock's clock reads ``t``."""
+    while fleet.now < t:
+        await asyncio.sleep(0.01)
+
+
+async def _until_protected(fleet: MockFleet, service: ConvoyService, t: float) -> None:
+    """Sleep until the service protects the convoy and the mock's clock reads ``t``."""
+    while service.monitor.protect_start is None:
+        await asyncio.sleep(0.01)
+    await _until(fleet, t)
+
+
+def _ground_station(fleet: MockFleet, service: ConvoyService) -> dict[int, Any]:
+    """An operator's own link to each ground vehicle of the convoy (system 250)."""
+    return {
+        v.sysid: mavutil.mavlink_connection(
+            f"udpout:127.0.0.1:{fleet.endpoint(v.sysid).connect.rsplit(':', 1)[1]}",
+            source_system=250,
+        )
+        for v in service.config.convoy.vehicles
+    }
+
+
+@pytest.mark.alone
+async def test_a_rover_its_operator_slows_keeps_the_speed_and_is_forecast_at_it() -> None:
+    """DO_CHANGE_SPEED 5 m/s on the circuit's 8 m/s stretch: kept to the 6 m/s mark."""
+    scenario = SCENARIOS["turning"]
+    marks: dict[str, Any] = {}
+
+    async def operator(fleet: MockFleet, service: ConvoyService) -> None:
+        lead = service.config.convoy.vehicles[0].sysid
+        await _until_protected(fleet, service, 150.0)
+        gcs = _ground_station(fleet, service)
+        try:
+            while fleet.truth(lead).speed < 7.9:  # (on a straight, at its 8 m/s)
+                await asyncio.sleep(0.01)
+            marks["told"] = fleet.now
+            for _ in range(3):  # (UDP: as a ground station repeats itself)
+                for sysid, link in gcs.items():
+                    link.mav.command_long_send(
+                        sysid, 1, mavlink.MAV_CMD_DO_CHANGE_SPEED, 0,
+                        mavlink.SPEED_TYPE_GROUNDSPEED, 5.0, -1.0, 0, 0, 0, 0,
+                    )  # fmt: skip
+                await asyncio.sleep(0.02)
+            await _until(fleet, marks["told"] + 15.0)
+            marks["told+15"] = fleet.truth(lead)
+        finally:
+            for link in gcs.values():
+                link.close()
+
+    result = await run_demo(
+        scenario, duration=480.0, speedup=SPEEDUP, personality="ardupilot",
+        uavs=scenario.fleet(route_known=True), route_mission=True, road=CIRCUIT, during=operator,
+    )  # fmt: skip
+    report = result.report.to_dict()
+    assert "told+15" in marks, marks
+    assert marks["told+15"].speed == pytest.approx(5.0, abs=0.05)  # (the rover keeps it)
+    kept = report["planner"]["convoy_kept"]
+    assert kept and kept[0]["mps"] == pytest.approx(5.0, abs=0.2), kept
+    assert kept[0]["plan_mps"] == 8.0 and kept[0]["t"] <= marks["told"] + 15.0, kept
+    truth = result.truth
+    assert truth is not None
     assert truth.fraction >= 0.94, (truth, report["predicted_coverage"])
     assert truth.longest_gap_s <= 12.0, truth
     assert report["predicted_coverage"] == pytest.approx(truth.fraction, abs=0.02)

@@ -425,3 +425,81 @@ def test_driven_otherwise_its_plan_is_set_aside_and_its_speed_not_learnt() -> No
     for t in range(200):
         keeps.observe(ConvoyEstimate(float(t), 0.0, 6.0 * t, 0.0, 6.0))
     assert not keeps._driven  # (a driver's speeds are not the rover's)
+
+
+def _rover(
+    drive: list[tuple[float, float]], paces: list[tuple[float, float]], *, keeps: bool = True
+) -> ConvoyModel:
+    """A rover along ``STRAIGHT`` with ``paces`` planned (arc, m/s), driven by its
+    autopilot (``keeps``) or by people, that drove each (seconds, m/s) in turn, an
+    estimate every 0.2 s (its own velocity: steady to the centimetre)."""
+    model = ConvoyModel(STRAIGHT, relax_s=30.0)
+    model.set_route(STRAIGHT, speeds=paces, keeps_speed=keeps)
+    t, x = 0.0, 0.0
+    for seconds, speed in drive:
+        for _ in range(round(seconds / 0.2)):
+            model.observe(ConvoyEstimate(t, 0.0, x, 0.0, speed))
+            t, x = t + 0.2, x + 0.2 * speed
+    return model
+
+
+def test_a_rover_seen_to_keep_a_speed_not_its_plans_is_forecast_at_it_to_the_next_change() -> None:
+    """An operator's DO_CHANGE_SPEED to 5 m/s where the mission plans 8 (and 6 from 1.5 km)."""
+    paces = [(0.0, 8.0), (1500.0, 6.0)]
+    dt = np.arange(0.0, 300.0, 0.5)
+    rover = _rover([(40.0, 8.0), (4.0, 5.0)], paces)  # (320 m at 8, then 4 s at 5)
+    assert rover.kept is None  # (a moment's speed is not a kept one)
+    assert _ahead(rover, dt)[200] > 8.0 * 90.0  # (back up to the plan's 8 m/s)
+    rover = _rover([(40.0, 8.0), (20.0, 5.0)], paces)  # (at 5 m/s for 20 s: 420 m)
+    assert rover.kept == pytest.approx(5.0)
+    ahead = _ahead(rover, dt)
+    at_change = 1500.0 - 420.0  # (1080 m on: the plan's 6 m/s from there)
+    reach = np.flatnonzero(ahead < at_change)
+    assert ahead[40] == pytest.approx(5.0 * 20.0, abs=1.0)  # (20 s on: 100 m, at 5)
+    assert dt[reach[-1]] == pytest.approx(at_change / 5.0, abs=1.0)
+    assert ahead[-1] - ahead[-21] == pytest.approx(6.0 * 10.0, abs=1.0)  # (the plan's 6)
+    ((_, kept, plan),) = rover.kept_log
+    assert kept == pytest.approx(5.0) and plan == 8.0
+    # Past the plan's change it keeps the plan's own; seen at the plan's speed, it is
+    # forecast at the plan's again.
+    past = _rover([(40.0, 8.0), (240.0, 5.0)], paces)  # (1520 m: past 1500 m)
+    assert past.kept is None and past.kept_log[-1][1] is None
+    back = _rover([(40.0, 8.0), (20.0, 5.0), (20.0, 8.0)], paces)
+    assert back.kept is None
+
+
+def test_a_kept_speed_is_a_rovers_not_a_drivers_and_not_before_a_drive_is_steady() -> None:
+    paces = [(0.0, 8.0)]
+    people = _rover([(40.0, 8.0), (30.0, 5.0)], paces, keeps=False)
+    assert people.kept is None  # (people keep no plan: it relaxes)
+    wobbly = ConvoyModel(STRAIGHT)
+    wobbly.set_route(STRAIGHT, speeds=paces, keeps_speed=True)
+    x = 0.0
+    for k in range(400):  # (5 m/s give or take 1: traffic, not a speed told)
+        speed = 5.0 + math.sin(k / 3.0)
+        wobbly.observe(ConvoyEstimate(0.2 * k, 0.0, x, 0.0, speed))
+        x += 0.2 * speed
+    assert wobbly.kept is None
+    # Told, then back in AUTO after a HOLD: ArduRover drives WP_SPEED again, seen anew.
+    told = _rover([(40.0, 8.0), (20.0, 5.0)], paces)
+    assert told.kept == pytest.approx(5.0)
+    told.set_drive(ConvoyDrive.HELD)
+    told.set_drive(ConvoyDrive.MISSION)
+    assert told.kept is None
+
+
+def test_a_rover_slowed_by_a_curve_keeps_no_speed_of_its_own() -> None:
+    """A curve taken at the lateral acceleration's speed is the road's doing: 30 m of
+    radius, sqrt(1 m/s^2 x 30 m) = 5.5 m/s where the plan says 8."""
+    arc = np.linspace(0.0, math.pi, 120)
+    bend = Road.from_points(
+        [30.0 * math.sin(a) for a in arc] + [0.0] * 50,
+        [30.0 * (1.0 - math.cos(a)) for a in arc] + list(np.linspace(62.0, 2000.0, 50)),
+    )
+    model = ConvoyModel(bend)
+    model.set_route(bend, speeds=[(0.0, 8.0)], keeps_speed=True)
+    for k in range(90):  # (18 s round the half circle at 5 m/s)
+        p = bend.point(5.0 * 0.2 * k)
+        vn, ve = 5.0 * math.sin(p.heading), 5.0 * math.cos(p.heading)
+        model.observe(ConvoyEstimate(0.2 * k, p.y, p.x, vn, ve))
+    assert model.kept is None

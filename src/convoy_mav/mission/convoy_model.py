@@ -71,6 +71,13 @@ Design rules:
   is driven at the rover's own speed where its plan sets none (a PX4 rover's default,
   not asked): ``cruise``, learnt from the drive once the rover is seen to brake for
   its corners as an autopilot does, is then the planned speed there.
+- A rover keeps the speed it is told, not its plan's (``kept``): an operator's
+  DO_CHANGE_SPEED, a WP_SPEED changed, or ArduRover back in AUTO at WP_SPEED, each in
+  force until the mission's next DO_CHANGE_SPEED. So a route driven by an autopilot,
+  seen to hold a steady speed (``KEPT_WINDOW_S`` within ``KEPT_SPREAD_MPS``, no curve
+  near that would slow it) clearly off the plan's there (``KEPT_OFF_MPS``, and 10 %),
+  is forecast at that speed until its next planned speed change; seen back at the
+  plan's, at the plan's. Driven by people the plan's speeds stay a plan (they relax).
 - What drives the lead vehicle, as its autopilot's mode says (``set_drive``; not said,
   its mission). Told to stand (HOLD, disarmed) at a planned hold, it is not forecast to
   pull away when the hold's time is up: it stands until its operator says otherwise;
@@ -103,7 +110,7 @@ from convoy_mav.mission.corners import CornerHabit, warp
 from convoy_mav.planning.road import Road
 from convoy_mav.types import ConvoyDrive, ConvoyEstimate
 
-__all__ = ["HOLD_ACCEL", "ConvoyModel", "RoadMotion"]
+__all__ = ["HOLD_ACCEL", "KEPT_WINDOW_S", "ConvoyModel", "RoadMotion"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -127,6 +134,10 @@ CORNER_RATIO = 0.6  # corners taken slower than this of the planned speed are fo
 CRUISE_WINDOW_S = 120.0  # s: a rover keeping its speed: learnt over this much driving ...
 CRUISE_MIN_S = 30.0  # ... once it has driven this long
 CRUISE_QUANTILE = 75.0  # ... the speed it drives at this much of the time or less
+KEPT_WINDOW_S = 6.0  # s: a rover driving this long at one speed keeps it ...
+KEPT_SPREAD_MPS = 0.6  # ... within this (its own velocity: 0.1 m/s; 3 m of GPS noise: none)
+KEPT_OFF_MPS = 0.7  # ... and, this far off its plan's (and 10 % of it), was told it
+_KEPT_KEPT = 200  # the kept speeds noted for the report
 
 
 @dataclass(frozen=True, slots=True)
@@ -177,6 +188,7 @@ class ConvoyModel:
         relax_s: float = 0.0,
         mean_window_s: float = 90.0,
         corner_curvature: float = 0.04,
+        kept_window_s: float = KEPT_WINDOW_S,
     ) -> None:
         if not (math.isfinite(relax_s) and relax_s >= 0.0):
             raise ValueError(f"relax_s must be >= 0, got {relax_s!r}")
@@ -191,6 +203,7 @@ class ConvoyModel:
         self.off_route_s = off_route_s
         self.relax_s = relax_s
         self.mean_window_s = mean_window_s
+        self.kept_window_s = kept_window_s
         # (t, speed along the route) over the last mean_window_s, and its integral.
         self._speeds: deque[tuple[float, float]] = deque()
         self._distance = 0.0
@@ -204,8 +217,11 @@ class ConvoyModel:
         self._paces: tuple[tuple[float, float], ...] = ()  # planned: (arc on route, m/s on)
         self._keeps_speed = False  # a rover in AUTO: where none is planned, it keeps its own
         self._driven: deque[tuple[float, float]] = deque()  # (t, speed along) while driving
-        self._kept: tuple[float, float | None] = (math.nan, None)  # (t, learnt) cached
+        self._learnt: tuple[float, float | None] = (math.nan, None)  # (t, cruise) cached
         self._drive: ConvoyDrive | None = None  # what drives it (None: not said)
+        self._steady: deque[tuple[float, float, float]] = deque()  # (t, arc, speed) driving
+        self._kept: tuple[float, float] | None = None  # (from arc, m/s) in place of the plan's
+        self.kept_log: list[tuple[float, float | None, float | None]] = []  # (t, kept, plan)
         self._holding: int | None = None  # the hold it stands at (index)
         self._held: set[int] = set()  # holds stood at and left
         self._stood_since: float | None = None  # standing (along the route) since
@@ -260,7 +276,9 @@ class ConvoyModel:
         self._holds = tuple(sorted((float(a), float(h)) for a, h in holds if h > 0.0))
         self._paces = tuple(sorted((float(a), float(v)) for a, v in speeds if v > 0.0))
         self._keeps_speed = keeps_speed
-        self._kept = (math.nan, None)
+        self._learnt = (math.nan, None)
+        self._keep(None, math.nan)
+        self._steady.clear()
         self._circuit = circuit
         self._holding, self._held = None, set()
         self.route = route
@@ -282,6 +300,8 @@ class ConvoyModel:
         back = drive is ConvoyDrive.MISSION and was not in (None, ConvoyDrive.MISSION)
         if back and est is not None and self._holding is not None:
             self._stood_since = est.t
+        if back:  # (a speed told is gone: ArduRover drives WP_SPEED again, seen anew)
+            self._keep(None, math.nan if est is None else est.t)
 
     @property
     def drive(self) -> ConvoyDrive | None:
@@ -348,6 +368,7 @@ class ConvoyModel:
                 ]
                 self._holding = near[0] if near else None
         self._note_speed(est.t, self._along)
+        self._watch_kept(est)
         if self._along >= _CRUISING_MPS and self._plan_holds:
             driven = self._driven
             driven.append((est.t, self._along))
@@ -504,9 +525,17 @@ class ConvoyModel:
         """The planned speed in force at ``arc`` (the last change at or before it; on a
         circuit, before the lap's first, the lap's last); where none is, the speed a
         convoy that keeps its own was seen to (``cruise``), else None (and None while
-        the plan is set aside, ``set_drive``)."""
+        the plan is set aside, ``set_drive``). A speed the rover keeps instead
+        (``kept``) is in force from where it was seen to the plan's next change."""
         if not self._plan_holds:
             return None
+        kept = self._kept
+        if kept is not None and kept[0] <= arc and not self._changes_between(kept[0], arc):
+            return kept[1]
+        return self._planned_pace(arc)
+
+    def _planned_pace(self, arc: float) -> float | None:
+        """The plan's speed in force at ``arc`` (``_pace_at``, whatever the rover keeps)."""
         paces = self._paces
         k = bisect.bisect_right(paces, (arc, math.inf))
         if k:
@@ -514,6 +543,68 @@ class ConvoyModel:
         if self._circuit and paces:
             return paces[-1][1]
         return self.cruise
+
+    def _changes_between(self, a: float, b: float) -> bool:
+        """Whether the plan changes speed after arc ``a`` and at or before ``b`` (on a
+        circuit, the next lap's changes too)."""
+        arcs = [arc for arc, _ in self._paces]
+        if self._circuit and self.road is not None:
+            arcs += [arc + self.road.length for arc in arcs]
+        return any(a < arc <= b for arc in arcs)
+
+    @property
+    def kept(self) -> float | None:
+        """The speed the rover was seen to keep in place of its plan's, in force until
+        the plan's next change of speed (None: it keeps the plan's, or nothing is known)."""
+        return None if self._kept is None else self._kept[1]
+
+    def _keep(self, kept: tuple[float, float] | None, t: float) -> None:
+        """From now on the rover keeps ``kept`` (from arc, m/s), or its plan (None)."""
+        if kept == self._kept:
+            return
+        self._kept = kept
+        if len(self.kept_log) < _KEPT_KEPT and math.isfinite(t):
+            plan = self._planned_pace(self._s) if kept is not None else None
+            self.kept_log.append((t, None if kept is None else kept[1], plan))
+
+    def _watch_kept(self, est: ConvoyEstimate) -> None:
+        """Whether the rover keeps a speed of its own in place of its plan's (``kept``):
+        a route driven by an autopilot, driving steadily on it where no curve slows it."""
+        steady, road = self._steady, self.road
+        kept = self._kept
+        if kept is not None and road is not None and self._s < kept[0] - _WRAP_M:
+            # (on the next lap of a circuit: from there, a lap back; else found elsewhere)
+            kept = (kept[0] - road.length, kept[1]) if self._circuit else None
+            self._kept = kept
+        if kept is not None and self._changes_between(kept[0], self._s):
+            self._keep(kept := None, est.t)  # (the plan's next speed: its own again)
+        moving = self._along >= _CRUISING_MPS and self._plan_holds and not self._off_road
+        window = self.kept_window_s
+        if not (self._keeps_speed and moving and road is not None and window > 0.0) or (
+            self._reversed
+        ):
+            steady.clear()
+            return
+        steady.append((est.t, self._s, self._along))
+        while steady[0][0] < est.t - window:
+            steady.popleft()
+        t0, s0, _ = steady[0]
+        speeds = [v for _, _, v in steady]
+        if est.t - t0 < 0.9 * window or max(speeds) - min(speeds) > KEPT_SPREAD_MPS:
+            return
+        speed = sum(speeds) / len(speeds)
+        plan = self._planned_pace(self._s)
+        if plan is None or self._changes_between(s0, self._s):
+            return
+        fastest = max(speed, plan)
+        if road.max_curvature(s0, self._s + fastest**2 / (2.0 * HOLD_ACCEL)) > (
+            HOLD_ACCEL / fastest**2
+        ):
+            return  # (a curve that would slow it, near or ahead: its speed says nothing)
+        if abs(speed - plan) <= max(KEPT_OFF_MPS, 0.1 * plan):
+            self._keep(None, est.t)
+        elif kept is None or abs(speed - kept[1]) > KEPT_SPREAD_MPS:
+            self._keep((s0, speed), est.t)
 
     @property
     def cruise(self) -> float | None:
@@ -528,14 +619,14 @@ class ConvoyModel:
         driven, est, corner = self._driven, self._est, self.corner_habit.speed
         if not self._keeps_speed or est is None or not driven or corner is None:
             return None
-        if self._kept[0] == est.t:
-            return self._kept[1]
+        if self._learnt[0] == est.t:
+            return self._learnt[1]
         speed = None
         if driven[-1][0] - driven[0][0] >= CRUISE_MIN_S:
             speed = float(np.percentile([v for _, v in driven], CRUISE_QUANTILE))
             if corner >= CORNER_RATIO * speed:
                 speed = None
-        self._kept = (est.t, speed)
+        self._learnt = (est.t, speed)
         return speed
 
     def _plan_ahead(self) -> list[tuple[float, float, float]]:

@@ -78,7 +78,7 @@ import numpy.typing as npt
 
 from convoy_mav.errors import PlanningError
 from convoy_mav.mission.assign import Roster, best_assignment
-from convoy_mav.mission.convoy_model import ConvoyModel, RoadMotion
+from convoy_mav.mission.convoy_model import KEPT_WINDOW_S, ConvoyModel, RoadMotion
 from convoy_mav.mission.events import (
     MissionEvent,
     Phase,
@@ -192,6 +192,8 @@ class RoadSettings:
             forecast to relax to it with this time constant, s (``ConvoyModel``; 0:
             held at its speed) ...
         speed_mean_s: ... its mean over this many seconds, stops included.
+        kept_window_s: A rover on its mission seen this long at one speed off its
+            plan's keeps it (``ConvoyModel.kept``: told it); 0: never seen so.
         join_heading_deg: A joining UAV whose legs would meet the pattern farther than
             this off its heading meets it on its heading instead, when a leg to the
             same meeting fits (``_join_on_heading``; 180: never).
@@ -228,6 +230,7 @@ class RoadSettings:
     side_switch_cost_s: float = 5.0
     speed_relax_s: float = 30.0
     speed_mean_s: float = 90.0
+    kept_window_s: float = KEPT_WINDOW_S
     join_heading_deg: float = 15.0
     replan_on_change_mps: float = 1.5
     replan_budget_s: float = 1.0
@@ -316,6 +319,7 @@ class RoadMission(Roster):
             relax_s=self.settings.speed_relax_s,
             mean_window_s=self.settings.speed_mean_s,
             corner_curvature=self.settings.corner_curvature,
+            kept_window_s=self.settings.kept_window_s,
         )
         self._down = down
         self._slots: dict[int, int] = {}  # uav -> slot index in 0..N-1
@@ -1403,7 +1407,7 @@ class RoadMission(Roster):
         route = self.model.route
         speeds = self._convoy_speeds
         corner = self.model.corner_habit.speed
-        cruise = self.model.cruise
+        cruise, kept = self.model.cruise, self.model.kept
         return {
             "pattern_radius_m": round(self.pattern_radius, 1),
             "road_min_uavs": self.min_uavs,
@@ -1417,6 +1421,13 @@ class RoadMission(Roster):
             "convoy_corner_speed_mps": None if corner is None else round(corner, 2),
             # The speed a rover driving its mission keeps where none is planned (learnt).
             "convoy_cruise_mps": None if cruise is None else round(cruise, 2),
+            # The speed it keeps in place of its plan's (told it: DO_CHANGE_SPEED), and
+            # each change of it: {t, mps (None: the plan's again), plan_mps}.
+            "convoy_kept_mps": None if kept is None else round(kept, 2),
+            "convoy_kept": [
+                {"t": round(t, 1), "mps": _rounded(v), "plan_mps": _rounded(plan)}
+                for t, v, plan in self.model.kept_log
+            ],
             "convoy_speed_range_mps": None if speeds is None else [round(v, 2) for v in speeds],
             "convoy_fast": {
                 "above_speed_ratio": FAST_CONVOY_RATIO,
@@ -1487,3 +1498,8 @@ def _heading_error(pose: Pose, pattern: Where, t: float) -> float:
     """Radians ``pose`` at ``t`` goes off the pattern's way there (more than a right
     angle: its mirror image)."""
     return abs(wrap_angle(pose.heading - pattern_pose(pattern, t).heading))
+
+
+def _rounded(value: float | None) -> float | None:
+    """``value`` to the centimetre (None stays None), for the report."""
+    return None if value is None else round(value, 2)

@@ -290,5 +290,8 @@ class Road:
     def max_curvature(self, s0: float = 0.0, s1: float | None = None) -> float:
         """Largest |curvature| between arc lengths ``s0`` and ``s1`` (default: the end)."""
         hi = self.length if s1 is None else s1
-        mask = (self.s >= s0) & (self.s <= hi)
-        return float(np.max(np.abs(self.curvature[mask]))) if np.any(mask) else 0.0
+        lo, up = (
+            np.searchsorted(self.s, (s0, hi), side="left")[0],
+            np.searchsorted(self.s, hi, side="right"),
+        )
+        return float(np.max(np.abs(self.curvature[lo:up]))) if up > lo else 0.0

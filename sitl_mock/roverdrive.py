@@ -1,0 +1,95 @@
+"""A rover's drive along its route: when it drives, and the speed it is told (pure).
+
+A mock rover's position is its route's at drive time (``DriveClock``): the drive time
+stands while the rover is told to stand. A speed told (DO_CHANGE_SPEED, in AUTO) is the
+same road retimed (``Polyline.with_speed_from``), in force until the mission's next
+DO_CHANGE_SPEED: then the plan's own again, entered at the speed the rover has. And
+ArduRover entering AUTO again drives WP_SPEED until the next (``AR_WPNav::init`` sets
+its speed from the parameter, and ``AP_Mission::resume`` runs no DO command again);
+PX4's mission replays its last speed (``replayCachedSpeedChangeItems``), the plan's.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from sitl_mock.driveclock import DEFAULT_ACCEL, DriveClock
+from sitl_mock.ground import Lagged, Polyline, Route
+
+__all__ = ["RoverDrive"]
+
+
+@dataclass(slots=True)
+class RoverDrive:
+    """The route ``plan`` as driven: ``route`` (retimed by a speed told) at drive time
+    ``clock.at(t) - lag`` (a follower drives its leader's road ``lag`` s behind it: a
+    ``Lagged`` plan). Times passed in never go back."""
+
+    plan: Route
+    route: Route = field(init=False)
+    lag: float = field(init=False, default=0.0)
+    clock: DriveClock = field(init=False)
+    _told_until: float = field(init=False, default=math.inf)  # (drive time: plan's again)
+
+    def __post_init__(self) -> None:
+        plan = self.plan
+        if isinstance(plan, Lagged):
+            self.lag = plan.lag
+            plan = plan.inner
+        self.route = plan
+        accel = plan.accel if isinstance(plan, Polyline) and plan.accel > 0.0 else DEFAULT_ACCEL
+        self.clock = DriveClock(accel)
+
+    @property
+    def wp_speed(self) -> float:
+        """The speed its plan drives where no DO_CHANGE_SPEED says (ArduRover's WP_SPEED;
+        0: a route with none of its own, a recorded track)."""
+        route = self.route
+        return float(route.as_planned().speed) if isinstance(route, Polyline) else 0.0
+
+    def at(self, t: float) -> float:
+        """Drive time on ``route`` at sim time ``t``."""
+        return self.clock.at(t) - self.lag
+
+    def state(self, t: float) -> tuple[float, float, float, float]:
+        """(north, east, vn, ve) at sim time ``t``."""
+        tau, rate = self.at(t), self.clock.rate(t)
+        n, e = self.route.position(tau)
+        vn, ve = self.route.velocity(tau)
+        return n, e, vn * rate, ve * rate
+
+    def follow(self, t: float, driving: bool, *, reset_speed: bool) -> None:
+        """From sim time ``t`` it drives (armed in AUTO) or stands; ``reset_speed``:
+        entering AUTO again, it drives WP_SPEED until the mission's next speed (ArduRover).
+        A speed told gives way where the mission's next one comes."""
+        route, clock = self.route, self.clock
+        if isinstance(route, Polyline):
+            if driving and not clock.driving and reset_speed:
+                self.tell(t, self.wp_speed)
+            elif route.told is not None and self.at(t) >= self._told_until:
+                after = route.after_told()  # (its own plan from here, at its speed)
+                tau = route.moment_on(after, self.at(t))
+                self.tell(t, after.planned_speed(tau), after, tau)
+        clock.follow(t, driving, Lagged(self.route, self.lag) if self.lag else self.route)
+
+    def tell(
+        self, t: float, speed: float, on: Polyline | None = None, tau: float | None = None
+    ) -> bool:
+        """From sim time ``t`` drive at ``speed`` until the mission's next speed, on the
+        route driven or on ``on`` (the same road, at its drive time ``tau``); False: a
+        route that takes no speed (a recorded track's, or none)."""
+        route, clock = self.route, self.clock
+        if not isinstance(route, Polyline) or not speed > 0.0:
+            return False
+        tau_was = self.at(t)
+        if on is None and route.told is None and route.planned_speed(tau_was) == speed:
+            return True  # (the speed it drives at already)
+        speed_was = math.hypot(*route.velocity(tau_was))
+        moving = clock.rate(t) * speed_was
+        on, tau = (route, tau_was) if on is None or tau is None else (on, tau)
+        told, tau = on.with_speed_from(tau, speed, moving)
+        clock.retime(t, tau + self.lag, speed_was, math.hypot(*told.velocity(tau)))
+        self.route = told
+        self._told_until = told.told_until(tau)
+        return True
