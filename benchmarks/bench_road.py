@@ -148,6 +148,25 @@ def test_road_estimate_update(benchmark: BenchmarkFixture) -> None:
     benchmark(update)
 
 
+def test_road_estimate_update_of_a_rover_on_its_mission(benchmark: BenchmarkFixture) -> None:
+    """The same for a rover driving the route as its mission (``keeps_speed``), steady
+    at its own 5 m/s where the plan says 8: whether it keeps a speed of its own
+    (``ConvoyModel.kept``: the last 6 s of its speed and the route's curvature ahead)."""
+    _, north, east = _drive()
+    route = Road.from_points(east, north)
+    mission = RoadMission(FAST, [1, 2, 3, 4, 5, 6], down=lambda _u: -100.0, route=route)
+    mission.model.set_route(route, speeds=[(0.0, 8.0)], keeps_speed=True)
+    state = {"k": 0}
+
+    def update() -> None:
+        k = state["k"] = state["k"] + 1
+        q = route.point((0.5 * k) % route.length)  # (5 m/s, an estimate every 0.1 s)
+        vx, vy = 5.0 * math.cos(q.heading), 5.0 * math.sin(q.heading)
+        mission.model.observe(ConvoyEstimate(0.1 * k, q.y, q.x, vy, vx))
+
+    benchmark(update)
+
+
 def _forecaster(
     holds: bool, speeds: bool = False, keeps_speed: bool = False
 ) -> tuple[ConvoyModel, np.ndarray]:

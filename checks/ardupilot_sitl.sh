@@ -54,6 +54,8 @@
 # same, and the service has no planned speed), to weigh the plan against the firmware.
 # ROVER_HOLDS="AT:FOR ..." has its operator hold it (HOLD at its boot time AT s, AUTO
 # again FOR s later; checks/rover_mission.py drive --hold): the service hears each mode.
+# ROVER_SPEEDS="AT:MPS ..." has its operator tell it a speed (DO_CHANGE_SPEED at boot
+# time AT s; drive --speed-at): the service sees the speed it keeps (planner.convoy_kept).
 #
 # SITL_DIR is an ArduPilot tree with build/sitl/bin/arducopter and arduplane built
 # (see the project's notes on building SITL; it is not part of `make test`).
@@ -146,6 +148,7 @@ PY
     [ -n "${ROVER_NO_PLAN_SPEED:-}" ] && mission_speed=0  # (no DO_CHANGE_SPEED: WP_SPEED)
     holds=()
     for h in ${ROVER_HOLDS:-}; do holds+=(--hold "$h"); done  # (its operator's HOLDs)
+    for v in ${ROVER_SPEEDS:-}; do holds+=(--speed-at "$v"); done  # (... and speeds)
     "$py" checks/rover_mission.py drive tcp:127.0.0.1:5962 "$out/road.csv" "$mission_speed" \
       "${holds[@]}" >"$out/rover_drive.log" 2>&1 &
     pids+=($!)
@@ -248,6 +251,7 @@ import json, sys
 planner = json.load(open(sys.argv[1]))['planner']
 print('route:', planner.get('route_source'), planner.get('route_length_m'), 'm; mission reads:', planner.get('mission_reads'))
 print('modes heard:', [(m['t'], m['mode']) for m in planner.get('convoy_modes', [])])
+print('speeds kept:', [(k['t'], k['mps'], k['plan_mps']) for k in planner.get('convoy_kept', [])])
 " "$out/report.json"
 fi
 if [ -n "${KILL:-}" ]; then

@@ -4,6 +4,7 @@
     .venv/bin/python checks/rover_mission.py read --mock ardupilot        # the mock's rover
     .venv/bin/python checks/rover_mission.py drive tcp:127.0.0.1:5962 road.csv 8
     .venv/bin/python checks/rover_mission.py drive tcp:127.0.0.1:5962 road.csv 8 --hold 300:60
+    .venv/bin/python checks/rover_mission.py drive tcp:127.0.0.1:5962 road.csv 8 --speed-at 300:5
     .venv/bin/python checks/rover_mission.py compare mission.tlog road.csv 8 --accel 1
 
 ``read`` checks that the service's reader (``mavlink.missionread``) and the road it
@@ -25,7 +26,9 @@ AUTO and arming, retried until the firmware accepts. Run beside ``convoy-mav run
 with ``[convoy] route = "mission"``. ``--hold AT:FOR`` (repeatable) is its operator
 holding it: HOLD at the rover's own boot time AT s, AUTO again FOR s later; each prints
 where the rover was, how far it ran on after HOLD and how long it took to stand, and
-whether it drove on in AUTO.
+whether it drove on in AUTO. ``--speed-at AT:MPS`` (repeatable) is its operator telling
+it a speed: DO_CHANGE_SPEED by command at boot time AT s; each prints the rover's answer
+and its speed 10-20 s later.
 
 ``compare`` sets the drive of a real rover (its GLOBAL_POSITION_INT in a tlog, from when
 it first moves to when it last does) beside the mock's rover driving the same road as
@@ -185,7 +188,11 @@ def road_items(target: tuple[int, int], path: str, speed: float) -> list[Any]:
 
 
 def drive(
-    connection: str, path: str, speed: float, holds: Sequence[tuple[float, float]] = ()
+    connection: str,
+    path: str,
+    speed: float,
+    holds: Sequence[tuple[float, float]] = (),
+    speeds: Sequence[tuple[float, float]] = (),
 ) -> int:
     """Upload the road, AUTO, arm (see the module's ``drive``)."""
     link = mavutil.mavlink_connection(connection, source_system=250, source_component=190)
@@ -214,17 +221,21 @@ def drive(
         arm = mavlink.MAV_CMD_COMPONENT_ARM_DISARM
         if ack is not None and ack.command == arm and ack.result == mavlink.MAV_RESULT_ACCEPTED:
             print(f"{time.strftime('%H:%M:%S')} armed in AUTO", flush=True)
-            return _operator_holds(link, target, holds)
+            return _operator(link, target, holds, speeds)
         time.sleep(1.0)
     print("the rover refused to arm")
     return 1
 
 
-def _operator_holds(
-    link: Any, target: tuple[int, int], holds: Sequence[tuple[float, float]]
+def _operator(
+    link: Any,
+    target: tuple[int, int],
+    holds: Sequence[tuple[float, float]],
+    speeds: Sequence[tuple[float, float]] = (),
 ) -> int:
-    """HOLD at each (boot time, seconds), then AUTO; what the rover did, printed."""
-    if not holds:
+    """HOLD at each (boot time, seconds), then AUTO; DO_CHANGE_SPEED at each (boot time,
+    m/s); what the rover did, printed."""
+    if not holds and not speeds:
         return 0
     link.mav.request_data_stream_send(*target, mavlink.MAV_DATA_STREAM_POSITION, 4, 1)
     frame: LocalFrame | None = None
@@ -242,23 +253,39 @@ def _operator_holds(
             return m.time_boot_ms * 1e-3, n, e, math.hypot(m.vx, m.vy) * 0.01
 
     flag = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
-    for at, seconds in sorted(holds):
+    plan = sorted([(at, "hold", seconds) for at, seconds in holds] +
+                  [(at, "speed", mps) for at, mps in speeds])  # fmt: skip
+    for at, kind, value in plan:
         t, n0, e0, v0 = fix()
         while t < at:
             t, n0, e0, v0 = fix()
+        if kind == "speed":
+            link.mav.command_long_send(*target, mavlink.MAV_CMD_DO_CHANGE_SPEED, 0,
+                                       mavlink.SPEED_TYPE_GROUNDSPEED, value, -1.0,
+                                       0, 0, 0, 0)  # fmt: skip
+            ack = link.recv_match(type="COMMAND_ACK", blocking=True, timeout=5.0)
+            said = "no answer" if ack is None else mavlink.enums["MAV_RESULT"][ack.result].name
+            speeds_seen = []
+            while t < at + 20.0:
+                t, _, _, v = fix()
+                speeds_seen.append(v)
+            print(f"DO_CHANGE_SPEED {value:.1f} m/s at {at:.0f} s (boot), {v0:.1f} m/s: "
+                  f"{said}; 10-20 s later {min(speeds_seen[-10:]):.1f}-"
+                  f"{max(speeds_seen[-10:]):.1f} m/s", flush=True)  # fmt: skip
+            continue
         link.mav.set_mode_send(target[0], flag, ROVER_HOLD)
         stood: tuple[float, float] | None = None  # (boot s, metres run on) once standing
-        while t < at + seconds:
+        while t < at + value:
             t, n, e, v = fix()
             if stood is None and v < 0.1:
                 stood = (t - at, math.hypot(n - n0, e - e0))
         link.mav.set_mode_send(target[0], flag, ROVER_AUTO)
-        while t < at + seconds + 15.0:
+        while t < at + value + 15.0:
             t, n, e, v = fix()
         said = (
             "never stood" if stood is None else f"stood {stood[0]:.1f} s later, {stood[1]:.1f} m on"
         )
-        print(f"HOLD at {at:.0f} s (boot), {v0:.1f} m/s: {said}; AUTO at {at + seconds:.0f} s: "
+        print(f"HOLD at {at:.0f} s (boot), {v0:.1f} m/s: {said}; AUTO at {at + value:.0f} s: "
               f"{v:.1f} m/s 15 s later", flush=True)  # fmt: skip
     return 0
 
@@ -366,12 +393,12 @@ def read(args: argparse.Namespace) -> int:
             mock.wait()
 
 
-def _hold(text: str) -> tuple[float, float]:
-    at, _, seconds = text.partition(":")
+def _pair(text: str) -> tuple[float, float]:
+    at, _, value = text.partition(":")
     try:
-        return float(at), float(seconds)
+        return float(at), float(value)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r}: give AT:FOR in seconds") from None
+        raise argparse.ArgumentTypeError(f"{text!r}: give two numbers, AT:VALUE") from None
 
 
 def main() -> int:
@@ -386,8 +413,12 @@ def main() -> int:
     d.add_argument("road", help="CSV time,lat,lon")
     d.add_argument("speed", type=float, help="m/s")
     d.add_argument(
-        "--hold", action="append", default=[], type=_hold, metavar="AT:FOR",
+        "--hold", action="append", default=[], type=_pair, metavar="AT:FOR",
         help="HOLD at the rover's boot time AT s, AUTO again FOR s later (repeatable)",
+    )  # fmt: skip
+    d.add_argument(
+        "--speed-at", action="append", default=[], type=_pair, metavar="AT:MPS",
+        help="DO_CHANGE_SPEED to MPS at the rover's boot time AT s (repeatable)",
     )  # fmt: skip
     c = sub.add_parser("compare", help="a rover's drive in a tlog against the mock's rover")
     c.add_argument("tlog", help="the tlog of the rover's drive")
@@ -399,7 +430,7 @@ def main() -> int:
     if args.command == "compare":
         return compare(args.tlog, args.road, args.speed, args.accel, args.sysid)
     if args.command == "drive":
-        return drive(args.connection, args.road, args.speed, args.hold)
+        return drive(args.connection, args.road, args.speed, args.hold, args.speed_at)
     return read(args)
 
 

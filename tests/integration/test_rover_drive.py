@@ -4,11 +4,12 @@ The mock's lead rover drives a city circuit as ArduRover does (``sitl_mock.drive
 braking at 1 m/s² to 2-3 m/s for each corner, a hold, a slower stretch set by
 DO_CHANGE_SPEED), and serves it as its mission. The service reads the route, its hold and
 its speeds over MAVLink (``[convoy] route = "mission"``), learns how slowly the convoy
-takes its corners, and protects it; over real UDP against ``sitl_mock`` at 40x, both
-personalities, scored from the mock's ground truth. And its operator holds it a minute
-(HOLD, then AUTO, from a ground station of their own): the rover stands, the service
-hears it and watches a standing convoy; or tells it a slower speed (DO_CHANGE_SPEED): the
-rover keeps it until its mission's next, and the service forecasts it at that.
+takes its corners, and protects it; over real UDP against ``sitl_mock`` at 40x (20x for
+the speed told), both personalities, scored from the mock's ground truth. And its
+operator holds it a minute (HOLD, then AUTO, from a ground station of their own): the
+rover stands, the service hears it and watches a standing convoy; or tells it a slower
+speed (DO_CHANGE_SPEED): the rover keeps it until its mission's next, and the service
+forecasts it at that.
 """
 
 from __future__ import annotations
@@ -28,6 +29,9 @@ from sitl_mock.server import MockFleet
 from tests.hostspeed import host_speedup
 
 SPEEDUP = host_speedup(40.0)
+SLOWER = host_speedup(20.0)  # (a flight whose prediction is held to its truth: the UAVs
+# fly their legs late at 40x on two cores, up to 2.6 points under the prediction in four
+# flights of the slowed rovers; at 20x, 0.6-1.4 in three)
 pytestmark = pytest.mark.integration
 
 # A lap of 2.2 km round six city corners, the third held 30 s; 8 m/s, then 6 m/s from
@@ -194,7 +198,7 @@ async def test_a_rover_its_operator_slows_keeps_the_speed_and_is_forecast_at_it(
                 link.close()
 
     result = await run_demo(
-        scenario, duration=480.0, speedup=SPEEDUP, personality="ardupilot",
+        scenario, duration=480.0, speedup=SLOWER, personality="ardupilot",
         uavs=scenario.fleet(route_known=True), route_mission=True, road=CIRCUIT, during=operator,
     )  # fmt: skip
     report = result.report.to_dict()
@@ -205,6 +209,7 @@ async def test_a_rover_its_operator_slows_keeps_the_speed_and_is_forecast_at_it(
     assert kept[0]["plan_mps"] == 8.0 and kept[0]["t"] <= marks["told"] + 15.0, kept
     truth = result.truth
     assert truth is not None
+    # (seven flights: 95.6-99.0 %, the prediction 0.6-2.6 points higher at 40x, 0.6-1.4 at 20x)
     assert truth.fraction >= 0.94, (truth, report["predicted_coverage"])
     assert truth.longest_gap_s <= 12.0, truth
     assert report["predicted_coverage"] == pytest.approx(truth.fraction, abs=0.02)
