@@ -29,6 +29,10 @@ Design rules:
       accelerate, cruise, brake; each ramp as the constant acceleration that takes its
       S-curve's time and distance (so a vertex is reached when the firmware reaches
       it), and the profile is a value computed once.
+    * A speed told mid-drive (a DO_CHANGE_SPEED command: ``entered`` vertices) starts
+      from the speed the rover has there, whatever the plan behind it: higher, it speeds
+      up to it after; lower, it brakes to it after (``_leg_down``), evenly at the accel
+      where its S-curves have no room before the next corner.
     * ``accel = inf`` is the ideal vehicle of before: corners at full speed, every
       change of speed at once.
 """

@@ -392,8 +392,9 @@ def _drive(
     """The drive over the vertices: each leg's speed (the last set before it), each
     corner's least speed (its turn), each hold; and a speed told (``line.told``): from
     a vertex of the drive's own at its arc (unless one is there), passed at the speed it
-    had, braking to it over a leg of its own when slower, to the next speed mark. With
-    the drive's indices of its own vertices, and of the mark (None: it never gives way)."""
+    had (braked after it when the speed told is lower), to the next speed mark (on a loop
+    with none, to its next vertex: ``after_told`` keeps it every lap). With the drive's
+    indices of its own vertices, of the one told at, and of the mark (None: never)."""
     n = len(nodes)
     legs, speed = [], line.speed
     for j in range(n - 1):

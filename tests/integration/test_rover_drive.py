@@ -4,8 +4,8 @@ The mock's lead rover drives a city circuit as ArduRover does (``sitl_mock.drive
 braking at 1 m/s² to 2-3 m/s for each corner, a hold, a slower stretch set by
 DO_CHANGE_SPEED), and serves it as its mission. The service reads the route, its hold and
 its speeds over MAVLink (``[convoy] route = "mission"``), learns how slowly the convoy
-takes its corners, and protects it; over real UDP against ``sitl_mock`` at 40x (20x for
-the speed told), both personalities, scored from the mock's ground truth. And its
+takes its corners, and protects it; over real UDP against ``sitl_mock`` at 20x, both
+personalities, scored from the mock's ground truth. And its
 operator holds it a minute (HOLD, then AUTO, from a ground station of their own): the
 rover stands, the service hears it and watches a standing convoy; or tells it a slower
 speed (DO_CHANGE_SPEED): the rover keeps it until its mission's next, and the service
@@ -28,10 +28,11 @@ from sitl_mock.drive import Ramps, corner_speed
 from sitl_mock.server import MockFleet
 from tests.hostspeed import host_speedup
 
-SPEEDUP = host_speedup(40.0)
-SLOWER = host_speedup(20.0)  # (a flight whose prediction is held to its truth: the UAVs
-# fly their legs late at 40x on two cores, up to 2.6 points under the prediction in four
-# flights of the slowed rovers; at 20x, 0.6-1.4 in three)
+# 20x: at 40x on two cores the UAVs flew their legs late, each of the three flights
+# below missed its bound in a clean-clone CI run (the truth 2.6-2.7 points under the
+# prediction, or 95.2 % against a bar of 96 %), and four flights of the slowed rovers
+# gave up to 2.6 points under it; at 20x, 0.6-1.4 in three.
+SPEEDUP = host_speedup(20.0)
 pytestmark = pytest.mark.integration
 
 # A lap of 2.2 km round six city corners, the third held 30 s; 8 m/s, then 6 m/s from
@@ -83,7 +84,7 @@ async def test_a_rovers_corners_are_learnt_and_its_convoy_protected(
     # (measured at 15x, 900 s: 99.24 % with the corners forecast, 98.92 % without)
     assert truth.fraction >= 0.96, (truth, report["predicted_coverage"])
     assert truth.longest_gap_s <= 12.0, truth
-    # (1.5 points, as the road replays allow a flight beside another at 40x)
+    # (1.5 points, as the road replays allow a flight beside another)
     assert report["predicted_coverage"] == pytest.approx(truth.fraction, abs=0.015)
 
 
@@ -134,13 +135,13 @@ async def test_a_rover_its_operator_holds_stands_and_is_watched_standing() -> No
     modes = [m["mode"] for m in report["planner"]["convoy_modes"]]
     assert modes == ["AUTO", "HOLD", "AUTO"], modes
     heard = report["planner"]["convoy_modes"][1]["t"]  # (mission time: the mock's clock)
-    assert marks["held"] - 1.0 <= heard <= marks["held"] + 5.0  # (HEARTBEAT at 1 Hz, at 40x)
+    assert marks["held"] - 1.0 <= heard <= marks["held"] + 5.0  # (HEARTBEAT at 1 Hz)
     assert any("in HOLD (was AUTO): it stands" in e for e in report["events"]), report["events"]
     truth = result.truth
     assert truth is not None
-    # (seven flights at 40x: 95.2-98.8 %, predicted 0.0-1.5 points higher, as the UAVs fly
-    # their legs a little late at this speedup; 98.1-98.3 % without the hold. Over 360 s
-    # of protection one 10-s gap is 2.8 points.)
+    # (seven flights at 40x: 95.2-98.8 %, predicted 0.0-2.6 points higher, as the UAVs flew
+    # their legs late at that speedup; 98.1-98.3 % without the hold. Over 360 s of
+    # protection one 10-s gap is 2.8 points.)
     assert truth.fraction >= 0.94, (truth, report["predicted_coverage"])
     assert truth.longest_gap_s <= 12.0, truth
     assert report["predicted_coverage"] == pytest.approx(truth.fraction, abs=0.02)
@@ -198,7 +199,7 @@ async def test_a_rover_its_operator_slows_keeps_the_speed_and_is_forecast_at_it(
                 link.close()
 
     result = await run_demo(
-        scenario, duration=480.0, speedup=SLOWER, personality="ardupilot",
+        scenario, duration=480.0, speedup=SPEEDUP, personality="ardupilot",
         uavs=scenario.fleet(route_known=True), route_mission=True, road=CIRCUIT, during=operator,
     )  # fmt: skip
     report = result.report.to_dict()
