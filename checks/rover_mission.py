@@ -201,30 +201,40 @@ def drive(
         print(f"no heartbeat on {connection}")
         return 2
     target = (link.target_system, link.target_component)
-    # Home is set once the rover's position estimate is good: then it can be sent off.
+    items = road_items(target, path, speed)
+    answer, armed = send_off(link, target, items)
+    print(f"{time.strftime('%H:%M:%S')} upload {len(items) - 2} waypoints: {answer}", flush=True)
+    if not armed:
+        print("the rover refused to arm")
+        return 1
+    print(f"{time.strftime('%H:%M:%S')} armed in AUTO", flush=True)
+    return _operator(link, target, holds, speeds)
+
+
+def send_off(link: Any, target: tuple[int, int], items: list[Any]) -> tuple[str, bool]:
+    """Wait until the rover has a home (its position estimate is good: then it can be
+    sent off), upload ``items``, switch to AUTO and arm, retried until the firmware
+    accepts: the upload's answer, and whether it armed."""
     deadline = time.monotonic() + 120.0
+    home = mavlink.MAVLINK_MSG_ID_HOME_POSITION
     while time.monotonic() < deadline:
-        home = mavlink.MAVLINK_MSG_ID_HOME_POSITION
         link.mav.command_long_send(
             *target, mavlink.MAV_CMD_REQUEST_MESSAGE, 0, home, 0, 0, 0, 0, 0, 0
         )
         if link.recv_match(type="HOME_POSITION", blocking=True, timeout=2.0) is not None:
             break
-    items = road_items(target, path, speed)
-    print(f"{time.strftime('%H:%M:%S')} upload {len(items) - 2} waypoints: "
-          f"{upload(link, target, items)}", flush=True)  # fmt: skip
+    answer = upload(link, target, items)
+    if answer != "MAV_MISSION_ACCEPTED":
+        return answer, False
     link.mav.set_mode_send(target[0], mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, ROVER_AUTO)
+    arm = mavlink.MAV_CMD_COMPONENT_ARM_DISARM
     for _ in range(60):
-        link.mav.command_long_send(*target, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0,
-                                   1, 0, 0, 0, 0, 0, 0)  # fmt: skip
+        link.mav.command_long_send(*target, arm, 0, 1, 0, 0, 0, 0, 0, 0)
         ack = link.recv_match(type="COMMAND_ACK", blocking=True, timeout=2.0)
-        arm = mavlink.MAV_CMD_COMPONENT_ARM_DISARM
         if ack is not None and ack.command == arm and ack.result == mavlink.MAV_RESULT_ACCEPTED:
-            print(f"{time.strftime('%H:%M:%S')} armed in AUTO", flush=True)
-            return _operator(link, target, holds, speeds)
+            return answer, True
         time.sleep(1.0)
-    print("the rover refused to arm")
-    return 1
+    return answer, False
 
 
 def _operator(

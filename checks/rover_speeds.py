@@ -32,11 +32,10 @@ from typing import Any
 
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import common as mavlink
+from rover_mission import ROVER_AUTO, ROVER_HOLD, send_off  # (checks/, beside this one)
 
 HOME = (47.397742, 8.545594, 488.0)
 LEG_M = 400.0
-ROVER_AUTO, ROVER_HOLD = 10, 4
-MISSION = mavlink.MAV_MISSION_TYPE_MISSION
 # (from, to metres east, the speed ArduRover should keep there, why)
 EXPECTED = (
     (300.0, 750.0, 5.0, "told 5 m/s by command, before the mission's next"),
@@ -71,50 +70,17 @@ def _mission(target: tuple[int, int]) -> list[Any]:
     ]
 
 
-def _upload(link: Any, target: tuple[int, int], items: list[Any]) -> bool:
-    link.mav.mission_count_send(*target, len(items), MISSION)
-    while True:
-        m = link.recv_match(
-            type=["MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK"],
-            blocking=True,
-            timeout=10,
-        )
-        if m is None:
-            return False
-        if m.get_type() == "MISSION_ACK":
-            return bool(m.type == mavlink.MAV_MISSION_ACCEPTED)
-        link.mav.send(items[m.seq])
-
-
 def run(connection: str) -> int:
     link = mavutil.mavlink_connection(connection, source_system=250, source_component=190)
     if link.wait_heartbeat(timeout=60) is None:
         print(f"no heartbeat on {connection}")
         return 2
     target = (link.target_system, link.target_component)
-    deadline = time.monotonic() + 120.0
-    while time.monotonic() < deadline:  # (home set: the position estimate is good)
-        home = mavlink.MAVLINK_MSG_ID_HOME_POSITION
-        link.mav.command_long_send(*target, mavlink.MAV_CMD_REQUEST_MESSAGE, 0, home,
-                                   0, 0, 0, 0, 0, 0)  # fmt: skip
-        if link.recv_match(type="HOME_POSITION", blocking=True, timeout=2.0) is not None:
-            break
-    if not _upload(link, target, _mission(target)):
-        print("the mission was not accepted")
+    answer, armed = send_off(link, target, _mission(target))
+    if not armed:
+        print(f"the rover was not sent off: upload {answer}, not armed in AUTO")
         return 2
     flag = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
-    link.mav.set_mode_send(target[0], flag, ROVER_AUTO)
-    for _ in range(60):
-        link.mav.command_long_send(*target, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0,
-                                   1, 0, 0, 0, 0, 0, 0)  # fmt: skip
-        ack = link.recv_match(type="COMMAND_ACK", blocking=True, timeout=2.0)
-        arm = mavlink.MAV_CMD_COMPONENT_ARM_DISARM
-        if ack is not None and ack.command == arm and ack.result == mavlink.MAV_RESULT_ACCEPTED:
-            break
-        time.sleep(1.0)
-    else:
-        print("the rover refused to arm")
-        return 2
     link.mav.request_data_stream_send(*target, mavlink.MAV_DATA_STREAM_POSITION, 4, 1)
     lat0, lon0, _ = HOME
     told = False

@@ -15,7 +15,9 @@ forecasts it at that.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import math
+from collections.abc import AsyncIterator, Awaitable, Callable
 from typing import Any
 
 import pytest
@@ -100,25 +102,18 @@ async def test_a_rover_its_operator_holds_stands_and_is_watched_standing() -> No
         """Holds every ground vehicle of the convoy, as its operator does, then AUTO."""
         lead = service.config.convoy.vehicles[0].sysid
         await _until_protected(fleet, service, 250.0)
-        gcs = _ground_station(fleet, service)
         flag = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
-        try:
+        async with _ground_station(fleet, service) as tell:
             for mode, name, hold_s in (
                 (_ARDUROVER_HOLD, "held", 60.0),
                 (_ARDUROVER_AUTO, "auto", 20.0),
             ):
                 marks[name] = fleet.now
-                for _ in range(3):  # (UDP: as a ground station repeats itself)
-                    for sysid, link in gcs.items():
-                        link.mav.set_mode_send(sysid, flag, mode)
-                    await asyncio.sleep(0.02)
+                await tell("set_mode_send", flag, mode)
                 await _until(fleet, marks[name] + 15.0)
                 marks[f"{name}+15"] = fleet.truth(lead)
                 await _until(fleet, marks[name] + hold_s)
                 marks[f"{name}+end"] = fleet.truth(lead)
-        finally:
-            for link in gcs.values():
-                link.close()
 
     result = await run_demo(
         scenario, duration=480.0, speedup=SPEEDUP, personality="ardupilot",
@@ -160,15 +155,32 @@ async def _until_protected(fleet: MockFleet, service: ConvoyService, t: float) -
     await _until(fleet, t)
 
 
-def _ground_station(fleet: MockFleet, service: ConvoyService) -> dict[int, Any]:
-    """An operator's own link to each ground vehicle of the convoy (system 250)."""
-    return {
+@contextlib.asynccontextmanager
+async def _ground_station(
+    fleet: MockFleet, service: ConvoyService
+) -> AsyncIterator[Callable[..., Awaitable[None]]]:
+    """An operator's own link to each ground vehicle of the convoy (system 250): tells
+    every one the same, ``tell(sender, *args)`` (a ``link.mav`` method and its arguments
+    after the target system), thrice, as a ground station repeats itself over UDP."""
+    links = {
         v.sysid: mavutil.mavlink_connection(
             f"udpout:127.0.0.1:{fleet.endpoint(v.sysid).connect.rsplit(':', 1)[1]}",
             source_system=250,
         )
         for v in service.config.convoy.vehicles
     }
+
+    async def tell(sender: str, *args: Any) -> None:
+        for _ in range(3):
+            for sysid, link in links.items():
+                getattr(link.mav, sender)(sysid, *args)
+            await asyncio.sleep(0.02)
+
+    try:
+        yield tell
+    finally:
+        for link in links.values():
+            link.close()
 
 
 @pytest.mark.alone
@@ -180,23 +192,16 @@ async def test_a_rover_its_operator_slows_keeps_the_speed_and_is_forecast_at_it(
     async def operator(fleet: MockFleet, service: ConvoyService) -> None:
         lead = service.config.convoy.vehicles[0].sysid
         await _until_protected(fleet, service, 150.0)
-        gcs = _ground_station(fleet, service)
-        try:
+        async with _ground_station(fleet, service) as tell:
             while fleet.truth(lead).speed < 7.9:  # (on a straight, at its 8 m/s)
                 await asyncio.sleep(0.01)
             marks["told"] = fleet.now
-            for _ in range(3):  # (UDP: as a ground station repeats itself)
-                for sysid, link in gcs.items():
-                    link.mav.command_long_send(
-                        sysid, 1, mavlink.MAV_CMD_DO_CHANGE_SPEED, 0,
-                        mavlink.SPEED_TYPE_GROUNDSPEED, 5.0, -1.0, 0, 0, 0, 0,
-                    )  # fmt: skip
-                await asyncio.sleep(0.02)
+            await tell(
+                "command_long_send", 1, mavlink.MAV_CMD_DO_CHANGE_SPEED, 0,
+                mavlink.SPEED_TYPE_GROUNDSPEED, 5.0, -1.0, 0, 0, 0, 0,
+            )  # fmt: skip
             await _until(fleet, marks["told"] + 15.0)
             marks["told+15"] = fleet.truth(lead)
-        finally:
-            for link in gcs.values():
-                link.close()
 
     result = await run_demo(
         scenario, duration=480.0, speedup=SPEEDUP, personality="ardupilot",
