@@ -29,6 +29,7 @@ class RoverDrive:
     plan: Route
     route: Route = field(init=False)
     lag: float = field(init=False, default=0.0)
+    wp_speed: float = field(init=False, default=0.0)  # (its plan's, ArduRover's WP_SPEED)
     clock: DriveClock = field(init=False)
     _told_until: float = field(init=False, default=math.inf)  # (drive time: plan's again)
 
@@ -40,13 +41,9 @@ class RoverDrive:
         self.route = plan
         accel = plan.accel if isinstance(plan, Polyline) and plan.accel > 0.0 else DEFAULT_ACCEL
         self.clock = DriveClock(accel)
-
-    @property
-    def wp_speed(self) -> float:
-        """The speed its plan drives where no DO_CHANGE_SPEED says (ArduRover's WP_SPEED;
-        0: a route with none of its own, a recorded track)."""
-        route = self.route
-        return float(route.as_planned().speed) if isinstance(route, Polyline) else 0.0
+        # The speed its plan drives where no DO_CHANGE_SPEED says (0: a route with none of
+        # its own, a recorded track): the plan's, not a loop's told for every lap.
+        self.wp_speed = float(plan.speed) if isinstance(plan, Polyline) else 0.0
 
     def at(self, t: float) -> float:
         """Drive time on ``route`` at sim time ``t``."""

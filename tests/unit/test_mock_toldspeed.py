@@ -121,6 +121,20 @@ def test_ardurover_back_in_auto_drives_wp_speed_until_the_next_mark_px4_its_miss
         assert gcs.truth().speed == pytest.approx(7.0), personality
 
 
+def test_ardurover_told_a_speed_on_a_loop_drives_wp_speed_again_back_in_auto() -> None:
+    """A loop with no speeds keeps a told speed every lap, until AUTO again: WP_SPEED."""
+    gcs = Gcs(rover(Personality.ARDUPILOT, _road(loop=True, marks=False)))
+    gcs.run(20.0, telemetry=False)
+    assert _speed_command(gcs, 5.0) == mavlink.MAV_RESULT_ACCEPTED
+    gcs.run(150.0, telemetry=False)  # (past its next corner: every lap's speed now)
+    assert gcs.truth().speed == pytest.approx(5.0)
+    _mode(gcs, Personality.ARDUPILOT, "HOLD")
+    gcs.run(10.0, telemetry=False)
+    _mode(gcs, Personality.ARDUPILOT, "AUTO")
+    gcs.run(15.0, telemetry=False)
+    assert gcs.truth().speed == pytest.approx(8.0)
+
+
 @settings(max_examples=60, deadline=None)
 @given(
     st.lists(st.tuples(st.floats(3.0, 90.0), st.floats(1.0, 12.0)), min_size=1, max_size=6),
