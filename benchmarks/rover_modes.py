@@ -59,6 +59,7 @@ HEARD_S = 0.5
 
 Drive = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 Told = list[tuple[float, ConvoyDrive]]
+Testbed = tuple[list[int], Drive, Told, list[tuple[int, float]]]  # (holds, drive, told, speeds)
 
 
 def _waypoints() -> tuple[tuple[float, float], ...]:
@@ -117,16 +118,16 @@ def _clocked(
     return _sample(line, rate_at), told
 
 
-def _holds(seed: int) -> tuple[list[int], Drive, Told]:
+def _holds(seed: int) -> Testbed:
     rng = np.random.default_rng(seed)
     line, at = _planned(rng)
     longer = [i for i in at if rng.random() < 0.6] or at[:1]
     stands = [(line.arrivals[i] + 10.0, float(rng.uniform(45.0, 120.0))) for i in longer]
     drive, told = _clocked(line, stands, drive_time=True)
-    return at, drive, told
+    return at, drive, told, []
 
 
-def _stands(seed: int) -> tuple[list[int], Drive, Told]:
+def _stands(seed: int) -> Testbed:
     rng = np.random.default_rng(seed)
     line, at = _planned(rng)
     stands: list[tuple[float, float]] = []
@@ -136,10 +137,10 @@ def _stands(seed: int) -> tuple[list[int], Drive, Told]:
         stands.append((t, seconds))
         t += seconds + float(rng.uniform(100.0, 250.0))
     drive, told = _clocked(line, stands, drive_time=False)
-    return at, drive, told
+    return at, drive, told, []
 
 
-def _manual(seed: int) -> tuple[list[int], Drive, Told]:
+def _manual(seed: int) -> Testbed:
     rng = np.random.default_rng(seed)
     line, at = _planned(rng)
     spells, t = [], 80.0 + float(rng.uniform(0.0, 100.0))
@@ -158,10 +159,10 @@ def _manual(seed: int) -> tuple[list[int], Drive, Told]:
         [(a, ConvoyDrive.OTHER) for a, _, _ in spells]
         + [(b, ConvoyDrive.MISSION) for _, b, _ in spells]
     )
-    return at, _sample(line, rate_at), told
+    return at, _sample(line, rate_at), told, []
 
 
-def _speeds(seed: int) -> tuple[list[int], Drive, Told, list[tuple[int, float]]]:
+def _speeds(seed: int) -> Testbed:
     rng = np.random.default_rng(seed)
     line, at = _planned(rng)
     where = sorted(rng.choice(np.arange(4, len(WAYPOINTS) - 4), 3, replace=False).tolist())
@@ -188,39 +189,38 @@ def _speeds(seed: int) -> tuple[list[int], Drive, Told, list[tuple[int, float]]]
     return at, drive, [], marks
 
 
-TESTBEDS: dict[str, Callable[[int], tuple[list[int], Drive, Told]]] = {
+# Each testbed's drive, and whether what is told is the speed kept (the others: the mode).
+TESTBEDS: dict[str, Callable[[int], Testbed]] = {
     "holds": _holds,
     "manual": _manual,
     "stands": _stands,
+    "speeds": _speeds,
 }
+KEPT_TOLD = {"speeds"}
 
 
 def _flown(job: tuple[str, int, bool]) -> RoadRun:
     testbed, seed, tell = job
-    marks: list[tuple[int, float]] = []
-    if testbed == "speeds":
-        at, (t, n, e, vn, ve), told, marks = _speeds(seed)
-    else:
-        at, (t, n, e, vn, ve), told = TESTBEDS[testbed](seed)
+    at, (t, n, e, vn, ve), told, marks = TESTBEDS[testbed](seed)
     holds = [(ROAD.project(WAYPOINTS[i][1], WAYPOINTS[i][0], None), 30.0) for i in at]
     paces = [(0.0, SPEED)] + [
         (ROAD.project(WAYPOINTS[i][1], WAYPOINTS[i][0], None), v) for i, v in marks
     ]
     drives = [(when + HEARD_S, d) for when, d in told] if tell else []
-    settings = RoadSettings() if tell else RoadSettings(kept_window_s=0.0)
+    kept_off = testbed in KEPT_TOLD and not tell
     return fly_road(
         t, n, e, REQUEST, UAVS, reported=(vn, ve), route=ROAD, holds=holds,
         speeds=paces, keeps_speed=True, drives=drives,
-        settings=settings if testbed == "speeds" else None,
+        settings=RoadSettings(kept_window_s=0.0) if kept_off else None,
     )  # fmt: skip
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--drives", type=int, default=14, help="drives per testbed")
-    parser.add_argument("--testbed", choices=[*sorted(TESTBEDS), "speeds"], action="append")
+    parser.add_argument("--testbed", choices=sorted(TESTBEDS), action="append")
     args = parser.parse_args()
-    testbeds = args.testbed or [*TESTBEDS, "speeds"]
+    testbeds = args.testbed or list(TESTBEDS)
     jobs = [(b, s, tell) for b in testbeds for s in range(args.drives) for tell in (True, False)]
     with ProcessPoolExecutor(os.cpu_count()) as pool:
         runs = dict(zip(jobs, pool.map(_flown, jobs), strict=True))
