@@ -5,8 +5,10 @@ stands while the rover is told to stand. A speed told (DO_CHANGE_SPEED, in AUTO)
 same road retimed (``Polyline.with_speed_from``), in force until the mission's next
 DO_CHANGE_SPEED: then the plan's own again, entered at the speed the rover has. And
 ArduRover entering AUTO again drives WP_SPEED until the next (``AR_WPNav::init`` sets
-its speed from the parameter, and ``AP_Mission::resume`` runs no DO command again);
-PX4's mission replays its last speed (``replayCachedSpeedChangeItems``), the plan's.
+its speed from the parameter, and ``AP_Mission::resume`` runs no DO command again).
+PX4 entering its mission again forgets a told speed (``MissionBase::on_activation``:
+``reset_cruising_speed``) and replays the mission's last speed item before the waypoint
+it drives to (``replayCachedSpeedChangeItems``): the plan's.
 """
 
 from __future__ import annotations
@@ -57,18 +59,25 @@ class RoverDrive:
         return n, e, vn * rate, ve * rate
 
     def follow(self, t: float, driving: bool, *, reset_speed: bool) -> None:
-        """From sim time ``t`` it drives (armed in AUTO) or stands; ``reset_speed``:
-        entering AUTO again, it drives WP_SPEED until the mission's next speed (ArduRover).
-        A speed told gives way where the mission's next one comes."""
+        """From sim time ``t`` it drives (armed in AUTO) or stands. Entering AUTO again,
+        ``reset_speed`` (ArduRover): WP_SPEED until the mission's next speed; else (PX4)
+        the mission's own speed there, a told one forgotten. A speed told gives way where
+        the mission's next one comes."""
         route, clock = self.route, self.clock
         if isinstance(route, Polyline):
             if driving and not clock.driving and reset_speed:
                 self.tell(t, self.wp_speed)
+            elif driving and not clock.driving and route.told is not None:
+                self._give_way(t, route, route.as_planned())
             elif route.told is not None and self.at(t) >= self._told_until:
-                after = route.after_told()  # (its own plan from here, at its speed)
-                tau = route.moment_on(after, self.at(t))
-                self.tell(t, after.planned_speed(tau), after, tau)
+                self._give_way(t, route, route.after_told())
         clock.follow(t, driving, Lagged(self.route, self.lag) if self.lag else self.route)
+
+    def _give_way(self, t: float, route: Polyline, after: Polyline) -> None:
+        """A told speed gives way to ``after`` (its own plan from here), entered at the
+        speed it has."""
+        tau = route.moment_on(after, self.at(t))
+        self.tell(t, after.planned_speed(tau), after, tau)
 
     def tell(
         self, t: float, speed: float, on: Polyline | None = None, tau: float | None = None

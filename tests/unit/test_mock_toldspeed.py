@@ -135,6 +135,26 @@ def test_ardurover_told_a_speed_on_a_loop_drives_wp_speed_again_back_in_auto() -
     assert gcs.truth().speed == pytest.approx(8.0)
 
 
+@pytest.mark.parametrize("marks", [True, False])
+def test_a_px4_rover_back_in_its_mission_forgets_a_told_speed_for_its_missions(
+    marks: bool,
+) -> None:
+    """``MissionBase::on_activation``: ``reset_cruising_speed``, then the mission's last
+    speed item replayed; ArduRover instead keeps driving WP_SPEED (above)."""
+    road = _road(loop=True, marks=marks)
+    gcs = Gcs(rover(Personality.PX4, road))
+    gcs.run(20.0, telemetry=False)
+    assert _speed_command(gcs, 5.0) == mavlink.MAV_RESULT_ACCEPTED
+    gcs.run(30.0, telemetry=False)
+    assert gcs.truth().speed == pytest.approx(5.0)
+    _mode(gcs, Personality.PX4, "HOLD")
+    gcs.run(10.0, telemetry=False)
+    assert gcs.truth().speed == pytest.approx(0.0)
+    _mode(gcs, Personality.PX4, "AUTO")
+    gcs.run(12.0, telemetry=False)  # (from a stand to 8 m/s at 1 m/s^2, and the S-curve)
+    assert gcs.truth().speed == pytest.approx(8.0)
+
+
 @settings(max_examples=60, deadline=None)
 @given(
     st.lists(st.tuples(st.floats(3.0, 90.0), st.floats(1.0, 12.0)), min_size=1, max_size=6),
