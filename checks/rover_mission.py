@@ -15,8 +15,9 @@ return to launch), the service's ``MissionWatch`` reads it and prints the route 
 the operator then uploads a longer one, and the watch must see MISSION_CURRENT's total
 change and read it again, then a patrol (the first road jumping back to its first
 waypoint for ever), which must read as a circuit with the same hold and speed. Against
-the mock (whose rover serves its own road and takes no upload), the first read alone.
-Exit 0 when every read gave the mission uploaded.
+the mock, ``--mock ardupilot`` the same, to a parked rover; ``--mock px4`` reads the road
+its rover serves as its mission, the first read alone. Exit 0 when every read gave the
+mission uploaded.
 
 ``drive`` sends a rover down a road as its operator would: the road's corners (a CSV
 time,lat,lon, as ``checks/ardupilot_sitl.sh`` writes for ROAD=KIND, thinned as the
@@ -351,12 +352,17 @@ def read(args: argparse.Namespace) -> int:
     """Upload, read, upload again, read again (see the module's ``read``)."""
     mock = None
     connection = args.connection
+    own_road = args.mock == "px4"  # (ArduPilot's: parked, it takes the uploads, as SITL)
     if args.mock:
-        corners = "0,0;220,0;220,270"
+        lat, lon = FIRST[0]
+        road = ["--ground-route", "stationary"]
+        if own_road:
+            road = ["--ground-route", "polyline", "--ground-points", "0,0;220,0;220,270",
+                    "--ground-speed", "5", "--ground-mission"]  # fmt: skip
         mock = subprocess.Popen(
             [sys.executable, "-m", "sitl_mock", "--aircraft", "0", "--ground", "1",
-             "--personality", args.mock, "--base-port", "14790", "--ground-route", "polyline",
-             "--ground-points", corners, "--ground-speed", "5", "--ground-mission"],
+             "--personality", args.mock, "--base-port", "14790", f"--origin={lat},{lon},584",
+             *road],
         )  # fmt: skip
         connection = "udpout:127.0.0.1:14790"
         args.sysid = 1
@@ -383,7 +389,7 @@ def read(args: argparse.Namespace) -> int:
         )  # fmt: skip
         watch = MissionWatch(*target)
         watch.handle(hb, time.monotonic())
-        if mock is not None:
+        if own_road:
             got = watch_read(link, watch, 20.0)
             return 0 if not isinstance(got, str) and len(got.points) == 3 else 1
         print(f"upload 1 ({len(FIRST)} waypoints): {upload(link, target, items(target, FIRST))}")

@@ -37,8 +37,9 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from convoy_mav.geo import GeoPoint, LocalFrame
 from sitl_mock.clock import Speedup
+from sitl_mock.driveclock import DEFAULT_ACCEL
 from sitl_mock.flight import FlightController, Outcome
-from sitl_mock.ground import Polyline, Route, StraightLine
+from sitl_mock.ground import Polyline, Route, Stationary, StraightLine
 from sitl_mock.kinematics import Aircraft, AircraftState, AirframeParams
 from sitl_mock.messages import (
     TELEMETRY_BUILDERS,
@@ -50,9 +51,10 @@ from sitl_mock.messages import (
 )
 from sitl_mock.mission import RoverMission, as_float_item
 from sitl_mock.params import Knob, ParamTable
-from sitl_mock.personality import Behaviour, Firmware, Personality, firmware_for
+from sitl_mock.personality import Behaviour, Firmware, FlightMode, Personality, firmware_for
 from sitl_mock.roverdrive import RoverDrive
 from sitl_mock.streams import AIRCRAFT_DEFAULT_INTERVALS, GROUND_DEFAULT_INTERVALS, StreamScheduler
+from sitl_mock.uploaded import DEFAULT_WP_SPEED, UploadedMission, upload_result
 
 __all__ = ["SENSORS", "Personality", "SimVehicle", "TruthRow", "VehicleSpec"]
 
@@ -268,18 +270,22 @@ class SimVehicle:
             "MISSION_REQUEST": self._on_mission_request,
             "MISSION_ACK": self._on_mission_ack,
         }
-        # A rover's mission: its route's road, served to a ground station that reads it.
-        self.mission = (
+        # A rover's mission: its route's road, served to a ground station that reads it,
+        # or the one a ground station uploads (``sitl_mock.uploaded``).
+        self.mission: RoverMission | UploadedMission | None = (
             RoverMission.of(spec.route, world) if spec.mission and spec.route is not None else None
         )
+        # Whether AUTO has a mission to run: its road's (served or not), or one uploaded.
+        self._has_mission = spec.route is not None and not isinstance(spec.route, Stationary)
         self.fence: list[Message] = []  # the geofence items last uploaded (MISSION_ITEM_INT)
-        self._fence_upload: list[Message | None] | None = None
+        self._upload: tuple[int, list[Message | None]] | None = None  # (mission type, items)
         self._commands: dict[int, Callable[[Command, float], Outcome]] = {
             _R.MAV_CMD_COMPONENT_ARM_DISARM: fl.arm_disarm,
             _R.MAV_CMD_DO_SET_MODE: self._cmd_do_set_mode,
             _R.MAV_CMD_NAV_TAKEOFF: fl.takeoff,
             _R.MAV_CMD_DO_REPOSITION: fl.reposition,
             _R.MAV_CMD_DO_CHANGE_SPEED: self._cmd_change_speed,
+            _R.MAV_CMD_MISSION_START: self._cmd_mission_start,
             _R.MAV_CMD_NAV_RETURN_TO_LAUNCH: fl.return_to_launch,
             _R.MAV_CMD_NAV_LAND: fl.land,
             _R.MAV_CMD_DO_SET_HOME: self._cmd_set_home,
@@ -296,6 +302,9 @@ class SimVehicle:
     def _boot(self, now: float) -> None:
         self._boot_t = now
         self.flight.reset()
+        if self.flight.aircraft is None and not self._has_mission:
+            # (a rover boots in AUTO to drive its road; with none, AUTO has no mission)
+            self.flight.mode = self.firmware.mode(self.firmware.hold)
         on = self.spec.streams_on_boot
         self._streams.restart(now, enabled=self.firmware.streams_on_boot if on is None else on)
         self._update_warm(now)
@@ -553,22 +562,27 @@ class SimVehicle:
         return []
 
     def _on_mission_count(self, msg: Message, now: float) -> list[Message]:
-        """A geofence upload begins (mission protocol, MAV_MISSION_TYPE_FENCE): ask for item 0.
+        """An upload begins: a geofence (MAV_MISSION_TYPE_FENCE), or a rover's mission
+        (``sitl_mock.uploaded``): ask for item 0; a count of 0 clears it.
 
-        Missions and rally points are refused: the mock flies no missions.
+        Rally points, and an aircraft's mission, are refused: the mock flies no missions.
         """
         src, comp = msg.get_srcSystem(), msg.get_srcComponent()
         kind = msg.mission_type
-        if kind != _R.MAV_MISSION_TYPE_FENCE:
+        rover_mission = self.flight.aircraft is None and kind == _R.MAV_MISSION_TYPE_MISSION
+        if kind != _R.MAV_MISSION_TYPE_FENCE and not rover_mission:
             return [_R.MAVLink_mission_ack_message(src, comp, _R.MAV_MISSION_UNSUPPORTED, kind)]
         if msg.count == 0:
-            self.fence, self._fence_upload = [], None
-            return [_R.MAVLink_mission_ack_message(src, comp, _R.MAV_MISSION_ACCEPTED, kind)]
-        self._fence_upload = [None] * msg.count
+            self._upload = None
+            texts = self._store(kind, [], now)
+            accepted = _R.MAV_MISSION_ACCEPTED
+            return [_R.MAVLink_mission_ack_message(src, comp, accepted, kind), *texts]
+        self._upload = (kind, [None] * msg.count)
         return [_R.MAVLink_mission_request_int_message(src, comp, 0, kind)]
 
     def _on_mission_item_int(self, msg: Message, now: float) -> list[Message]:
-        """One fence vertex, in order: store it, ask for the next, accept when all are in.
+        """One item of an upload, in order: store it, ask for the next, accept when all
+        are in (a fence's vertices only; a rover's mission, ``uploaded.upload_result``).
 
         An item out of turn is answered as the firmware does. ArduPilot: MAV_MISSION_ERROR
         with no upload open, MAV_MISSION_INVALID_SEQUENCE during one
@@ -578,42 +592,101 @@ class SimVehicle:
         upload an item out of turn is ignored (``MavlinkMissionManager``).
         """
         src, comp = msg.get_srcSystem(), msg.get_srcComponent()
-        upload = self._fence_upload
         kind = msg.mission_type
 
         def ack(result: int) -> Message:
             return _R.MAVLink_mission_ack_message(src, comp, result, kind)
 
         ardupilot = self.firmware.is_ardupilot
-        if kind != _R.MAV_MISSION_TYPE_FENCE:
+        if kind not in (_R.MAV_MISSION_TYPE_FENCE, _R.MAV_MISSION_TYPE_MISSION):
             return [ack(_R.MAV_MISSION_UNSUPPORTED)]
-        if upload is None:
+        if self._upload is None or self._upload[0] != kind:
             if ardupilot:
                 return [ack(_R.MAV_MISSION_ERROR)]
-            if self.fence and msg.seq == len(self.fence) - 1:
+            last = self._stored(kind)
+            if last and msg.seq == last - 1:
                 return [ack(_R.MAV_MISSION_ACCEPTED)]
             text = statustext(_R.MAV_SEVERITY_CRITICAL, "IGN MISSION_ITEM: No transfer")
             return [text, ack(_R.MAV_MISSION_ERROR)]
+        upload = self._upload[1]
         expected = upload.index(None)
         if msg.seq != expected:
             return [ack(_R.MAV_MISSION_INVALID_SEQUENCE)] if ardupilot else []
-        vertex = (
-            _R.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION,
-            _R.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION,
-        )
-        if msg.command not in vertex:
-            self._fence_upload = None
-            return [ack(_R.MAV_MISSION_UNSUPPORTED)]
+        if kind == _R.MAV_MISSION_TYPE_FENCE:
+            vertex = (
+                _R.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION,
+                _R.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION,
+            )
+            ok = msg.command in vertex
+            result = _R.MAV_MISSION_ACCEPTED if ok else _R.MAV_MISSION_UNSUPPORTED
+        else:  # (ArduPilot's item 0 is home: whatever is sent there, home stays its own)
+            home = ardupilot and msg.seq == 0
+            result = _R.MAV_MISSION_ACCEPTED if home else upload_result(msg)
+        if result != _R.MAV_MISSION_ACCEPTED:
+            self._upload = None
+            return [ack(result)]
         upload[msg.seq] = msg
         if msg.seq + 1 < len(upload):
             return [_R.MAVLink_mission_request_int_message(src, comp, msg.seq + 1, kind)]
-        self.fence = [item for item in upload if item is not None]
-        self._fence_upload = None
-        self.counters["fence_uploads"] += 1
-        if ardupilot:  # (SITL's debug text once the fence is stored, after the ACK on the wire)
-            indexed = statustext(_R.MAV_SEVERITY_DEBUG, "Fence Indexed OK")
-            return [ack(_R.MAV_MISSION_ACCEPTED), indexed]
-        return [ack(_R.MAV_MISSION_ACCEPTED)]
+        self._upload = None
+        texts = self._store(kind, [item for item in upload if item is not None], now)
+        if ardupilot and kind == _R.MAV_MISSION_TYPE_FENCE:
+            # (SITL's debug text once the fence is stored, after the ACK on the wire)
+            texts = [statustext(_R.MAV_SEVERITY_DEBUG, "Fence Indexed OK")]
+        return [ack(_R.MAV_MISSION_ACCEPTED), *texts]
+
+    def _stored(self, kind: int) -> int:
+        """How many items of ``kind`` the last upload stored."""
+        if kind == _R.MAV_MISSION_TYPE_FENCE:
+            return len(self.fence)
+        return len(self.mission.items) if isinstance(self.mission, UploadedMission) else 0
+
+    def _store(self, kind: int, items: list[Message], now: float) -> list[Message]:
+        """An upload complete: the fence, or the rover's mission; the texts it sends.
+
+        A mission is driven from where the rover is (``RoverDrive.drive_anew``). Changed
+        while it runs in AUTO, ArduRover goes on at the item it was at in the new one
+        ("Auto mission changed, restarted command"), or stops if there is none such;
+        its mission over, it waits for AUTO to be entered again. PX4's starts again at
+        its first item. An empty mission clears it: the rover stands."""
+        if kind == _R.MAV_MISSION_TYPE_FENCE:
+            self.fence = items
+            self.counters["fence_uploads"] += bool(items)
+            return []
+        self.counters["mission_uploads"] += 1
+        fw, fl, ground = self.firmware, self.flight, self._ground
+        ardupilot = fw.is_ardupilot
+        texts = [statustext(_R.MAV_SEVERITY_INFO, "Flight plan received")] if ardupilot else []
+        in_auto = fl.armed and fl.mode.behaviour is Behaviour.MISSION
+        running = in_auto and ground is not None and not ground.finished(now)
+        first = None
+        if running and ardupilot:
+            at = self._mission_progress(now).get("mission_seq", 0)
+            restarted = 0 < at < len(items)
+            first = at if restarted else len(items)  # (none such: nothing more to drive)
+            text = ", restarted command" if restarted else " but failed to restart command"
+            texts.append(statustext(_R.MAV_SEVERITY_CRITICAL, f"Auto mission changed{text}"))
+        (n, e, *_), *_ = self._kinematics(now)
+        here = Polyline(((n, e),), speed=0.0)
+        plan = ground.plan if ground is not None else None
+        mission = UploadedMission.of(
+            items,
+            home_first=ardupilot,
+            world=self.world,
+            start=(n, e),
+            home=fl.home,
+            speed=self._wp_speed() or DEFAULT_WP_SPEED,
+            accel=ground.clock.accel if ground is not None else DEFAULT_ACCEL,
+            wp_radius=plan.wp_radius if isinstance(plan, Polyline) else 2.0,
+            first=first,
+        )
+        self.mission = mission if items else None
+        self._has_mission = mission.count(home_first=False) > 0
+        if ground is None:  # (parked: it sets off from a stand)
+            ground = self._ground = RoverDrive(here)
+        wait = in_auto and not running and ardupilot
+        ground.drive_anew(now, mission.drive or here, wait=wait)
+        return texts
 
     def _on_request_data_stream(self, msg: Message, now: float) -> list[Message]:
         if not self.firmware.is_ardupilot:  # PX4 has no stream groups
@@ -663,11 +736,19 @@ class SimVehicle:
             Knob.WARMUP: self._warmup,
             Knob.SYSID: float(self.sysid),
             Knob.SPEEDUP: 1.0 if self._speedup is None else self._speedup.speedup,
-            Knob.WP_SPEED: _road_speed(self.spec.route),
+            Knob.WP_SPEED: self._wp_speed(),
             Knob.ROVER_ACCEL: route.accel if isinstance(route, Polyline) else 0.0,
             Knob.WP_RADIUS: route.wp_radius if isinstance(route, Polyline) else 2.0,
         }
         return values[knob]
+
+    def _wp_speed(self) -> float:
+        """A rover's WP_SPEED: its plan's (0: a recorded track's own speeds; parked and
+        never told one, ArduRover's default)."""
+        ground, route = self._ground, self.spec.route
+        if ground is not None and ground.wp_speed > 0.0:
+            return ground.wp_speed
+        return _road_speed(route) if route is not None else DEFAULT_WP_SPEED
 
     def _set_knob(self, knob: Knob, value: float) -> None:
         """Apply a parameter; airframe changes rebuild the physics around its state.
@@ -745,7 +826,7 @@ class SimVehicle:
         mode = None
         if msg.base_mode & _R.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
             mode = fw.decode_mode(msg.custom_mode)
-        result, extra = self.flight.request_mode(mode, now)
+        result, extra = self._request_mode(mode, now)
         src, comp = msg.get_srcSystem(), msg.get_srcComponent()
         return [_R.MAVLink_command_ack_message(fw.set_mode_ack, result, 0, 0, src, comp), *extra]
 
@@ -754,6 +835,45 @@ class SimVehicle:
         mode = None
         if math.isfinite(c.p1) and int(c.p1) & _R.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
             mode = self.firmware.decode_do_set_mode(c.p2, c.p3)
+        return self._request_mode(mode, now)
+
+    def _cmd_mission_start(self, c: Command, now: float) -> Outcome:
+        """MAV_CMD_MISSION_START: AUTO, as a mode change (ArduPilot: param1 and param2, the
+        first and last item, must be 0, else DENIED). PX4 arms as well, and denies it
+        without a mission ("Mission start denied! No valid mission")."""
+        fw, fl = self.firmware, self.flight
+        auto = next(m for m in fw.modes if m.behaviour is Behaviour.MISSION)
+        if fw.is_ardupilot:
+            if c.p1 != 0.0 or c.p2 != 0.0:
+                return _R.MAV_RESULT_DENIED, []
+            result, texts = self._request_mode(auto, now)
+            ok = result == _R.MAV_RESULT_ACCEPTED
+            return (_R.MAV_RESULT_ACCEPTED if ok else _R.MAV_RESULT_FAILED), texts
+        if fl.aircraft is None and not self._has_mission:
+            text = statustext(_R.MAV_SEVERITY_CRITICAL, "Mission start denied! No valid mission")
+            return _R.MAV_RESULT_DENIED, [text]
+        result, texts = self._request_mode(auto, now)
+        if result == _R.MAV_RESULT_ACCEPTED and not fl.armed:
+            arm = dataclasses.replace(c, command=_R.MAV_CMD_COMPONENT_ARM_DISARM, p1=1.0, p2=0.0)
+            result, more = fl.arm_disarm(arm, now)
+            texts = [*texts, *more]
+        return result, texts
+
+    def _request_mode(self, mode: FlightMode | None, now: float) -> Outcome:
+        """A mode change, as the flight takes it; a rover's AUTO needs a mission (ArduRover
+        ``ModeAuto::_enter``: "No Mission. Can't set AUTO.", then "Flight mode change
+        failed"; PX4: the mode is not available without a valid mission)."""
+        fw = self.firmware
+        auto = mode is not None and mode.behaviour is Behaviour.MISSION and mode != self.flight.mode
+        if auto and self.flight.aircraft is None and not self._has_mission:
+            assert mode is not None
+            if fw.is_ardupilot:
+                return _R.MAV_RESULT_FAILED, [
+                    statustext(_R.MAV_SEVERITY_NOTICE, "No Mission. Can't set AUTO."),
+                    statustext(_R.MAV_SEVERITY_WARNING, "Flight mode change failed"),
+                ]
+            text = fw.mode_denied_text(mode, "no mission")
+            return fw.reject_result, [statustext(_R.MAV_SEVERITY_CRITICAL, text)]
         return self.flight.request_mode(mode, now)
 
     def _cmd_change_speed(self, c: Command, now: float) -> Outcome:

@@ -212,6 +212,12 @@ class Polyline:
         """Length of one pass (with the closing leg when looping), metres."""
         return self._cumulative[-1]
 
+    def finished(self, tau: float) -> bool:
+        """Whether at drive time ``tau`` it has driven its last point and held there (a
+        loop never has; nor a road it cannot drive)."""
+        drive = self._drive
+        return drive is not None and not self.loop and tau >= drive.duration
+
     @property
     def vertices(self) -> tuple[tuple[float, float], ...]:
         """The points driven through, repeats skipped (a loop's closed on its first);

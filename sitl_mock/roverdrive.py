@@ -34,6 +34,7 @@ class RoverDrive:
     wp_speed: float = field(init=False, default=0.0)  # (its plan's, ArduRover's WP_SPEED)
     clock: DriveClock = field(init=False)
     _told_until: float = field(init=False, default=math.inf)  # (drive time: plan's again)
+    _await_auto: bool = field(init=False, default=False)  # (a new plan: stands until AUTO)
 
     def __post_init__(self) -> None:
         plan = self.plan
@@ -62,7 +63,11 @@ class RoverDrive:
         """From sim time ``t`` it drives (armed in AUTO) or stands. Entering AUTO again,
         ``reset_speed`` (ArduRover): WP_SPEED until the mission's next speed; else (PX4)
         the mission's own speed there, a told one forgotten. A speed told gives way where
-        the mission's next one comes."""
+        the mission's next one comes. A plan set to wait (``drive_anew``) waits for AUTO
+        to be entered."""
+        if self._await_auto:
+            self._await_auto = driving
+            driving = False
         route, clock = self.route, self.clock
         if isinstance(route, Polyline):
             if driving and not clock.driving and reset_speed:
@@ -72,6 +77,26 @@ class RoverDrive:
             elif route.told is not None and self.at(t) >= self._told_until:
                 self._give_way(t, route, route.after_told())
         clock.follow(t, driving, Lagged(self.route, self.lag) if self.lag else self.route)
+
+    def finished(self, t: float) -> bool:
+        """Whether at sim time ``t`` it has driven its plan to the end."""
+        return isinstance(self.route, Polyline) and self.route.finished(self.at(t))
+
+    def drive_anew(self, t: float, plan: Polyline, *, wait: bool = False) -> None:
+        """From sim time ``t`` its plan is ``plan`` (a mission uploaded), from its start,
+        which is where the rover is: entered at the speed it has, changing at its accel.
+        ``wait``: it stands until AUTO is next entered (its mission over, in AUTO)."""
+        self._await_auto = wait
+        route, tau_was = self.route, self.at(t)
+        speed_was = math.hypot(*route.velocity(tau_was))
+        moving = self.clock.rate(t) * speed_was
+        self.plan, self.lag, self.wp_speed = plan, 0.0, float(plan.speed)
+        told, tau = plan.with_speed_from(0.0, plan.planned_speed(0.0), moving)
+        self.clock.retime(t, tau, speed_was, math.hypot(*told.velocity(tau)))
+        if wait:  # (its mission over, it stands: at once)
+            self.clock.drive(t, False, 0.0)
+        self.route = told
+        self._told_until = told.told_until(tau)
 
     def _give_way(self, t: float, route: Polyline, after: Polyline) -> None:
         """A told speed gives way to ``after`` (its own plan from here), entered at the

@@ -196,3 +196,51 @@ async def test_mavsdk_downloads_the_mock_rovers_mission(
         (round(g.lat * 1e7), round(g.lon * 1e7)) for g in expected
     ]
     assert fleet.counters(rover.sysid)["mission_reads"] >= 1
+
+
+@pytest.mark.parametrize("personality", ["px4", "ardupilot"])
+async def test_mavsdk_uploads_a_mission_to_a_parked_rover_and_starts_it(
+    start_mock: StartMock, personality: str
+) -> None:
+    """An operator's ground station plans the rover's mission: MAVSDK's MissionRaw uploads
+    it to a parked rover of the mock (which refuses AUTO without one), starts it, and the
+    rover drives it (the mock's ground truth); a download gives the items back."""
+    from mavsdk.asyncio import ComponentType, Configuration, Mavsdk
+    from mavsdk.asyncio.plugins.mission_raw import MissionItem, MissionRawAsync
+
+    config = MockConfig.simple(
+        0, ground=1, speedup=SPEEDUP, base_port=0, ground_route="stationary",
+        personality=personality,
+    )  # fmt: skip
+    fleet = await start_mock(config)
+    (rover,) = fleet.endpoints
+    world = fleet.world
+    ardupilot = personality == "ardupilot"
+    corners = [(0.0, 0.0)] * ardupilot + [(150.0, 0.0), (150.0, 100.0)]  # (ArduPilot: home)
+    wp, rel = mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
+    items = [
+        MissionItem(seq, rel if seq or not ardupilot else mavlink.MAV_FRAME_GLOBAL, wp,
+                    int(seq == 0), 1,
+                    0.0, 0.0, 0.0, float("nan"),
+                    round(g.lat * 1e7), round(g.lon * 1e7), 0.0, mavlink.MAV_MISSION_TYPE_MISSION)
+        for seq, g in enumerate(world.to_geo(n, e) for n, e in corners)
+    ]  # fmt: skip
+    sdk_config = Configuration.create_with_component_type(ComponentType.GROUND_STATION)
+    async with asyncio.timeout(90), Mavsdk(sdk_config) as sdk:
+        await sdk.add_any_connection(rover.mavsdk)
+        system = await sdk.first_autopilot(timeout_s=10.0)
+        assert system is not None
+        missions = MissionRawAsync(system)
+        await missions.upload_mission(items)
+        await missions.start_mission()
+        start = fleet.now
+        while fleet.now < start + 60.0:  # (150 m at WP_SPEED's 2 m/s: some 78 s)
+            await asyncio.sleep(0.05)
+        row = fleet.truth(rover.sysid)
+        assert row.mode == ("AUTO" if ardupilot else "AUTO.MISSION")
+        assert 80.0 < row.north < 125.0 and row.speed == pytest.approx(2.0)
+        back = await missions.download_mission()
+    assert [(i.command, i.x, i.y) for i in back[ardupilot:]] == [
+        (i.command, i.x, i.y) for i in items[ardupilot:]
+    ]
+    assert fleet.counters(rover.sysid)["mission_uploads"] == 1
