@@ -661,7 +661,8 @@ class SimVehicle:
         running = in_auto and ground is not None and not ground.finished(now)
         first = None
         if running and ardupilot:
-            at = self._mission_progress(now).get("mission_seq", 0)
+            # (a road not served as a mission, a follower's: its item unknown, the first)
+            at = self._mission_progress(now).get("mission_seq", int(ardupilot))
             restarted = 0 < at < len(items)
             first = at if restarted else len(items)  # (none such: nothing more to drive)
             text = ", restarted command" if restarted else " but failed to restart command"
@@ -679,6 +680,7 @@ class SimVehicle:
             accel=ground.clock.accel if ground is not None else DEFAULT_ACCEL,
             wp_radius=plan.wp_radius if isinstance(plan, Polyline) else 2.0,
             first=first,
+            speed_now=ground.speed_set(now) if first is not None and ground else None,
         )
         self.mission = mission if items else None
         self._has_mission = mission.count(home_first=False) > 0

@@ -78,6 +78,14 @@ class RoverDrive:
                 self._give_way(t, route, route.after_told())
         clock.follow(t, driving, Lagged(self.route, self.lag) if self.lag else self.route)
 
+    def speed_set(self, t: float) -> float:
+        """The speed its navigation is set to drive at, at sim time ``t``: told, else its
+        plan's there (0: a route that takes none, a recorded track's)."""
+        route = self.route
+        if not isinstance(route, Polyline):
+            return 0.0
+        return route.told[1] if route.told is not None else route.planned_speed(self.at(t))
+
     def finished(self, t: float) -> bool:
         """Whether at sim time ``t`` it has driven its plan to the end."""
         return isinstance(self.route, Polyline) and self.route.finished(self.at(t))

@@ -111,10 +111,13 @@ class UploadedMission:
         accel: float,
         wp_radius: float = 2.0,
         first: int | None = None,
+        speed_now: float | None = None,
     ) -> UploadedMission:
         """The mission ``items`` (seq order) driven from world (north, east) ``start``,
         from item ``first`` on (None: its first; a mission changed while it runs goes on
-        at the item it was at: ArduRover's ``restart_current_nav_cmd``)."""
+        at the item it was at: ArduRover's ``restart_current_nav_cmd``), at ``speed_now``
+        until a DO_CHANGE_SPEED (None: ``speed``, WP_SPEED; going on, the speed its
+        navigation was set to, which no DO command run again changes)."""
         points: list[tuple[float, float]] = [start]
         seqs: list[int] = [-1]
         holds: dict[int, float] = {}
@@ -159,6 +162,8 @@ class UploadedMission:
                 break
         if len(seqs) > 1 and seqs[0] < 0:
             seqs[0] = seqs[1]
+        if speed_now is not None and speed_now > 0.0 and 0 not in speeds:
+            speeds[0] = speed_now
         drive = None
         if len(points) > 1:
             drive = Polyline(

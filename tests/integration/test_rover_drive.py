@@ -219,3 +219,78 @@ async def test_a_rover_its_operator_slows_keeps_the_speed_and_is_forecast_at_it(
     assert truth.fraction >= 0.94, (truth, report["predicted_coverage"])
     assert truth.longest_gap_s <= 12.0, truth
     assert report["predicted_coverage"] == pytest.approx(truth.fraction, abs=0.02)
+
+
+async def _upload(fleet: MockFleet, sysid: int, items: list[Any]) -> str:
+    """An operator's upload of ``items`` to ground vehicle ``sysid`` from a ground station
+    of their own (system 250), as QGroundControl sends one: the vehicle's last answer."""
+    port = fleet.endpoint(sysid).connect.rsplit(":", 1)[1]
+    link = mavutil.mavlink_connection(f"udpout:127.0.0.1:{port}", source_system=250)
+    mission = mavlink.MAV_MISSION_TYPE_MISSION
+    try:
+        link.mav.mission_count_send(sysid, 1, len(items), mission)
+        deadline = fleet.now + 30.0
+        while fleet.now < deadline:
+            msg = link.recv_match(type=["MISSION_REQUEST_INT", "MISSION_ACK"], blocking=False)
+            if msg is None or msg.target_system != 250:
+                await asyncio.sleep(0.005)
+                continue
+            if msg.get_type() == "MISSION_ACK":
+                return str(mavlink.enums["MAV_MISSION_RESULT"][msg.type].name)
+            link.mav.send(items[msg.seq])
+        return "no answer"
+    finally:
+        link.close()
+
+
+@pytest.mark.alone
+async def test_a_rovers_mission_its_operator_changes_is_read_again_and_flown() -> None:
+    """A corner of the circuit moved and the mission uploaded again as the rover
+    drives it (as many items: MISSION_CURRENT's total does not change). ArduRover goes on
+    at its item in the new mission and says so to every link ("Auto mission changed,
+    restarted command"); the service reads it again and takes the new route."""
+    scenario = SCENARIOS["turning"]
+    marks: dict[str, Any] = {}
+
+    async def operator(fleet: MockFleet, service: ConvoyService) -> None:
+        lead = service.config.convoy.vehicles[0].sysid
+        await _until_protected(fleet, service, 200.0)
+        rover = fleet.vehicles[lead]
+        mission = rover.mission
+        assert mission is not None
+        target = (lead, 1)
+        count = mission.count(home_first=True)
+        home = rover.flight.home
+        items = [mission.item(seq, home, target, home_first=True) for seq in range(count)]
+        # (2 m: the convoy's following vehicles drive the road they were given, the old
+        # one; moved 10 m, the prediction was 2.3 points over the truth, scored on them)
+        moved = fleet.world.to_geo(250.0, 352.0)  # (the corner at (250, 350), 2 m east)
+        corner = fleet.world.to_geo(250.0, 350.0)
+        at = (round(corner.lat * 1e7), round(corner.lon * 1e7))
+        for k, it in enumerate(items):
+            if it is not None and (it.x, it.y) == at:
+                items[k] = mavlink.MAVLink_mission_item_int_message(
+                    *target, it.seq, it.frame, it.command, 0, 1, it.param1, it.param2,
+                    it.param3, it.param4, round(moved.lat * 1e7), round(moved.lon * 1e7),
+                    it.z, mavlink.MAV_MISSION_TYPE_MISSION,
+                )  # fmt: skip
+                marks["moved"] = k
+        marks["reads"] = fleet.counters(lead)["mission_reads"]  # (the service's, so far)
+        marks["uploaded"] = await _upload(fleet, lead, items)
+        marks["t"] = fleet.now
+        await _until(fleet, marks["t"] + 20.0)
+        marks["reads+20"] = fleet.counters(lead)["mission_reads"]
+
+    result = await run_demo(
+        scenario, duration=420.0, speedup=SPEEDUP, personality="ardupilot",
+        uavs=scenario.fleet(route_known=True), route_mission=True, road=CIRCUIT, during=operator,
+    )  # fmt: skip
+    report = result.report.to_dict()
+    assert "moved" in marks and marks["uploaded"] == "MAV_MISSION_ACCEPTED", marks
+    assert marks["reads+20"] > marks["reads"], marks  # (read again within 20 s)
+    received = [e for e in report["events"] if "convoy route received" in e]
+    assert len(received) == 2, received  # (the first read, and the moved corner's)
+    truth = result.truth
+    assert truth is not None
+    assert truth.fraction >= 0.94, (truth, report["predicted_coverage"])
+    assert report["predicted_coverage"] == pytest.approx(truth.fraction, abs=0.02)

@@ -310,6 +310,54 @@ def test_a_total_that_never_matches_the_mission_is_not_read_for_ever() -> None:
     assert only(watch.poll(10.0), "MISSION_REQUEST_LIST")
 
 
+def rover_heartbeat(autopilot: int, custom_mode: int) -> Any:
+    armed = mavlink.MAV_MODE_FLAG_SAFETY_ARMED | mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
+    return wire(
+        mavlink.MAVLink_heartbeat_message(
+            mavlink.MAV_TYPE_GROUND_ROVER, autopilot, armed, custom_mode,
+            mavlink.MAV_STATE_ACTIVE, 3,
+        )
+    )  # fmt: skip
+
+
+def test_the_vehicles_answers_to_another_ground_station_are_not_the_read() -> None:
+    """The operator's upload on a link the service shares (a router, or the mock): the
+    vehicle's MISSION_ACK and requests to system 250 are not the service's read's."""
+    read = MissionRead(ROVER)
+    only(read.start(0.0), "MISSION_REQUEST_LIST")
+    theirs = mavlink.MAVLink_mission_ack_message(250, 190, mavlink.MAV_MISSION_ERROR, MISSION)
+    assert read.handle(wire(theirs), 0.1) == [] and not read.done
+    their_count = mavlink.MAVLink_mission_count_message(250, 190, 9, MISSION)
+    assert read.handle(wire(their_count), 0.1) == []
+    only(read.handle(count(len(POINTS)), 0.2), "MISSION_REQUEST_INT")
+    assert read.count == len(POINTS)
+
+
+def test_an_ardupilot_mission_is_read_again_when_it_says_so_and_on_entering_auto() -> None:
+    """A mission changed to one as long (a waypoint moved): its "Auto mission changed" (to
+    every link), and AUTO entered again (where a mission uploaded meanwhile takes effect),
+    are read again."""
+    auto, hold = 10, 4
+    watch = MissionWatch(ROVER)
+    ardupilot = mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA
+    watch.handle(rover_heartbeat(ardupilot, auto), 0.0)
+    watch.handle(param("WP_SPEED", 6.0), 0.0)
+    drive(watch, POINTS, 0.0)
+    watch.handle(current(1, 2), 1.0)
+    watch.handle(rover_heartbeat(ardupilot, auto), 1.0)
+    assert watch.poll(2.0) == []
+    text = b"Auto mission changed, restarted command"
+    watch.handle(wire(mavlink.MAVLink_statustext_message(mavlink.MAV_SEVERITY_CRITICAL, text)), 3.0)
+    assert drive(watch, POINTS, 3.0)[0].get_type() == "MISSION_REQUEST_LIST"
+    assert watch.poll(4.0) == [] and watch.reads == 2
+    watch.handle(rover_heartbeat(ardupilot, hold), 5.0)
+    assert watch.poll(5.0) == []
+    watch.handle(rover_heartbeat(ardupilot, auto), 6.0)
+    assert drive(watch, POINTS, 6.0)[0].get_type() == "MISSION_REQUEST_LIST"
+    watch.handle(rover_heartbeat(ardupilot, auto), 7.0)
+    assert watch.poll(7.0) == [] and watch.reads == 3
+
+
 def test_a_px4_mission_counted_whole_is_not_read_again() -> None:
     watch = MissionWatch(ROVER)
     watch.handle(heartbeat(mavlink.MAV_AUTOPILOT_PX4), 0.0)

@@ -289,3 +289,22 @@ def test_mission_start_is_auto_and_needs_a_mission(personality: Personality) -> 
     assert gcs.command(start)[0].result == mavlink.MAV_RESULT_ACCEPTED
     gcs.run(20.0, telemetry=False)
     assert gcs.truth().mode in ("AUTO", "AUTO.MISSION") and gcs.truth().north > 20.0
+
+
+def test_ardurover_going_on_in_a_changed_mission_keeps_the_speed_it_was_set_to() -> None:
+    """``restart_current_nav_cmd`` runs no DO command again: the rover on its mission's 6
+    m/s stretch keeps 6 m/s in the new mission until a DO_CHANGE_SPEED of its own."""
+    points = ((0.0, 0.0), (300.0, 0.0), (2000.0, 0.0))
+    road = Polyline(points, speed=8.0, accel=1.0, speeds=((0, 8.0), (1, 6.0)))
+    gcs = Gcs(rover(AP, road))
+    gcs.run(80.0, telemetry=False)  # (past the first corner: 6 m/s)
+    assert gcs.truth().speed == pytest.approx(6.0)
+    vehicle = gcs.vehicle
+    mission = vehicle.mission
+    assert mission is not None
+    home, count = vehicle.flight.home, mission.count(home_first=True)
+    sent = [mission.item(seq, home, (11, 1), home_first=True) for seq in range(count)]
+    replies = upload(gcs, [m for m in sent if m is not None])
+    assert "Auto mission changed, restarted command" in texts(replies)
+    gcs.run(20.0, telemetry=False)
+    assert gcs.truth().speed == pytest.approx(6.0)

@@ -26,7 +26,9 @@ from dataclasses import dataclass
 from pymavlink.dialects.v20 import common as mavlink
 
 from convoy_mav.mavlink.autopilots.base import param_request_message
-from convoy_mav.mavlink.codec import Message
+from convoy_mav.mavlink.codec import GCS_SYSTEM, Message
+from convoy_mav.mavlink.rovermode import rover_mode
+from convoy_mav.types import ConvoyDrive
 
 __all__ = ["MissionItem", "MissionRead", "MissionWatch"]
 
@@ -62,11 +64,16 @@ class MissionRead:
 
     Drive it with :meth:`start`, :meth:`handle` for every message from that vehicle, and
     :meth:`poll` now and then; each returns the messages to send. It ends ``done`` with
-    :attr:`items`, or with :attr:`error` in words.
+    :attr:`items`, or with :attr:`error` in words. The vehicle's answers to another ground
+    station (its operator's upload, on a link or a router that carries both) are not
+    this read's: a mission message addressed to a system other than ``own`` is left out.
     """
 
-    def __init__(self, target_system: int, target_component: int = 1) -> None:
+    def __init__(
+        self, target_system: int, target_component: int = 1, *, own: int = GCS_SYSTEM
+    ) -> None:
         self.target = (target_system, target_component)
+        self.own = own
         self.items: list[MissionItem] | None = None  # when done and read
         self.error: str | None = None  # when done and failed
         self.busy = False  # ... refused as another transfer was under way
@@ -96,6 +103,8 @@ class MissionRead:
         kind = msg.get_type()
         if getattr(msg, "mission_type", 0) != mavlink.MAV_MISSION_TYPE_MISSION:
             return []
+        if getattr(msg, "target_system", 0) not in (0, self.own):
+            return []  # (to another ground station)
         if kind == "MISSION_COUNT" and self._count is None:
             if msg.count > MAX_ITEMS:
                 return self._fail(f"says it holds {msg.count} items (at most {MAX_ITEMS} read)")
@@ -162,6 +171,7 @@ BUSY_RETRY_S = 3.0  # ... after one refused while another transfer was under way
 SPEED_PARAMS = ("WP_SPEED", "CRUISE_SPEED")
 PARAM_TIMEOUT_S = 1.5  # before asking again for a parameter not answered
 PARAM_TRIES = 3  # ... and then the read is handed over without it
+_CHANGED = "mission changed"  # (ArduRover's and ArduCopter's "Auto mission changed, ...")
 
 
 class MissionWatch:
@@ -169,7 +179,13 @@ class MissionWatch:
 
     A change is what MISSION_CURRENT says: its ``total`` differs from the items read (an
     upload from another ground station, a mission cleared; ArduPilot's ``total`` leaves
-    its home item out, ``GCS_MAVLINK::send_mission_current``). A failed read is tried
+    its home item out, ``GCS_MAVLINK::send_mission_current``). A waypoint moved is the
+    same count, and MISSION_CURRENT's ``mission_id`` (PX4's CRC32 of the mission) is not
+    in pymavlink's dialect: so the mission is read again when the vehicle says it changed
+    as it ran (ArduPilot's "Auto mission changed, ..." to every link, ``ModeAuto::update``)
+    and each time it enters its mission mode (AUTO), where a mission uploaded meanwhile
+    takes effect; a read that finds the same mission changes nothing
+    (``ConvoyService.set_route``). A failed read is tried
     again after ``RETRY_S`` (``BUSY_RETRY_S`` when refused during another station's
     transfer, as the operator's upload); so is an empty mission, which a rover has
     before its operator uploads one. :meth:`take` hands over each finished read once.
@@ -182,8 +198,11 @@ class MissionWatch:
     PX4's rovers keep theirs under other names per rover module: not asked.
     """
 
-    def __init__(self, target_system: int, target_component: int = 1) -> None:
+    def __init__(
+        self, target_system: int, target_component: int = 1, *, own: int = GCS_SYSTEM
+    ) -> None:
         self.target = (target_system, target_component)
+        self.own = own  # (our system id: the vehicle's answers to others are not ours)
         self.read: MissionRead | None = None
         self.reads = 0  # finished, good or not
         self.ardupilot = False  # (its item 0 is home)
@@ -191,6 +210,8 @@ class MissionWatch:
         self._total: int | None = None  # as MISSION_CURRENT last said
         self._held: int | None = None  # items of the last read, as MISSION_CURRENT counts
         self._total_read: int | None = None  # MISSION_CURRENT's total when it was read
+        self._stale = False  # the vehicle said it changed, or entered its mission mode
+        self._mode: ConvoyDrive | None = None  # (its HEARTBEAT's, for the last)
         self._next_try = 0.0
         self._finished: MissionRead | None = None
         self.default_speed: float | None = None  # m/s, AUTO's where no item says one
@@ -204,10 +225,17 @@ class MissionWatch:
         if kind == "HEARTBEAT":
             self._heard = True
             self.ardupilot = msg.autopilot == mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA
+            mode = rover_mode(msg)
+            drive = None if mode is None else mode.drive
+            if drive is ConvoyDrive.MISSION and self._mode not in (None, drive):
+                self._stale = True  # (into AUTO: a mission uploaded meanwhile runs now)
+            self._mode = drive
         elif kind == "MISSION_CURRENT":
             if msg.total != self._total and self._total is not None:
                 self._next_try = 0.0  # changed: read it now
             self._total = int(msg.total)
+        elif kind == "STATUSTEXT" and _CHANGED in str(msg.text).lower():
+            self._stale, self._next_try = True, 0.0
         elif kind == "PARAM_VALUE" and msg.param_id in SPEED_PARAMS:
             self._params[msg.param_id] = float(msg.param_value)
             wp, cruise = (self._params.get(name, math.nan) for name in SPEED_PARAMS)
@@ -252,9 +280,11 @@ class MissionWatch:
         # that sends 0, "not supported", has its mission read once more, not for ever).
         total = self._total
         changed = total is not None and total not in (self._held, self._total_read)
+        changed = changed or self._stale
         due = not self._held or changed
         if self._heard and due and now >= self._next_try:
-            self.read = MissionRead(*self.target)
+            self.read = MissionRead(*self.target, own=self.own)
+            self._stale = False
             return asks + self.read.start(now)
         return asks
 
