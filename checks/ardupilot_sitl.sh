@@ -56,6 +56,8 @@
 # again FOR s later; checks/rover_mission.py drive --hold): the service hears each mode.
 # ROVER_SPEEDS="AT:MPS ..." has its operator tell it a speed (DO_CHANGE_SPEED at boot
 # time AT s; drive --speed-at): the service sees the speed it keeps (planner.convoy_kept).
+# ROVER_MOVES="AT:METRES ..." has its operator move a waypoint ahead and upload the
+# mission again as it drives (drive --move-at): the service reads it again.
 #
 # SITL_DIR is an ArduPilot tree with build/sitl/bin/arducopter and arduplane built
 # (see the project's notes on building SITL; it is not part of `make test`).
@@ -149,6 +151,7 @@ PY
     holds=()
     for h in ${ROVER_HOLDS:-}; do holds+=(--hold "$h"); done  # (its operator's HOLDs)
     for v in ${ROVER_SPEEDS:-}; do holds+=(--speed-at "$v"); done  # (... and speeds)
+    for m in ${ROVER_MOVES:-}; do holds+=(--move-at "$m"); done  # (... and its edits)
     "$py" checks/rover_mission.py drive tcp:127.0.0.1:5962 "$out/road.csv" "$mission_speed" \
       "${holds[@]}" >"$out/rover_drive.log" 2>&1 &
     pids+=($!)

@@ -29,7 +29,9 @@ holding it: HOLD at the rover's own boot time AT s, AUTO again FOR s later; each
 where the rover was, how far it ran on after HOLD and how long it took to stand, and
 whether it drove on in AUTO. ``--speed-at AT:MPS`` (repeatable) is its operator telling
 it a speed: DO_CHANGE_SPEED by command at boot time AT s; each prints the rover's answer
-and its speed 10-20 s later.
+and its speed 10-20 s later. ``--move-at AT:METRES`` (repeatable) is its operator moving
+a waypoint three ahead of the one it drives to METRES east and uploading the mission
+again at boot time AT s, as it drives; each prints the answer and the texts it sent.
 
 ``compare`` sets the drive of a real rover (its GLOBAL_POSITION_INT in a tlog, from when
 it first moves to when it last does) beside the mock's rover driving the same road as
@@ -194,6 +196,7 @@ def drive(
     speed: float,
     holds: Sequence[tuple[float, float]] = (),
     speeds: Sequence[tuple[float, float]] = (),
+    moves: Sequence[tuple[float, float]] = (),
 ) -> int:
     """Upload the road, AUTO, arm (see the module's ``drive``)."""
     link = mavutil.mavlink_connection(connection, source_system=250, source_component=190)
@@ -209,7 +212,7 @@ def drive(
         print("the rover refused to arm")
         return 1
     print(f"{time.strftime('%H:%M:%S')} armed in AUTO", flush=True)
-    return _operator(link, target, holds, speeds)
+    return _operator(link, target, holds, speeds, moves, items)
 
 
 def send_off(link: Any, target: tuple[int, int], items: list[Any]) -> tuple[str, bool]:
@@ -238,15 +241,33 @@ def send_off(link: Any, target: tuple[int, int], items: list[Any]) -> tuple[str,
     return answer, False
 
 
+def _moved(items: list[Any], seq: int, metres: float) -> list[Any]:
+    """``items`` with the waypoint three after item ``seq`` (or the last) ``metres`` east."""
+    waypoints = [it.seq for it in items if it.command == mavlink.MAV_CMD_NAV_WAYPOINT]
+    k = min([w for w in waypoints if w >= seq + 3] or waypoints[-1:])
+    it = items[k]
+    lat = it.x * 1e-7
+    east = round(metres / (111_320.0 * math.cos(math.radians(lat))) * 1e7)
+    moved = mavlink.MAVLink_mission_item_int_message(
+        it.target_system, it.target_component, it.seq, it.frame, it.command, 0,
+        it.autocontinue, it.param1, it.param2, it.param3, it.param4, it.x, it.y + east, it.z,
+        MISSION,
+    )  # fmt: skip
+    return [moved if j == k else other for j, other in enumerate(items)]
+
+
 def _operator(
     link: Any,
     target: tuple[int, int],
     holds: Sequence[tuple[float, float]],
     speeds: Sequence[tuple[float, float]] = (),
+    moves: Sequence[tuple[float, float]] = (),
+    items: list[Any] | None = None,
 ) -> int:
     """HOLD at each (boot time, seconds), then AUTO; DO_CHANGE_SPEED at each (boot time,
-    m/s); what the rover did, printed."""
-    if not holds and not speeds:
+    m/s); the mission uploaded again with a waypoint ahead moved at each (boot time,
+    metres east); what the rover did, printed."""
+    if not holds and not speeds and not moves:
         return 0
     link.mav.request_data_stream_send(*target, mavlink.MAV_DATA_STREAM_POSITION, 4, 1)
     frame: LocalFrame | None = None
@@ -265,11 +286,27 @@ def _operator(
 
     flag = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
     plan = sorted([(at, "hold", seconds) for at, seconds in holds] +
-                  [(at, "speed", mps) for at, mps in speeds])  # fmt: skip
+                  [(at, "speed", mps) for at, mps in speeds] +
+                  [(at, "move", metres) for at, metres in moves])  # fmt: skip
     for at, kind, value in plan:
         t, n0, e0, v0 = fix()
         while t < at:
             t, n0, e0, v0 = fix()
+        if kind == "move" and items is not None:
+            request = mavlink.MAV_CMD_REQUEST_MESSAGE
+            current = mavlink.MAVLINK_MSG_ID_MISSION_CURRENT
+            link.mav.command_long_send(*target, request, 0, current, 0, 0, 0, 0, 0, 0)
+            now = link.recv_match(type="MISSION_CURRENT", blocking=True, timeout=5.0)
+            seq = 1 if now is None else int(now.seq)
+            items = _moved(items, seq, value)
+            answer = upload(link, target, items)
+            texts = []
+            while (m := link.recv_match(type="STATUSTEXT", blocking=True, timeout=1.0)) is not None:
+                texts.append(m.text)
+            print(f"mission uploaded again at {at:.0f} s (boot), driving to item {seq}, a "
+                  f"waypoint ahead {value:.0f} m east: {answer}; {sorted(set(texts))}",
+                  flush=True)  # fmt: skip
+            continue
         if kind == "speed":
             link.mav.command_long_send(*target, mavlink.MAV_CMD_DO_CHANGE_SPEED, 0,
                                        mavlink.SPEED_TYPE_GROUNDSPEED, value, -1.0,
@@ -436,6 +473,11 @@ def main() -> int:
         "--speed-at", action="append", default=[], type=_pair, metavar="AT:MPS",
         help="DO_CHANGE_SPEED to MPS at the rover's boot time AT s (repeatable)",
     )  # fmt: skip
+    d.add_argument(
+        "--move-at", action="append", default=[], type=_pair, metavar="AT:METRES",
+        help="at the rover's boot time AT s, upload the mission again with a waypoint "
+        "three ahead moved METRES east (repeatable)",
+    )  # fmt: skip
     c = sub.add_parser("compare", help="a rover's drive in a tlog against the mock's rover")
     c.add_argument("tlog", help="the tlog of the rover's drive")
     c.add_argument("road", help="the CSV time,lat,lon it was sent down (``drive``)")
@@ -446,7 +488,7 @@ def main() -> int:
     if args.command == "compare":
         return compare(args.tlog, args.road, args.speed, args.accel, args.sysid)
     if args.command == "drive":
-        return drive(args.connection, args.road, args.speed, args.hold, args.speed_at)
+        return drive(args.connection, args.road, args.speed, args.hold, args.speed_at, args.move_at)
     return read(args)
 
 
