@@ -269,6 +269,7 @@ class SimVehicle:
             "MISSION_REQUEST_INT": self._on_mission_request,
             "MISSION_REQUEST": self._on_mission_request,
             "MISSION_ACK": self._on_mission_ack,
+            "MISSION_CLEAR_ALL": self._on_mission_clear_all,
         }
         # A rover's mission: its route's road, served to a ground station that reads it,
         # or the one a ground station uploads (``sitl_mock.uploaded``).
@@ -561,13 +562,15 @@ class SimVehicle:
         self.counters["mission_read_acks"] += 1
         return []
 
-    def _on_mission_count(self, msg: Message, now: float) -> list[Message]:
+    def _on_mission_count(
+        self, msg: Message, now: float, sender: tuple[int, int] | None = None
+    ) -> list[Message]:
         """An upload begins: a geofence (MAV_MISSION_TYPE_FENCE), or a rover's mission
         (``sitl_mock.uploaded``): ask for item 0; a count of 0 clears it.
 
         Rally points, and an aircraft's mission, are refused: the mock flies no missions.
         """
-        src, comp = msg.get_srcSystem(), msg.get_srcComponent()
+        src, comp = sender or (msg.get_srcSystem(), msg.get_srcComponent())
         kind = msg.mission_type
         rover_mission = self.flight.aircraft is None and kind == _R.MAV_MISSION_TYPE_MISSION
         if kind != _R.MAV_MISSION_TYPE_FENCE and not rover_mission:
@@ -579,6 +582,16 @@ class SimVehicle:
             return [_R.MAVLink_mission_ack_message(src, comp, accepted, kind), *texts]
         self._upload = (kind, [None] * msg.count)
         return [_R.MAVLink_mission_request_int_message(src, comp, 0, kind)]
+
+    def _on_mission_clear_all(self, msg: Message, now: float) -> list[Message]:
+        """MISSION_CLEAR_ALL (QGroundControl's and MAVSDK's clear): as an upload of none."""
+        return self._on_mission_count(
+            _R.MAVLink_mission_count_message(
+                msg.target_system, msg.target_component, 0, msg.mission_type
+            ),
+            now,
+            sender=(msg.get_srcSystem(), msg.get_srcComponent()),
+        )
 
     def _on_mission_item_int(self, msg: Message, now: float) -> list[Message]:
         """One item of an upload, in order: store it, ask for the next, accept when all

@@ -308,3 +308,14 @@ def test_ardurover_going_on_in_a_changed_mission_keeps_the_speed_it_was_set_to()
     assert "Auto mission changed, restarted command" in texts(replies)
     gcs.run(20.0, telemetry=False)
     assert gcs.truth().speed == pytest.approx(6.0)
+
+
+def test_mission_clear_all_clears_it_as_an_upload_of_none() -> None:
+    """QGroundControl's and MAVSDK's clear: MISSION_CLEAR_ALL, answered by MISSION_ACK."""
+    gcs = parked(AP)
+    upload(gcs, items(PLAN, home_first=True))
+    replies = gcs.send(mavlink.MAVLink_mission_clear_all_message(11, 1, MISSION))
+    (ack,) = of_type(replies, "MISSION_ACK")
+    assert (ack.type, ack.target_system) == (mavlink.MAV_MISSION_ACCEPTED, 255)
+    assert gcs.vehicle.mission is None
+    assert set_mode(gcs, AP, "AUTO")[0].result == mavlink.MAV_RESULT_FAILED
