@@ -29,7 +29,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -382,6 +382,25 @@ class SimVehicle:
         if ground is not None:
             driving = fl.armed and fl.mode.behaviour is Behaviour.MISSION
             ground.follow(now, driving, reset_speed=self.firmware.is_ardupilot)
+            mission = self.mission
+            if isinstance(mission, UploadedMission) and mission.more:
+                self._go_on(mission, ground, now)
+
+    def _go_on(self, mission: UploadedMission, ground: RoverDrive, now: float) -> None:
+        """An uploaded mission's next waypoints laid before the rover gets to the last of
+        those laid (``UploadedMission.going_on``): from where it is, at the speed it was
+        set to, its jumps counted on."""
+        i = mission.going_on(ground.at(now), _arrivals(ground.route))
+        drive = mission.drive
+        if i is None or drive is None:
+            return
+        at, jumps = mission.resume[i]
+        behind = drive.vertices[i - 1]  # (laid from the waypoint it left: on that leg)
+        laid = self._lay(mission.items, now, at, ground.speed_set(now), dict(jumps), behind)
+        self.mission = laid
+        n, e, *_ = ground.state(now)
+        self._drive_anew(laid, now, arc=math.dist(behind, (n, e)))
+        self.counters["mission_laid"] += 1
 
     # ================================================================= telemetry
     def due_telemetry(self, now: float) -> list[Message]:
@@ -680,28 +699,53 @@ class SimVehicle:
             first = at if restarted else len(items)  # (none such: nothing more to drive)
             text = ", restarted command" if restarted else " but failed to restart command"
             texts.append(statustext(_R.MAV_SEVERITY_CRITICAL, f"Auto mission changed{text}"))
+        speed_now = ground.speed_set(now) if first is not None and ground else None
+        mission = self._lay(items, now, first, speed_now)
+        self.mission = mission if items else None
+        self._has_mission = mission.count(home_first=False) > 0
+        self._drive_anew(mission, now, wait=in_auto and not running and ardupilot)
+        return texts
+
+    def _lay(
+        self,
+        items: Sequence[Message],
+        now: float,
+        first: int | None,
+        speed_now: float | None,
+        jumps: Mapping[int, int] | None = None,
+        start: tuple[float, float] | None = None,
+    ) -> UploadedMission:
+        """The mission ``items`` as driven from ``start`` (None: where the rover is now;
+        ``UploadedMission``)."""
         (n, e, *_), *_ = self._kinematics(now)
-        here = Polyline(((n, e),), speed=0.0)
+        n, e = start or (n, e)
+        ground = self._ground
         plan = ground.plan if ground is not None else None
-        mission = UploadedMission.of(
+        return UploadedMission.of(
             items,
-            home_first=ardupilot,
+            home_first=self.firmware.is_ardupilot,
             world=self.world,
             start=(n, e),
-            home=fl.home,
+            home=self.flight.home,
             speed=self._wp_speed() or DEFAULT_WP_SPEED,
             accel=ground.clock.accel if ground is not None else DEFAULT_ACCEL,
             wp_radius=plan.wp_radius if isinstance(plan, Polyline) else 2.0,
             first=first,
-            speed_now=ground.speed_set(now) if first is not None and ground else None,
+            speed_now=speed_now,
+            jumps=jumps,
         )
-        self.mission = mission if items else None
-        self._has_mission = mission.count(home_first=False) > 0
-        if ground is None:  # (parked: it sets off from a stand)
+
+    def _drive_anew(
+        self, mission: UploadedMission, now: float, *, wait: bool = False, arc: float = 0.0
+    ) -> None:
+        """The rover drives ``mission``'s road from now, ``arc`` metres along its first leg
+        (a parked one sets off from a stand)."""
+        (n, e, *_), *_ = self._kinematics(now)
+        here = Polyline(((n, e),), speed=0.0)
+        ground = self._ground
+        if ground is None:
             ground = self._ground = RoverDrive(here)
-        wait = in_auto and not running and ardupilot
-        ground.drive_anew(now, mission.drive or here, wait=wait)
-        return texts
+        ground.drive_anew(now, mission.drive or here, wait=wait, arc=arc)
 
     def _on_request_data_stream(self, msg: Message, now: float) -> list[Message]:
         if not self.firmware.is_ardupilot:  # PX4 has no stream groups

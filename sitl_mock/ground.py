@@ -212,6 +212,11 @@ class Polyline:
         """Length of one pass (with the closing leg when looping), metres."""
         return self._cumulative[-1]
 
+    def time_at(self, arc: float) -> float:
+        """The drive time it first reaches ``arc`` metres along its first pass (before
+        standing there)."""
+        return self._drive.time_at(arc) if self._drive is not None else 0.0
+
     def finished(self, tau: float) -> bool:
         """Whether at drive time ``tau`` it has driven its last point and held there (a
         loop never has; nor a road it cannot drive)."""

@@ -90,16 +90,18 @@ class RoverDrive:
         """Whether at sim time ``t`` it has driven its plan to the end."""
         return isinstance(self.route, Polyline) and self.route.finished(self.at(t))
 
-    def drive_anew(self, t: float, plan: Polyline, *, wait: bool = False) -> None:
-        """From sim time ``t`` its plan is ``plan`` (a mission uploaded), from its start,
-        which is where the rover is: entered at the speed it has, changing at its accel.
-        ``wait``: it stands until AUTO is next entered (its mission over, in AUTO)."""
+    def drive_anew(self, t: float, plan: Polyline, *, wait: bool = False, arc: float = 0.0) -> None:
+        """From sim time ``t`` its plan is ``plan`` (a mission uploaded), from where the
+        rover is: its start, or ``arc`` metres along its first leg (the rest of a mission
+        laid on); entered at the speed it has, changing at its accel. ``wait``: it stands
+        until AUTO is next entered (its mission over, in AUTO)."""
         self._await_auto = wait
         route, tau_was = self.route, self.at(t)
         speed_was = math.hypot(*route.velocity(tau_was))
         moving = self.clock.rate(t) * speed_was
         self.plan, self.lag, self.wp_speed = plan, 0.0, float(plan.speed)
-        told, tau = plan.with_speed_from(0.0, plan.planned_speed(0.0), moving)
+        tau0 = plan.time_at(arc)
+        told, tau = plan.with_speed_from(tau0, plan.planned_speed(tau0), moving)
         self.clock.retime(t, tau, speed_was, math.hypot(*told.velocity(tau)))
         if wait:  # (its mission over, it stands: at once)
             self.clock.drive(t, False, 0.0)

@@ -15,8 +15,9 @@ in AUTO. The mock keeps the items as they came (a read gives them back, ArduPilo
 - DO_CHANGE_SPEED (param2 m/s; -1 and below 0: no change) sets the speed from the
   waypoint before it on; before any waypoint, from the start.
 - DO_JUMP (param1 the seq jumped to, param2 the repeats, -1 for ever) is unrolled: the
-  road is driven as the items come, up to ``MAX_WAYPOINTS`` waypoints (hours of a
-  patrol), as a ground station's plan of laps is.
+  road is driven as the items come, ``CHUNK`` waypoints at a time (``more``): the
+  autopilot lays the next ones from where the rover is before it gets to the last
+  (``going_on``), so a patrol for ever is driven for ever.
 
 The drive sets off from where the rover is when the upload ends (AUTO drives from there
 to the first waypoint), at the speed it has; ``speed`` is the rover's WP_SPEED before any
@@ -31,7 +32,7 @@ from __future__ import annotations
 
 import bisect
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 from pymavlink.dialects.v20 import common as mavlink
@@ -39,13 +40,15 @@ from pymavlink.dialects.v20 import common as mavlink
 from convoy_mav.geo import GeoPoint, LocalFrame
 from sitl_mock.ground import Polyline
 
-__all__ = ["DEFAULT_WP_SPEED", "MAX_WAYPOINTS", "UploadedMission", "upload_result"]
+__all__ = ["CHUNK", "DEFAULT_WP_SPEED", "UploadedMission", "upload_result"]
 
 DEFAULT_WP_SPEED = 2.0
 """m/s: a rover's speed with no road of its own set (ArduRover's ``AR_WPNAV_SPEED_DEFAULT``)."""
 
-MAX_WAYPOINTS = 5000
-"""Waypoints a DO_JUMP for ever is unrolled to (a 40-waypoint lap of 2.5 km: 300 km)."""
+CHUNK = 200
+"""Waypoints laid at a time: laid out and entered in 28 ms (median of five), in the mock's
+loop; a drive of 5000 took 0.27 s to lay out, and as long again at each speed mark."""
+_AHEAD = 10  # (waypoints left when the next ones are laid)
 
 _M = mavlink
 _AT_POINT = frozenset(
@@ -97,6 +100,9 @@ class UploadedMission:
     drive: Polyline | None
     seqs: tuple[int, ...]  # (per vertex of ``drive``)
     skipped: int = 0  # (items driven past, each once: commands a rover has no use for)
+    more: bool = False  # (the items go on past the last waypoint laid)
+    resume: tuple[tuple[int, tuple[tuple[int, int], ...]], ...] = ()  # (per vertex: the
+    # index of the item that lays it, and the jumps made before it)
 
     @classmethod
     def of(
@@ -112,29 +118,33 @@ class UploadedMission:
         wp_radius: float = 2.0,
         first: int | None = None,
         speed_now: float | None = None,
+        jumps: Mapping[int, int] | None = None,
     ) -> UploadedMission:
         """The mission ``items`` (seq order) driven from world (north, east) ``start``,
         from item ``first`` on (None: its first; a mission changed while it runs goes on
         at the item it was at: ArduRover's ``restart_current_nav_cmd``), at ``speed_now``
         until a DO_CHANGE_SPEED (None: ``speed``, WP_SPEED; going on, the speed its
-        navigation was set to, which no DO command run again changes)."""
+        navigation was set to, which no DO command run again changes), ``jumps`` the
+        DO_JUMPs made so far (by their seq: going on, the count so far)."""
         points: list[tuple[float, float]] = [start]
         seqs: list[int] = [-1]
+        resume: list[tuple[int, tuple[tuple[int, int], ...]]] = [(-1, ())]
         holds: dict[int, float] = {}
         speeds: dict[int, float] = {}
-        jumps: dict[int, int] = {}  # (a DO_JUMP's seq: jumps made)
+        made = dict(jumps or {})  # (a DO_JUMP's seq: jumps made)
         k = int(home_first) if first is None else first
         steps = 0
         skipped: set[int] = set()
-        while k < len(items) and len(points) <= MAX_WAYPOINTS and steps < 10 * MAX_WAYPOINTS:
+        while k < len(items) and len(points) <= CHUNK and steps < 10 * CHUNK:
             steps += 1
+            at = k
             item, k = items[k], k + 1
             command = item.command
             if command == _M.MAV_CMD_DO_JUMP:
-                done, repeats = jumps.get(item.seq, 0), round(item.param2)
+                done, repeats = made.get(item.seq, 0), round(item.param2)
                 to = round(item.param1)
                 if (repeats < 0 or done < repeats) and 0 <= to < len(items):
-                    jumps[item.seq] = done + 1
+                    made[item.seq] = done + 1
                     k = to
                 continue
             if command == _M.MAV_CMD_DO_CHANGE_SPEED:
@@ -153,6 +163,7 @@ class UploadedMission:
             if math.dist((n, e), points[-1]) > _HERE_M:
                 points.append((n, e))
                 seqs.append(item.seq)
+                resume.append((at, tuple(sorted(made.items()))))
             elif seqs[-1] < 0:  # (the first waypoint is where it stands)
                 seqs[-1] = item.seq
             wait = item.param1 if command in _HOLDS_P1 else 0.0
@@ -160,8 +171,9 @@ class UploadedMission:
                 holds[len(points) - 1] = holds.get(len(points) - 1, 0.0) + float(wait)
             if command == _M.MAV_CMD_NAV_LOITER_UNLIM:
                 break
+        more = k < len(items) and len(points) > CHUNK
         if len(seqs) > 1 and seqs[0] < 0:
-            seqs[0] = seqs[1]
+            seqs[0], resume[0] = seqs[1], resume[1]
         if speed_now is not None and speed_now > 0.0 and 0 not in speeds:
             speeds[0] = speed_now
         drive = None
@@ -174,7 +186,7 @@ class UploadedMission:
                 holds=tuple(sorted(holds.items())),
                 speeds=tuple(sorted(speeds.items())),
             )
-        return cls(tuple(items), home_first, drive, tuple(seqs), len(skipped))
+        return cls(tuple(items), home_first, drive, tuple(seqs), len(skipped), more, tuple(resume))
 
     def count(self, *, home_first: bool) -> int:
         """Items a read gets (``home_first``: ArduPilot's home among them)."""
@@ -199,6 +211,18 @@ class UploadedMission:
             it.param1, it.param2, it.param3, it.param4, it.x, it.y, it.z,
             mavlink.MAV_MISSION_TYPE_MISSION,
         )  # fmt: skip
+
+    def going_on(self, t: float, times: Sequence[float] | None = None) -> int | None:
+        """The vertex to lay the rest from at drive time ``t``, the one it drives to once
+        within ``_AHEAD`` of the last laid (None: not yet, held at one, or no more)."""
+        drive = self.drive
+        if not self.more or drive is None:
+            return None
+        times = drive.arrivals if times is None or len(times) != len(self.seqs) else times
+        i = bisect.bisect_right(times, t)
+        if i < len(times) - _AHEAD or (i and t < times[i - 1] + drive.vertex_holds.get(i - 1, 0.0)):
+            return None
+        return min(i, len(times) - 1)
 
     def current(self, t: float, *, home_first: bool, times: Sequence[float] | None = None) -> int:
         """The item driven to, or held at, at drive time ``t`` (the last once arrived);

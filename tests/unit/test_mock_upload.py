@@ -12,9 +12,10 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from convoy_mav.geo import GeoPoint
 from convoy_mav.tracks.missionroute import mission_route
+from sitl_mock import uploaded
 from sitl_mock.autopilot import Personality, SimVehicle, VehicleSpec
 from sitl_mock.ground import Polyline
-from sitl_mock.uploaded import MAX_WAYPOINTS, UploadedMission
+from sitl_mock.uploaded import CHUNK, UploadedMission
 from tests.fakes import WORLD, Gcs, Msg, make_vehicle, of_type, texts
 from tests.unit.test_mock_driveclock import _mode
 from tests.unit.test_mock_mission import read_mission, rover
@@ -243,7 +244,8 @@ def test_jumps_are_driven_as_the_items_come_and_a_return_goes_home() -> None:
         items(forever, home_first=False), home_first=False, world=WORLD, start=(0.0, 0.0),
         home=home, speed=5.0, accel=1.0,
     )  # fmt: skip
-    assert patrol.drive is not None and len(patrol.drive.vertices) == MAX_WAYPOINTS + 1
+    assert patrol.drive is not None and len(patrol.drive.vertices) == CHUNK + 1
+    assert patrol.more and patrol.resume[-1] == (1, ((2, CHUNK // 2 - 1),))
     here = [wp(100.0, 0.0), do(mavlink.MAV_CMD_NAV_LOITER_TIME, 7.0, 0.0), wp(300.0, 0.0)]
     held = UploadedMission.of(
         items(here, home_first=False), home_first=False, world=WORLD, start=(0.0, 0.0),
@@ -319,3 +321,27 @@ def test_mission_clear_all_clears_it_as_an_upload_of_none() -> None:
     assert (ack.type, ack.target_system) == (mavlink.MAV_MISSION_ACCEPTED, 255)
     assert gcs.vehicle.mission is None
     assert set_mode(gcs, AP, "AUTO")[0].result == mavlink.MAV_RESULT_FAILED
+
+
+def test_a_patrol_for_ever_is_laid_a_chunk_at_a_time_and_driven_on(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The next waypoints laid from where the rover is before it gets to the last laid:
+    no stop, no jump, at the accel or gentler, MISSION_CURRENT round the lap."""
+    monkeypatch.setattr(uploaded, "CHUNK", 12)
+    gcs = parked(AP)
+    lap = [wp(100.0, 0.0), wp(100.0, 100.0), wp(0.0, 100.0), wp(0.0, 0.0)]
+    upload(gcs, items([do(SPEED, 1.0, 5.0), *lap, do(JUMP, 2.0, -1.0)], home_first=True))
+    _mode(gcs, AP, "AUTO")
+    rows, seqs = [gcs.truth()], []
+    for _ in range(500):  # (250 s: 1250 m, three laps and more)
+        gcs.run(0.5, telemetry=False)
+        rows.append(gcs.truth())
+        seqs.append(current_seq(gcs))
+    for a, b in itertools.pairwise(rows):
+        moved = math.hypot(b.north - a.north, b.east - a.east)
+        assert moved <= 0.5 * (max(a.speed, b.speed) + 0.25) + 1e-6
+        assert abs(b.speed - a.speed) <= 0.5 * 1.0 + 1e-6
+    assert gcs.vehicle.counters["mission_laid"] >= 2
+    assert all(r.speed > 1.0 for r in rows[40:])  # (its corners slowed for, never a stop)
+    assert set(seqs[100:]) == {2, 3, 4, 5}  # (round the lap: the jump back to item 2)
