@@ -47,11 +47,13 @@ from __future__ import annotations
 import argparse
 import csv
 import math
+import os
 import statistics
 import subprocess
 import sys
+import tempfile
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 from pymavlink import mavutil
@@ -254,6 +256,38 @@ def _moved(items: list[Any], seq: int, metres: float) -> list[Any]:
         MISSION,
     )  # fmt: skip
     return [moved if j == k else other for j, other in enumerate(items)]
+
+
+def with_ardurover(
+    run: Callable[[str], int], *, instance: int, wp_speed: float, home: tuple[float, ...]
+) -> int:
+    """Start ArduRover SITL (``$SITL_DIR/build/sitl/bin/ardurover``, instance ``instance``,
+    WP_SPEED and CRUISE_SPEED ``wp_speed``, at ``home`` (lat, lon, alt), 5x), ``run`` it
+    through its serial0 (TCP 5760 + 10 per instance), stop it: ``run``'s answer (2: no
+    SITL to start)."""
+    sitl = os.environ.get("SITL_DIR")
+    binary = os.path.join(sitl or "", "build/sitl/bin/ardurover")
+    if not sitl or not os.path.exists(binary):
+        print("set SITL_DIR to an ArduPilot tree with build/sitl/bin/ardurover, or --connect")
+        return 2
+    with tempfile.TemporaryDirectory() as work:
+        params = os.path.join(work, "speed.parm")
+        with open(params, "w") as fh:
+            fh.write(f"WP_SPEED {wp_speed:g}\nCRUISE_SPEED {wp_speed:g}\n")
+        defaults = f"{sitl}/Tools/autotest/default_params/rover.parm,{params}"
+        at = ",".join(str(c) for c in (*home, 0))
+        with open(os.path.join(work, "sitl.log"), "w") as log:
+            proc = subprocess.Popen(
+                [binary, "--model", "rover", "--speedup", "5", "-I", str(instance), "--home", at,
+                 "--defaults", defaults],
+                cwd=work, stdout=log, stderr=subprocess.STDOUT,
+            )  # fmt: skip
+            try:
+                time.sleep(2.0)
+                return run(f"tcp:127.0.0.1:{5760 + 10 * instance}")
+            finally:
+                proc.terminate()
+                proc.wait()
 
 
 def _operator(

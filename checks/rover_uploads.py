@@ -29,16 +29,19 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
 import subprocess
 import sys
-import tempfile
 import time
 from typing import Any
 
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import common as mavlink
-from rover_mission import ROVER_AUTO, ROVER_HOLD, upload  # (checks/, beside this one)
+from rover_mission import (  # (checks/, beside this one)
+    ROVER_AUTO,
+    ROVER_HOLD,
+    upload,
+    with_ardurover,
+)
 
 HOME = (47.397742, 8.545594, 488.0)
 MISSION = mavlink.MAV_MISSION_TYPE_MISSION
@@ -271,29 +274,7 @@ def main() -> int:
         finally:
             mock.terminate()
             mock.wait()
-    sitl = os.environ.get("SITL_DIR")
-    binary = os.path.join(sitl or "", "build/sitl/bin/ardurover")
-    if not sitl or not os.path.exists(binary):
-        print("set SITL_DIR to an ArduPilot tree with build/sitl/bin/ardurover, or --connect")
-        return 2
-    with tempfile.TemporaryDirectory() as work:
-        params = os.path.join(work, "speed.parm")
-        with open(params, "w") as fh:
-            fh.write("WP_SPEED 4\nCRUISE_SPEED 4\n")
-        defaults = f"{sitl}/Tools/autotest/default_params/rover.parm,{params}"
-        home = ",".join(str(c) for c in (*HOME, 0))
-        with open(os.path.join(work, "sitl.log"), "w") as log:
-            proc = subprocess.Popen(
-                [binary, "--model", "rover", "--speedup", "5", "-I", "22", "--home", home,
-                 "--defaults", defaults],
-                cwd=work, stdout=log, stderr=subprocess.STDOUT,
-            )  # fmt: skip
-            try:
-                time.sleep(2.0)
-                return run("tcp:127.0.0.1:5980")  # (instance 22's serial0)
-            finally:
-                proc.terminate()
-                proc.wait()
+    return with_ardurover(run, instance=22, wp_speed=4, home=HOME)
 
 
 if __name__ == "__main__":
