@@ -17,7 +17,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import math
-from collections.abc import AsyncIterator, Awaitable, Callable
+from collections.abc import AsyncIterator, Awaitable, Callable, Coroutine
 from typing import Any
 
 import pytest
@@ -25,7 +25,7 @@ from pymavlink import mavutil
 from pymavlink.dialects.v20 import common as mavlink
 
 from convoy_mav.app import ConvoyService
-from convoy_mav.demo import SCENARIOS, run_demo
+from convoy_mav.demo import SCENARIOS, DemoResult, run_demo
 from sitl_mock.drive import Ramps, corner_speed
 from sitl_mock.server import MockFleet
 from tests.hostspeed import host_speedup
@@ -95,7 +95,6 @@ _ARDUROVER_HOLD, _ARDUROVER_AUTO = 4, 10
 
 @pytest.mark.alone
 async def test_a_rover_its_operator_holds_stands_and_is_watched_standing() -> None:
-    scenario = SCENARIOS["turning"]
     marks: dict[str, Any] = {}
 
     async def operator(fleet: MockFleet, service: ConvoyService) -> None:
@@ -115,10 +114,7 @@ async def test_a_rover_its_operator_holds_stands_and_is_watched_standing() -> No
                 await _until(fleet, marks[name] + hold_s)
                 marks[f"{name}+end"] = fleet.truth(lead)
 
-    result = await run_demo(
-        scenario, duration=480.0, speedup=SPEEDUP, personality="ardupilot",
-        uavs=scenario.fleet(route_known=True), route_mission=True, road=CIRCUIT, during=operator,
-    )  # fmt: skip
+    result = await _operated(operator, 480.0)
     report = result.report.to_dict()
     assert "auto+end" in marks, marks
     # The rover braked to a stand within 15 s and stood the minute; in AUTO it drove on.
@@ -140,6 +136,18 @@ async def test_a_rover_its_operator_holds_stands_and_is_watched_standing() -> No
     assert truth.fraction >= 0.94, (truth, report["predicted_coverage"])
     assert truth.longest_gap_s <= 12.0, truth
     assert report["predicted_coverage"] == pytest.approx(truth.fraction, abs=0.02)
+
+
+async def _operated(
+    operator: Callable[[MockFleet, ConvoyService], Coroutine[Any, Any, None]], duration: float
+) -> DemoResult:
+    """The circuit flown on ArduPilot, its mission read as the route, ``operator``
+    beside the service (``run_demo(during=...)``)."""
+    scenario = SCENARIOS["turning"]
+    return await run_demo(
+        scenario, duration=duration, speedup=SPEEDUP, personality="ardupilot",
+        uavs=scenario.fleet(route_known=True), route_mission=True, road=CIRCUIT, during=operator,
+    )  # fmt: skip
 
 
 async def _until(fleet: MockFleet, t: float) -> None:
@@ -186,7 +194,6 @@ async def _ground_station(
 @pytest.mark.alone
 async def test_a_rover_its_operator_slows_keeps_the_speed_and_is_forecast_at_it() -> None:
     """DO_CHANGE_SPEED 5 m/s on the circuit's 8 m/s stretch: kept to the 6 m/s mark."""
-    scenario = SCENARIOS["turning"]
     marks: dict[str, Any] = {}
 
     async def operator(fleet: MockFleet, service: ConvoyService) -> None:
@@ -203,10 +210,7 @@ async def test_a_rover_its_operator_slows_keeps_the_speed_and_is_forecast_at_it(
             await _until(fleet, marks["told"] + 15.0)
             marks["told+15"] = fleet.truth(lead)
 
-    result = await run_demo(
-        scenario, duration=480.0, speedup=SPEEDUP, personality="ardupilot",
-        uavs=scenario.fleet(route_known=True), route_mission=True, road=CIRCUIT, during=operator,
-    )  # fmt: skip
+    result = await _operated(operator, 480.0)
     report = result.report.to_dict()
     assert "told+15" in marks, marks
     assert marks["told+15"].speed == pytest.approx(5.0, abs=0.05)  # (the rover keeps it)
@@ -249,7 +253,6 @@ async def test_a_rovers_mission_its_operator_changes_is_read_again_and_flown() -
     drives it (as many items: MISSION_CURRENT's total does not change). ArduRover goes on
     at its item in the new mission and says so to every link ("Auto mission changed,
     restarted command"); the service reads it again and takes the new route."""
-    scenario = SCENARIOS["turning"]
     marks: dict[str, Any] = {}
 
     async def operator(fleet: MockFleet, service: ConvoyService) -> None:
@@ -281,10 +284,7 @@ async def test_a_rovers_mission_its_operator_changes_is_read_again_and_flown() -
         await _until(fleet, marks["t"] + 20.0)
         marks["reads+20"] = fleet.counters(lead)["mission_reads"]
 
-    result = await run_demo(
-        scenario, duration=420.0, speedup=SPEEDUP, personality="ardupilot",
-        uavs=scenario.fleet(route_known=True), route_mission=True, road=CIRCUIT, during=operator,
-    )  # fmt: skip
+    result = await _operated(operator, 420.0)
     report = result.report.to_dict()
     assert "moved" in marks and marks["uploaded"] == "MAV_MISSION_ACCEPTED", marks
     assert marks["reads+20"] > marks["reads"], marks  # (read again within 20 s)
