@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import bisect
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 from pymavlink.dialects.v20 import common as mavlink
@@ -38,7 +38,7 @@ from convoy_mav.geo import GeoPoint, LocalFrame
 from convoy_mav.tracks.stops import standstills
 from sitl_mock.ground import Polyline, Route, Track
 
-__all__ = ["RoverMission", "as_float_item", "thin"]
+__all__ = ["RoverMission", "as_float_item", "driving_to", "thin", "waypoint_item"]
 
 DEFAULT_TOLERANCE_M = 3.0
 
@@ -143,20 +143,10 @@ class RoverMission:
                 mavlink.MAV_CMD_DO_CHANGE_SPEED, 0, 1, 1.0, speed, -1.0, 0.0, 0, 0, 0.0,
                 mavlink.MAV_MISSION_TYPE_MISSION,
             )  # fmt: skip
-        hold = 0.0
         if entry == -3:
-            where, frame = home, mavlink.MAV_FRAME_GLOBAL
-        else:
-            where = self.waypoints[entry]
-            frame = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
-            hold = self.holds[entry] if self.holds else 0.0
-        return mavlink.MAVLink_mission_item_int_message(
-            target[0], target[1], seq, frame, mavlink.MAV_CMD_NAV_WAYPOINT,
-            0, 1, hold, 0.0, 0.0, 0.0,
-            round(where.lat * 1e7), round(where.lon * 1e7),
-            where.alt if frame == mavlink.MAV_FRAME_GLOBAL else 0.0,
-            mavlink.MAV_MISSION_TYPE_MISSION,
-        )  # fmt: skip
+            return waypoint_item(seq, home, target, home=True)
+        hold = self.holds[entry] if self.holds else 0.0
+        return waypoint_item(seq, self.waypoints[entry], target, hold=hold)
 
     def current(self, t: float, *, home_first: bool, times: Sequence[float] | None = None) -> int:
         """The item being driven to, or held at, at drive time ``t`` (the last once
@@ -165,10 +155,29 @@ class RoverMission:
         times = self.times if times is None or len(times) != len(self.times) else times
         if self.laps and t > 0.0:
             t %= times[-1]
-        i = bisect.bisect_right(times, t)
-        if i and self.holds and t < times[i - 1] + self.holds[i - 1]:
-            i -= 1  # (holding there: that waypoint is still the one in force)
-        return self._entries.index(min(i, len(times) - 1)) + home_first
+        i, held = driving_to(t, times, lambda k: self.holds[k] if self.holds else 0.0)
+        return self._entries.index(min(i - held, len(times) - 1)) + home_first
+
+
+def driving_to(t: float, times: Sequence[float], hold: Callable[[int], float]) -> tuple[int, bool]:
+    """The waypoint a drive reaching each at ``times`` drives to at ``t`` (``len(times)``
+    once past the last), and whether it still holds at the one before (``hold``: its
+    seconds there), whose item is then the one in force."""
+    i = bisect.bisect_right(times, t)
+    return i, i > 0 and t < times[i - 1] + hold(i - 1)
+
+
+def waypoint_item(
+    seq: int, where: GeoPoint, target: tuple[int, int], *, hold: float = 0.0, home: bool = False
+) -> mavlink.MAVLink_mission_item_int_message:
+    """A NAV_WAYPOINT at ``where``, held ``hold`` s: relative altitude 0, or ArduPilot's
+    home item (``home``: MAV_FRAME_GLOBAL, its altitude)."""
+    frame = mavlink.MAV_FRAME_GLOBAL if home else mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
+    return mavlink.MAVLink_mission_item_int_message(
+        target[0], target[1], seq, frame, mavlink.MAV_CMD_NAV_WAYPOINT, 0, 1, hold, 0.0, 0.0,
+        0.0, round(where.lat * 1e7), round(where.lon * 1e7), where.alt if home else 0.0,
+        mavlink.MAV_MISSION_TYPE_MISSION,
+    )  # fmt: skip
 
 
 def as_float_item(item: mavlink.MAVLink_mission_item_int_message) -> mavlink.MAVLink_message:

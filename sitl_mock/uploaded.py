@@ -30,7 +30,6 @@ Any other command is kept, and skipped when driven (``skipped``), as ArduRover's
 
 from __future__ import annotations
 
-import bisect
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -39,6 +38,7 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from convoy_mav.geo import GeoPoint, LocalFrame
 from sitl_mock.ground import Polyline
+from sitl_mock.mission import driving_to, waypoint_item
 
 __all__ = ["CHUNK", "DEFAULT_WP_SPEED", "UploadedMission", "upload_result"]
 
@@ -200,11 +200,7 @@ class UploadedMission:
         if not 0 <= seq < self.count(home_first=home_first):
             return None
         if home_first and seq == 0:
-            return mavlink.MAVLink_mission_item_int_message(
-                target[0], target[1], 0, mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_CMD_NAV_WAYPOINT,
-                0, 1, 0.0, 0.0, 0.0, 0.0, round(home.lat * 1e7), round(home.lon * 1e7),
-                home.alt, mavlink.MAV_MISSION_TYPE_MISSION,
-            )  # fmt: skip
+            return waypoint_item(0, home, target, home=True)
         it = self.items[seq]
         return mavlink.MAVLink_mission_item_int_message(
             target[0], target[1], seq, it.frame, it.command, 0, it.autocontinue,
@@ -218,11 +214,10 @@ class UploadedMission:
         drive = self.drive
         if not self.more or drive is None:
             return None
-        times = drive.arrivals if times is None or len(times) != len(self.seqs) else times
-        i = bisect.bisect_right(times, t)
-        if i < len(times) - _AHEAD or (i and t < times[i - 1] + drive.vertex_holds.get(i - 1, 0.0)):
+        i, held = self._driving_to(drive, t, times)
+        if i < len(self.seqs) - _AHEAD or held:
             return None
-        return min(i, len(times) - 1)
+        return min(i, len(self.seqs) - 1)
 
     def current(self, t: float, *, home_first: bool, times: Sequence[float] | None = None) -> int:
         """The item driven to, or held at, at drive time ``t`` (the last once arrived);
@@ -230,8 +225,13 @@ class UploadedMission:
         drive = self.drive
         if drive is None:
             return int(home_first and len(self.items) > 1)
+        i, held = self._driving_to(drive, t, times)
+        return self.seqs[min(i - held, len(self.seqs) - 1)]
+
+    def _driving_to(
+        self, drive: Polyline, t: float, times: Sequence[float] | None
+    ) -> tuple[int, bool]:
+        """``mission.driving_to`` on ``drive`` (``times``: its vertices' arrivals if
+        retimed by a speed told)."""
         times = drive.arrivals if times is None or len(times) != len(self.seqs) else times
-        i = bisect.bisect_right(times, t)
-        if i and t < times[i - 1] + drive.vertex_holds.get(i - 1, 0.0):
-            i -= 1  # (holding there: that waypoint is still the one in force)
-        return self.seqs[min(i, len(self.seqs) - 1)]
+        return driving_to(t, times, lambda k: drive.vertex_holds.get(k, 0.0))
