@@ -23,7 +23,9 @@ The drive sets off from where the rover is when the upload ends (AUTO drives fro
 to the first waypoint), at the speed it has; ``speed`` is the rover's WP_SPEED before any
 DO_CHANGE_SPEED. At upload (``upload_result``) an item is refused as both firmwares refuse
 it: a command MAVLink does not define (MAV_MISSION_UNSUPPORTED), a position in a frame
-that is not global (MAV_MISSION_UNSUPPORTED_FRAME), a latitude or longitude out of range.
+that is not global (MAV_MISSION_UNSUPPORTED_FRAME), a latitude or longitude out of range,
+a parameter that is not a number (MAV_MISSION_INVALID_PARAMn; a NAV command's yaw,
+param4, may be NaN: "none").
 Any other command is kept, and skipped when driven (``skipped``), as ArduRover's
 ``ModeAuto::start_command`` skips what a rover has no use for (a landing, a camera's).
 """
@@ -81,6 +83,10 @@ def upload_result(item: mavlink.MAVLink_mission_item_int_message) -> int:
     if item.command not in mavlink.enums["MAV_CMD"]:
         return int(_M.MAV_MISSION_UNSUPPORTED)
     navigates = item.command < _M.MAV_CMD_NAV_LAST
+    params = (item.param1, item.param2, item.param3, item.param4)
+    for k, value in enumerate(params):  # (a NAV command's param4, its yaw, may be NaN: none)
+        if not math.isfinite(value) and not (navigates and k == 3 and math.isnan(value)):
+            return int(_M.MAV_MISSION_INVALID_PARAM1 + k)  # (AP_Mission::sanity_check_params)
     if navigates and (item.x, item.y) != (0, 0) and item.frame not in _GLOBAL:
         return int(_M.MAV_MISSION_UNSUPPORTED_FRAME)
     if abs(item.x) > 900_000_000 and item.frame in _GLOBAL:

@@ -131,7 +131,7 @@ def test_a_parked_rover_refuses_auto_until_a_mission_is_uploaded_then_drives_it(
 
 
 @pytest.mark.parametrize("personality", [AP, PX4])
-def test_unknown_commands_and_positions_in_other_frames_are_refused_and_end_the_upload(
+def test_unknown_commands_bad_parameters_and_other_frames_are_refused_and_end_the_upload(
     personality: Personality,
 ) -> None:
     gcs = parked(personality)
@@ -139,6 +139,8 @@ def test_unknown_commands_and_positions_in_other_frames_are_refused_and_end_the_
     local = (WP, mavlink.MAV_FRAME_LOCAL_NED, 0.0, 0.0, WORLD.to_geo(100.0, 0.0))
     for bad, result in (
         (do(65000, 0.0, 0.0), mavlink.MAV_MISSION_UNSUPPORTED),
+        (do(JUMP, 1.0, math.nan), mavlink.MAV_MISSION_INVALID_PARAM2),
+        (do(SPEED, math.inf, 4.0), mavlink.MAV_MISSION_INVALID_PARAM1),
         (local, mavlink.MAV_MISSION_UNSUPPORTED_FRAME),
     ):
         sent = items([wp(100.0, 0.0), bad], home_first=ardupilot)
