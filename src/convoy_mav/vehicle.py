@@ -328,6 +328,7 @@ class Vehicle:
         self._own_sp_t = -math.inf  # when the keepalive last sent one of its own
         self._setup_sent = 0  # setpoints sent since set-up began
         self._airborne_already = False  # set-up found it flying: no take-off
+        self._takeoff_accepted = False  # set-up: the take-off mode was ACCEPTED
         self._pad: tuple[float, float] | None = None  # climbing out straight up from it
         self._hold_requested = False
         self._unsupported = False
@@ -922,6 +923,8 @@ class Vehicle:
         ap.reset()
         self._setup_sent = 0
         self._airborne_already = False
+        self._takeoff_accepted = False
+        unconfirmed: list[SetupStep] = []  # achieved, its HEARTBEAT not yet in
         while True:
             for step in ap.setup_steps:
                 if not self._step_done(step):
@@ -929,8 +932,11 @@ class Vehicle:
                         deadline = await self._arm_in_turn(deadline)
                     else:
                         await self._achieve(step, deadline)
-                    if self._step_done(step):
-                        self._emit(EventKind.SETUP, self._step_report(step))
+                    if step not in unconfirmed:
+                        unconfirmed.append(step)
+                for late in [s for s in unconfirmed if self._step_done(s)]:
+                    unconfirmed.remove(late)  # (reported once seen done, in order)
+                    self._emit(EventKind.SETUP, self._step_report(late))
             if all(self._step_done(step) for step in ap.setup_steps):
                 break
             if self.clock.now() >= deadline:
@@ -983,6 +989,11 @@ class Vehicle:
         if step in (SetupStep.TAKEOFF, SetupStep.CLIMB):
             rel = self.relative_alt
             return f"airborne at {rel:.0f} m above home" if rel is not None else "airborne"
+        ap = self.firmware
+        if step is SetupStep.TAKEOFF_MODE and ap is not None and self.mode != ap.takeoff_mode:
+            # airborne before a HEARTBEAT shows the mode (a late one, on a loaded link)
+            said = f"{ap.takeoff_mode} accepted" if self._takeoff_accepted else "armed"
+            return f"{said} and airborne (its HEARTBEAT still says {self.mode})"
         if step in (SetupStep.MODE, SetupStep.TAKEOFF_MODE):
             return f"in {self.mode}"
         return "armed" if step is SetupStep.ARM else f"{step} done"
@@ -1074,7 +1085,8 @@ class Vehicle:
             climb = ap.takeoff_mode
             assert climb is not None
             climbing = functools.partial(self._step_done, step)
-            await self._command(ap.mode_command(climb), f"mode {climb}", deadline, climbing)
+            if await self._command(ap.mode_command(climb), f"mode {climb}", deadline, climbing):
+                self._takeoff_accepted = True
             await self._wait_until(climbing, _CONFIRM_WAIT)
         elif step is SetupStep.ARM:
             tel = self.telemetry
