@@ -91,8 +91,10 @@ SENSORS = (  # SYS_STATUS sensors a healthy mock reports present and healthy
 )
 """SYS_STATUS sensors: with GPS and PREARM_CHECK healthy MAVSDK reports the global
 position OK and the vehicle armable; both turn healthy at the end of warm-up."""
-_GPS_FIX_SHARE = 0.5
 _ROVER_SPEED_MIN = 0.05  # m/s: the least a rover is told (ArduRover's AR_WPNAV_SPEED_MIN)
+_ONLY_GCS = 1  # MAV_OPTIONS bit 0: hear only MAV_GCS_SYSID (and its own system)
+_RADIO = ("RADIO", "RADIO_STATUS")  # (heard from any system: a telemetry radio's)
+_GPS_FIX_SHARE = 0.5
 """Share of the warm-up after which GPS_RAW_INT reports a 3D fix (the estimator needs
 the rest: real ArduPilot SITL refuses arming for about 40 s after its first fix)."""
 _NEEDS_WARMUP = (
@@ -297,6 +299,8 @@ class SimVehicle:
             _R.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN: self._cmd_reboot,
         }
         self.last_gcs_heartbeat: float | None = None
+        self.gcs_sysid = 255  # ArduPilot's MAV_GCS_SYSID
+        self.mav_options = 0  # ArduPilot's MAV_OPTIONS
         self._boot(now)
 
     # ================================================================== lifecycle
@@ -513,8 +517,13 @@ class SimVehicle:
         """Process one decoded incoming message; return the immediate replies.
 
         Messages for another system (``target_system`` neither 0 nor ours) or
-        another component are ignored and counted, as are unknown message types.
+        another component are ignored and counted, as are unknown message types;
+        so is all from another system than its ground station's (or its own) on an
+        ArduPilot with MAV_OPTIONS bit 0 (``GCS_MAVLINK::accept_packet``).
         """
+        if self.mav_options & _ONLY_GCS and not self._accepts(msg):
+            self.counters["not_from_gcs"] += 1
+            return []
         if getattr(msg, "target_system", 0) not in (0, self.sysid):
             self.counters["foreign_sysid"] += 1
             return []
@@ -532,6 +541,10 @@ class SimVehicle:
             self.counters["handler_error"] += 1
             self.last_error = e
             return []
+
+    def _accepts(self, msg: Message) -> bool:
+        src = msg.get_srcSystem()
+        return src in (self.sysid, self.gcs_sysid) or msg.get_type() in _RADIO
 
     def _on_heartbeat(self, msg: Message, now: float) -> list[Message]:
         self.last_gcs_heartbeat = now
@@ -798,6 +811,8 @@ class SimVehicle:
             Knob.WP_SPEED: self._wp_speed(),
             Knob.ROVER_ACCEL: route.accel if isinstance(route, Polyline) else 0.0,
             Knob.WP_RADIUS: route.wp_radius if isinstance(route, Polyline) else 2.0,
+            Knob.GCS_SYSID: float(self.gcs_sysid),
+            Knob.MAV_OPTIONS: float(self.mav_options),
         }
         return values[knob]
 
@@ -855,6 +870,14 @@ class SimVehicle:
             fl.rtl_alt = value
         elif knob is Knob.WARMUP:
             self._warmup = value
+        elif knob in (Knob.GCS_SYSID, Knob.MAV_OPTIONS):
+            top = 255 if knob is Knob.GCS_SYSID else 0xFFFF
+            if value != int(value) or not 0 <= value <= top:
+                raise ValueError(f"must be a whole number in 0..{top}, got {value:g}")
+            if knob is Knob.GCS_SYSID:
+                self.gcs_sysid = int(value)
+            else:
+                self.mav_options = int(value)
         elif knob is Knob.SPEEDUP:
             if self._speedup is None:
                 raise ValueError("no simulator clock to set the speedup of")

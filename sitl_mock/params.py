@@ -46,6 +46,8 @@ class Knob(StrEnum):
     WP_SPEED = "wp_speed"  # m/s, read-only: a rover's speed in AUTO (its road's; 0: none)
     ROVER_ACCEL = "rover_accel"  # m/s², read-only: a rover's braking and speeding up (0: none)
     WP_RADIUS = "wp_radius"  # m, read-only: a rover passes its corners within it
+    GCS_SYSID = "gcs_sysid"  # ArduPilot: the system id of its ground station (1..255)
+    MAV_OPTIONS = "mav_options"  # ArduPilot: bit 0, hear only that ground station
 
 
 KnobGetter = Callable[[Knob], float]

@@ -378,11 +378,18 @@ _CAPS = (
 
 def _common_params(personality: Personality) -> tuple[ParamDef, ...]:
     sysid = "SYSID_THISMAV" if personality is Personality.ARDUPILOT else "MAV_SYS_ID"
-    return (
+    common = (
         ParamDef("SIM_TURN_RAD", Knob.TURN_RADIUS, minimum=1.0),
         ParamDef("SIM_WARMUP_S", Knob.WARMUP),
         ParamDef("SIM_SPEEDUP", Knob.SPEEDUP, minimum=0.01),  # (ArduPilot SITL's name)
         ParamDef(sysid, Knob.SYSID, read_only=True),
+    )
+    if personality is Personality.PX4:
+        return common
+    return (  # (this SITL build's names; SYSID_MYGCS and SYSID_ENFORCE in older releases)
+        *common,
+        ParamDef("MAV_GCS_SYSID", Knob.GCS_SYSID, minimum=1.0),
+        ParamDef("MAV_OPTIONS", Knob.MAV_OPTIONS),
     )
 
 

@@ -55,11 +55,18 @@ class Gcs:
     ``received`` keeps every decoded message the vehicle sent, with the sim time.
     """
 
-    def __init__(self, vehicle: SimVehicle, now: float = 0.0) -> None:
+    def __init__(
+        self,
+        vehicle: SimVehicle,
+        now: float = 0.0,
+        *,
+        system: int = GCS_SYSID,
+        component: int = GCS_COMPID,
+    ) -> None:
         self.vehicle = vehicle
         self.now = now
-        self._gcs_tx = mavlink.MAVLink(None, srcSystem=GCS_SYSID, srcComponent=GCS_COMPID)
-        self._gcs_rx = mavlink.MAVLink(None, srcSystem=GCS_SYSID, srcComponent=GCS_COMPID)
+        self._gcs_tx = mavlink.MAVLink(None, srcSystem=system, srcComponent=component)
+        self._gcs_rx = mavlink.MAVLink(None, srcSystem=system, srcComponent=component)
         self._veh_tx = mavlink.MAVLink(None, srcSystem=vehicle.sysid, srcComponent=vehicle.compid)
         self._veh_rx = mavlink.MAVLink(None, srcSystem=vehicle.sysid, srcComponent=vehicle.compid)
         self.received: list[tuple[float, Msg]] = []

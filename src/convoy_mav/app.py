@@ -48,7 +48,7 @@ from convoy_mav.mavlink.autopilots.base import (
     param_set_message,
     set_message_interval,
 )
-from convoy_mav.mavlink.codec import GCS_COMPONENT, GCS_SYSTEM, MavCodec
+from convoy_mav.mavlink.codec import MavCodec
 from convoy_mav.mavlink.missionread import MissionWatch
 from convoy_mav.mavlink.rovermode import RoverMode, rover_mode
 from convoy_mav.mavlink.signing import Signing, load_key
@@ -433,7 +433,7 @@ class ConvoyService:
         self.convoy_modes: list[tuple[float, str]] = []
         # The lead ground vehicle's own mission, read as the convoy's route.
         self._mission_watch = (
-            MissionWatch(self._lead_id)
+            MissionWatch(self._lead_id, own=config.source_system)
             if config.convoy.route_from_mission and self._lead_id is not None
             else None
         )
@@ -658,6 +658,15 @@ class ConvoyService:
             self._note(f"refused: {self.refused}")
             if self._stop_event is not None:
                 self._stop_event.set()
+        elif (
+            event.kind is EventKind.FAILED
+            and not self.clock.synced
+            and all(v.status is VehicleStatus.FAILED for v in self.vehicles.values())
+        ):
+            # (no mission time ever began: the run's end would never come)
+            self._note("stopping: every UAV failed its set-up before sending any telemetry")
+            if self._stop_event is not None:
+                self._stop_event.set()
         if event.kind in (EventKind.LOST, EventKind.FAILED, EventKind.RECOVERED):
             active = event.kind != EventKind.RECOVERED
             kind = "uav_lost" if event.kind == EventKind.RECOVERED else f"uav_{event.kind}"
@@ -800,15 +809,16 @@ class ConvoyService:
         vehicle = self.vehicles.get(owner)
         if vehicle is None:
             return
+        cfg = self.config
         kind = msg.get_type()
         if kind in _COMMANDING and getattr(msg, "target_system", None) == owner:
             vehicle.stranger(f"system {sysid} sends it {kind}")
         elif (
             kind == "HEARTBEAT"
             and msg.type == mavlink.MAV_TYPE_GCS
-            and (sysid, msg.get_srcComponent()) == (GCS_SYSTEM, GCS_COMPONENT)
+            and (sysid, msg.get_srcComponent()) == (cfg.source_system, cfg.source_component)
         ):
-            vehicle.stranger(f"another ground station uses our ids {sysid}/{GCS_COMPONENT}")
+            vehicle.stranger(f"another ground station uses our ids {sysid}/{cfg.source_component}")
 
     def _check_planner(self, t: float) -> None:
         """Say when the road planner falls behind its re-plans, and when it catches up.
@@ -1185,7 +1195,7 @@ class ConvoyService:
                     MavLink(
                         uav.connection,
                         functools.partial(self._route, uav.sysid),
-                        codec=MavCodec(signing=signing),
+                        codec=MavCodec(cfg.source_system, cfg.source_component, signing=signing),
                         recorder=recorder,
                         name=f"uav{uav.sysid}",
                         peer=uav.peer,
@@ -1203,12 +1213,14 @@ class ConvoyService:
                     altitude=self._altitudes[uav.sysid],
                     max_speed=max(_MAX_SPEED_FACTOR * uav.aircraft.airspeed_mps, _MAX_SPEED_FLOOR),
                     launch=launch,
+                    gcs_sysid=cfg.source_system,
                 )
             ground_links = [
                 await stack.enter_async_context(
                     MavLink(
                         g.connection,
                         functools.partial(self._route, g.sysid),
+                        codec=MavCodec(cfg.source_system, cfg.source_component),
                         recorder=recorder,
                         name=f"ground{g.sysid}",
                         peer=g.peer,
@@ -1999,6 +2011,7 @@ class ConvoyService:
         heard = None if v.first_heard_t is None else end_t - v.first_heard_t
         return {
             "firmware": None if v.firmware is None else str(v.firmware),
+            "failure": v.failure,  # (why its set-up gave up, while it is failed)
             "airborne": v.airborne,
             "why_not_counted": self.why_not_counted.get(sysid),
             "not_counted_s": {

@@ -129,6 +129,9 @@ def _build_parser() -> argparse.ArgumentParser:
     setup.add_argument("--connection", required=True, metavar="CONN",
                        help="e.g. udpout:127.0.0.1:14550 or tcp:127.0.0.1:5760")  # fmt: skip
     setup.add_argument("--sysid", type=int, default=1, metavar="N", help="its system id")
+    setup.add_argument("--source-system", type=int, default=255, metavar="N",
+                       help="ours (default 255; [mission] source_system, where the "
+                       "autopilot accepts only its MAV_GCS_SYSID)")  # fmt: skip
     setup.add_argument("--signing-key-file", required=True, metavar="FILE",
                        help="64 hex digits, or a passphrase (its SHA-256)")  # fmt: skip
 
@@ -593,9 +596,13 @@ def _check_outputs(args: argparse.Namespace) -> None:
 async def _cmd_sign_setup(args: argparse.Namespace) -> int:
     if not 1 <= args.sysid <= 255:
         raise ConfigError("--sysid", args.sysid, "must be a MAVLink system id in 1..255")
+    if not 1 <= args.source_system <= 255 or args.source_system == args.sysid:
+        raise ConfigError(
+            "--source-system", args.source_system, "must be in 1..255 and not the vehicle's"
+        )
     validate_connection(args.connection, "--connection")
     key = load_key("--signing-key-file", file=args.signing_key_file)
-    print(await provision_signing(args.connection, args.sysid, key))
+    print(await provision_signing(args.connection, args.sysid, key, source=args.source_system))
     return 0
 
 

@@ -30,6 +30,12 @@ times <= a day)::
                                   #   the speedup (setpoint rounds late, planner behind),
                                   #   halve it by SIM_SPEEDUP (ArduPilot SITL, sitl_mock)
                                   #   down to this; absent: never touch it
+    source_system = 255           # the service's own MAVLink ids (a ground station's by
+    source_component = 190        #   convention, as QGroundControl's): give it another
+                                  #   system when a GCS with these shares its links, and
+                                  #   ArduPilot's MAV_GCS_SYSID where the vehicle accepts
+                                  #   only its GCS (MAV_OPTIONS bit 0; SYSID_MYGCS and
+                                  #   SYSID_ENFORCE in older releases)
 
     [aircraft]                    # defaults for every [[uav]]
     airspeed_mps = 18.0
@@ -108,6 +114,7 @@ from typing import Any, Final, Literal, cast, get_args
 
 from convoy_mav.errors import ConfigError
 from convoy_mav.geo import GeoPoint
+from convoy_mav.mavlink.codec import GCS_COMPONENT, GCS_SYSTEM
 from convoy_mav.mavlink.connection import ConnectionSpec
 from convoy_mav.planning.export import compass_to_planner
 from convoy_mav.planning.plan import PlanRequest
@@ -257,6 +264,8 @@ class MissionConfig:
     mission_recording: str | None = None
     safety: SafetyConfig = SafetyConfig()
     sim_speedup_floor: float | None = None
+    source_system: int = 255
+    source_component: int = 190
 
     @property
     def planned_uavs(self) -> int | None:
@@ -396,8 +405,10 @@ def _peer(entry: Mapping[str, Any], name: str) -> tuple[str, int] | None:
     return host, int(port)
 
 
-def _integer(table: Mapping[str, Any], name: str, key: str, lo: int, hi: int) -> int:
-    value = table.get(key)
+def _integer(
+    table: Mapping[str, Any], name: str, key: str, lo: int, hi: int, default: int | None = None
+) -> int:
+    value = table.get(key, default)
     if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
         raise ConfigError(f"{name}.{key}", value, f"must be a whole number in {lo}..{hi}")
     return value
@@ -703,7 +714,7 @@ def parse_config(data: Mapping[str, Any]) -> MissionConfig:
         {
             "sensor_radius_m", "uavs", "origin", "setpoint_rate_hz", "altitude_step_m",
             "setup_timeout_s", "lost_after_s", "altitude_band_m", "end", "planner",
-            "sim_speedup_floor",
+            "sim_speedup_floor", "source_system", "source_component",
         },
     )  # fmt: skip
     aircraft = _aircraft(
@@ -754,6 +765,8 @@ def parse_config(data: Mapping[str, Any]) -> MissionConfig:
         sim_speedup_floor=None
         if "sim_speedup_floor" not in mission
         else _number(mission, "mission", "sim_speedup_floor", None, at_least=0.01, at_most=1000.0),
+        source_system=_integer(mission, "mission", "source_system", 1, 255, GCS_SYSTEM),
+        source_component=_integer(mission, "mission", "source_component", 1, 255, GCS_COMPONENT),
     )
     speed = cfg.plan_aircraft.airspeed_mps
     if cfg.convoy.speed_mps >= speed:
@@ -763,6 +776,11 @@ def parse_config(data: Mapping[str, Any]) -> MissionConfig:
             f"must be below the UAVs' airspeed ({speed:g} m/s): they cannot keep up",
         )
     convoy_ids = {v.sysid for v in cfg.convoy.vehicles}
+    for name, ids in (("uav", [u.sysid for u in cfg.uav_list]), ("convoy.vehicle", convoy_ids)):
+        if cfg.source_system in ids:
+            raise ConfigError(
+                "mission.source_system", cfg.source_system, f"is also a {name}'s sysid"
+            )
     for i, uav in enumerate(cfg.uav_list):
         if uav.sysid in convoy_ids:
             raise ConfigError(f"uav[{i}].sysid", uav.sysid, "is also a convoy vehicle's sysid")

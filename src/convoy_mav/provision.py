@@ -15,14 +15,18 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from convoy_mav.errors import AutopilotError
 from convoy_mav.mavlink import MavLink
-from convoy_mav.mavlink.codec import MavCodec
+from convoy_mav.mavlink.codec import GCS_COMPONENT, GCS_SYSTEM, MavCodec
 from convoy_mav.mavlink.signing import Signing, timestamp_now
 
 __all__ = ["provision_signing"]
 
 
-async def provision_signing(connection: str, sysid: int, key: bytes, timeout: float = 10.0) -> str:
+async def provision_signing(
+    connection: str, sysid: int, key: bytes, timeout: float = 10.0, *, source: int = GCS_SYSTEM
+) -> str:
     """Send ``key`` to vehicle ``sysid`` at ``connection`` and confirm it signs with it.
+    ``source`` is our system id (ArduPilot with MAV_OPTIONS bit 0 hears only its
+    MAV_GCS_SYSID).
 
     Returns:
         One line saying what was done.
@@ -36,7 +40,8 @@ async def provision_signing(connection: str, sysid: int, key: bytes, timeout: fl
         if msg.get_srcSystem() == sysid and msg.get_type() == "HEARTBEAT":
             heard.put_nowait(msg)
 
-    async with MavLink(connection, on_message, name=f"sign-setup[{sysid}]") as link:
+    codec = MavCodec(source, GCS_COMPONENT)
+    async with MavLink(connection, on_message, codec=codec, name=f"sign-setup[{sysid}]") as link:
         try:
             async with asyncio.timeout(timeout):  # (see eventloop.wait_set)
                 first = await heard.get()
@@ -47,7 +52,8 @@ async def provision_signing(connection: str, sysid: int, key: bytes, timeout: fl
                 sysid, first.get_srcComponent(), list(key), timestamp_now()
             )
         )
-        link.codec = MavCodec(signing=Signing(key))  # from now on: signed, in and out
+        # from now on: signed, in and out
+        link.codec = MavCodec(source, GCS_COMPONENT, signing=Signing(key))
         while not heard.empty():
             heard.get_nowait()
         try:

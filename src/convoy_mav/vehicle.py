@@ -65,6 +65,7 @@ from convoy_mav.launch import LaunchSequence
 from convoy_mav.mavlink.autopilots import (
     DEFAULT_STREAM_RATES,
     FLIGHT_STREAM_RATES,
+    ArduPilot,
     Autopilot,
     CommandSpec,
     SetupStep,
@@ -214,7 +215,8 @@ class Vehicle:
             (only for autopilots that need a live stream).
         stream_rates: Message id -> Hz of mission time to request while setting up.
         flight_stream_rates: The same once FLYING (set-up-only streams slowed down).
-        gcs_sysid: Our system id: COMMAND_ACKs for other ground stations are ignored.
+        gcs_sysid: Our system id (``[mission] source_system``): COMMAND_ACKs and fence
+            upload answers for other ground stations are ignored.
         heartbeat: Send our own HEARTBEAT at 1 Hz (False when the link owner does).
         uid: This UAV's id in the service (clock, telemetry, events, setpoints);
             default ``sysid``. A link is one vehicle, so system ids may repeat
@@ -891,7 +893,7 @@ class Vehicle:
         self._set_status(_S.WAITING_FIX)
         self._request_streams()
         if not self.clock.synced:  # (mission time comes with the first stamped message:
-            await self.clock.wait_synced()  # an autopilot up an hour is at t = 3600 then)
+            await self._await_mission_time()  # an autopilot up an hour is at t = 3600 then)
         start = self.clock.now()
         deadline = start + self.setup_timeout
         self._fix_t = None
@@ -998,6 +1000,44 @@ class Vehicle:
             return f"in {self.mode}"
         return "armed" if step is SetupStep.ARM else f"{step} done"
 
+    async def _await_mission_time(self) -> None:
+        """Wait for the first time-stamped message of the fleet, asking for streams
+        again every ``_STREAM_RETRY`` mission s as the clock's rate hint counts them
+        (a request lost on the link; an ArduPilot sends nothing but HEARTBEATs until
+        asked).
+
+        Raises:
+            _SetupFailed: Nothing stamped within ``setup_timeout``, so counted.
+        """
+        clock = self.clock
+        asked = waited = 0.0
+        while not clock.synced:
+            if waited >= self.setup_timeout:
+                raise _SetupFailed(
+                    f"UAV {self.sysid} ({self.firmware}): HEARTBEATs only for "
+                    f"{self.setup_timeout:.0f} s, none of the telemetry asked for "
+                    f"({self.counters['stream_requests']} requests); "
+                    f"{self._last_word()}{self._deaf_hint()}"
+                )
+            span = _STREAM_RETRY / clock.rate  # (wall s: no mission time yet)
+            with contextlib.suppress(TimeoutError):
+                async with asyncio.timeout(span):  # (see eventloop.wait_set)
+                    await clock.wait_synced()
+            waited += _STREAM_RETRY
+            if not clock.synced and waited - asked >= _STREAM_RETRY:
+                asked = waited
+                self._request_streams()
+
+    def _deaf_hint(self) -> str:
+        """Why an ArduPilot may answer nothing of ours, if it has answered nothing."""
+        if self._ack_seq or not isinstance(self.firmware, ArduPilot):
+            return ""
+        return (
+            f"; it answered nothing from our system id {self.gcs_sysid}: an ArduPilot "
+            "with MAV_OPTIONS bit 0 (SYSID_ENFORCE) hears only its MAV_GCS_SYSID "
+            "(SYSID_MYGCS), which [mission] source_system must be"
+        )
+
     def _no_fix_message(self) -> str:
         gps = self.last.get("GPS_RAW_INT")
         state = "no GPS_RAW_INT" if gps is None else f"GPS fix type {gps.fix_type}"
@@ -1005,9 +1045,10 @@ class Vehicle:
             state = "a GPS fix, but no position estimate (no HOME_POSITION)"
         if self.telemetry is None:
             state += ", no GLOBAL_POSITION_INT"
+        deaf = self._deaf_hint() if set(self.last) <= {"HEARTBEAT", "STATUSTEXT"} else ""
         return (
             f"UAV {self.sysid} ({self.firmware}): no position fix within "
-            f"{self.setup_timeout:.0f} s ({state}); {self._last_word()}"
+            f"{self.setup_timeout:.0f} s ({state}); {self._last_word()}{deaf}"
         )
 
     def _last_word(self) -> str:
@@ -1017,10 +1058,11 @@ class Vehicle:
 
     def _gave_up(self, what: str, attempts: int, result: str | None) -> str:
         how = f"; last answer {result}" if result else ""
+        deaf = self._deaf_hint() if attempts else ""
         return (
             f"UAV {self.sysid} ({self.firmware}): set-up gave up after "
             f"{self.setup_timeout:.0f} s at step '{what}' ({attempts} attempts{how}); "
-            f"{self._last_word()}"
+            f"{self._last_word()}{deaf}"
         )
 
     def _target_relative_alt(self) -> tuple[float, float]:
@@ -1333,9 +1375,14 @@ class Vehicle:
             self._fence_replies = None
 
     def _on_mission_reply(self, msg: Message, now: float) -> None:
-        """Queue a fence upload's answer (MISSION_ACK or MISSION_REQUEST[_INT]) for it."""
+        """Queue a fence upload's answer (MISSION_ACK or MISSION_REQUEST[_INT]) for it,
+        not the vehicle's answers to another ground station's upload on a shared link."""
         replies = self._fence_replies
-        if replies is not None and msg.mission_type == _M.MAV_MISSION_TYPE_FENCE:
+        if (
+            replies is not None
+            and msg.mission_type == _M.MAV_MISSION_TYPE_FENCE
+            and msg.target_system in (0, self.gcs_sysid)
+        ):
             replies.append(msg)
 
     # ============================================================ hold, resume
@@ -1357,6 +1404,8 @@ class Vehicle:
         if self.firmware is None:
             self._set_status(_S.HOLDING)
             return True
+        if not self.armed and self.status is _S.FAILED:
+            return True  # (failed on the ground: it stays so, and says so)
         self._set_status(_S.HOLDING)
         if not self.armed:
             return True

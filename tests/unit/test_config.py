@@ -106,6 +106,11 @@ def test_service_sections() -> None:
     assert cfg.tlog == "out.tlog" and cfg.mission_recording == "out.inputs"
     assert cfg.sim_speedup_floor is None  # (a simulator's speedup is left alone)
     assert parse_config(_with("mission.sim_speedup_floor", 5)).sim_speedup_floor == 5.0
+    # Our MAVLink ids: a ground station's by default, as QGroundControl's; another system
+    # beside an operator's GCS on a shared link, or where ArduPilot hears only its GCS.
+    assert (cfg.source_system, cfg.source_component) == (255, 190)
+    ours = parse_config(_with("mission.source_system", 254))
+    assert (ours.source_system, ours.source_component) == (254, 190)
 
 
 def _with(path: str, value: Any) -> dict[str, Any]:
@@ -139,6 +144,11 @@ def _with(path: str, value: Any) -> dict[str, Any]:
         (_with("mission.sim_speedup_floor", 0.0), "mission.sim_speedup_floor", ">= 0.01"),
         (_with("mission.sim_speedup_floor", "fast"), "mission.sim_speedup_floor", "a number"),
         (_with("record.mission", ""), "record.mission", "a file path"),
+        (_with("mission.source_system", 0), "mission.source_system", "1..255"),
+        (_with("mission.source_system", 2), "mission.source_system", "also a uav's sysid"),
+        (_with("mission.source_system", 10), "mission.source_system", "convoy.vehicle's"),
+        (_with("mission.source_component", 256), "mission.source_component", "1..255"),
+        (_with("mission.source_component", 1.5), "mission.source_component", "whole"),
     ],
 )
 def test_service_errors_name_the_key(doc: dict[str, Any], key: str, needle: str) -> None:

@@ -445,6 +445,34 @@ def test_messages_for_another_system_are_ignored_and_counted() -> None:
     assert broadcast.result == mavlink.MAV_RESULT_ACCEPTED
 
 
+def test_an_ardupilot_that_hears_only_its_ground_station_ignores_other_systems() -> None:
+    """MAV_OPTIONS bit 0 (``GCS_MAVLINK::accept_packet``): only MAV_GCS_SYSID is heard,
+    and the vehicle's own system (a companion computer); PX4 has no such option."""
+    setp = mavlink.MAVLink_param_set_message
+    vehicle = make_vehicle(AP, "copter")
+    default, ours, companion = (
+        Gcs(vehicle),
+        Gcs(vehicle, system=42),
+        Gcs(vehicle, system=1, component=mavlink.MAV_COMP_ID_ONBOARD_COMPUTER),
+    )
+    (gcs_id,) = default.send(setp(1, 1, b"MAV_GCS_SYSID", 42.0, mavlink.MAV_PARAM_TYPE_REAL32))
+    assert gcs_id.param_value == 42.0
+    bad = default.send(setp(1, 1, b"MAV_OPTIONS", 0.5, mavlink.MAV_PARAM_TYPE_REAL32))
+    assert _params(bad)["MAV_OPTIONS"].param_value == 0.0 and texts(bad)  # (a bitmask)
+    (options,) = default.send(setp(1, 1, b"MAV_OPTIONS", 1.0, mavlink.MAV_PARAM_TYPE_REAL32))
+    assert options.param_value == 1.0
+    capabilities = mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES
+    asked = mavlink.MAVLink_command_long_message(1, 1, capabilities, 0, 1, 0, 0, 0, 0, 0, 0)
+    assert default.send(asked) == [] and vehicle.counters["not_from_gcs"] == 1
+    assert ours.command(capabilities, 1)[0].result == mavlink.MAV_RESULT_ACCEPTED
+    assert companion.command(capabilities, 1)[0].result == mavlink.MAV_RESULT_ACCEPTED
+    ours.send(setp(1, 1, b"MAV_OPTIONS", 0.0, mavlink.MAV_PARAM_TYPE_REAL32))
+    assert default.command(capabilities, 1)[0].result == mavlink.MAV_RESULT_ACCEPTED
+    assert "MAV_GCS_SYSID" not in _params(
+        Gcs(make_vehicle(PX4, "copter")).send(mavlink.MAVLink_param_request_list_message(1, 1))
+    )
+
+
 def test_unknown_message_types_are_counted() -> None:
     gcs = Gcs(make_vehicle(PX4, "copter"))
     assert gcs.send(mavlink.MAVLink_manual_control_message(1, 0, 0, 500, 0, 0)) == []
