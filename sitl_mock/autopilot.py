@@ -301,6 +301,7 @@ class SimVehicle:
         self.last_gcs_heartbeat: float | None = None
         self.gcs_sysid = 255  # ArduPilot's MAV_GCS_SYSID
         self.mav_options = 0  # ArduPilot's MAV_OPTIONS
+        self._home_news = False  # home just set: ArduPilot sends HOME_POSITION unasked
         self._boot(now)
 
     # ================================================================== lifecycle
@@ -310,8 +311,10 @@ class SimVehicle:
         if self.flight.aircraft is None and not self._has_mission:
             # (a rover boots in AUTO to drive its road; with none, AUTO has no mission)
             self.flight.mode = self.firmware.mode(self.firmware.hold)
-        on = self.spec.streams_on_boot
-        self._streams.restart(now, enabled=self.firmware.streams_on_boot if on is None else on)
+        on, fw = self.spec.streams_on_boot, self.firmware
+        self._streams.restart(now, enabled=fw.streams_on_boot if on is None else on)
+        if on is None and fw.boot_stream_hz:  # (ArduPilot's SRn_* defaults)
+            self._streams.request_data_stream(_R.MAV_DATA_STREAM_ALL, fw.boot_stream_hz, 1, now)
         self._update_warm(now)
 
     def reboot(self, now: float, *, on_pad: bool = False) -> None:
@@ -361,6 +364,8 @@ class SimVehicle:
             return
         if not fl.home_set:  # home is set where the vehicle is then
             fl.set_home(self._geo(now))
+            # ArduPilot tells every link (AP_AHRS::set_home: GCS_SEND_MESSAGE(MSG_HOME))
+            self._home_news = self.firmware.is_ardupilot
 
     # =================================================================== physics
     def step(self, now: float, dt: float) -> list[Message]:
@@ -374,6 +379,9 @@ class SimVehicle:
         if self.flight.aircraft is None:
             self._drive_or_stand(now)
         events = self.flight.step(now, dt)
+        if self._home_news:
+            self._home_news = False
+            events.append(TELEMETRY_BUILDERS[_R.MAVLINK_MSG_ID_HOME_POSITION](self._snapshot(now)))
         if self.flight.armed and self.flight.aircraft is not None:
             self._battery_s += dt
         return events

@@ -113,6 +113,9 @@ class Firmware:
         boot: Mode after boot. hold/external/takeoff/rtl/land: the mode that
             implements that behaviour (``None`` when the vehicle has none).
         streams_on_boot: Telemetry streams run before anyone asks (PX4).
+        boot_stream_hz: Else, the rate of every REQUEST_DATA_STREAM group from boot:
+            ArduPilot's SRn_* defaults, 1 Hz for ArduPlane and ArduRover, 0 for
+            ArduCopter (``GCS_MAVLink_Parameters.cpp``).
         reject_result: COMMAND_ACK result of a refused arm or mode change.
         set_mode_ack: ``command`` field of the COMMAND_ACK answering a SET_MODE
             message (ArduPilot acks with the message id 11, PX4 with DO_SET_MODE).
@@ -136,6 +139,7 @@ class Firmware:
     rtl: str | None
     land: str | None
     streams_on_boot: bool
+    boot_stream_hz: int
     reject_result: int
     set_mode_ack: int
     long_alt_relative: bool
@@ -497,6 +501,7 @@ def firmware_for(personality: Personality, vehicle_class: VehicleClass) -> Firmw
         rtl=rtl or None,
         land=land or None,
         streams_on_boot=px4,
+        boot_stream_hz=0 if px4 or vehicle_class == "copter" else 1,
         reject_result=(
             mavlink.MAV_RESULT_TEMPORARILY_REJECTED if px4 else mavlink.MAV_RESULT_FAILED
         ),

@@ -100,6 +100,7 @@ _ADOPTED_YIELD_S = 600.0  # mission s a UAV we found flying is yielded to anothe
 # (ArduPlane's loiter target changes every half minute or so: the other's shows late)
 _XY_IGNORED = _M.POSITION_TARGET_TYPEMASK_X_IGNORE | _M.POSITION_TARGET_TYPEMASK_Y_IGNORE
 _CONFIRM_WAIT = 2.5  # mission s for a HEARTBEAT to confirm an accepted mode/arm
+_DEAF_TRIES = 5  # unanswered set-up tries before saying the autopilot may not hear us
 _FLYING_STATES = (
     _M.MAV_LANDED_STATE_IN_AIR,
     _M.MAV_LANDED_STATE_TAKEOFF,
@@ -1028,9 +1029,22 @@ class Vehicle:
                 asked = waited
                 self._request_streams()
 
+    def _unanswered(self, what: str, attempts: int) -> None:
+        """Say early, once a set-up step has gone unanswered ``_DEAF_TRIES`` times,
+        what an autopilot that never answered may be doing (the set-up goes on)."""
+        hint = self._deaf_hint()
+        if attempts == _DEAF_TRIES and hint:
+            self._emit(
+                EventKind.WARNING,
+                f"{what}: {attempts} tries, no answer{hint}",
+                _M.MAV_SEVERITY_WARNING,
+            )
+
     def _deaf_hint(self) -> str:
-        """Why an ArduPilot may answer nothing of ours, if it has answered nothing."""
-        if self._ack_seq or not isinstance(self.firmware, ArduPilot):
+        """Why an ArduPilot may answer nothing of ours, if it has answered nothing
+        (no COMMAND_ACK to us, no PARAM_VALUE)."""
+        answered = self._ack_seq or "PARAM_VALUE" in self.last
+        if answered or not isinstance(self.firmware, ArduPilot):
             return ""
         return (
             f"; it answered nothing from our system id {self.gcs_sysid}: an ArduPilot "
@@ -1045,7 +1059,8 @@ class Vehicle:
             state = "a GPS fix, but no position estimate (no HOME_POSITION)"
         if self.telemetry is None:
             state += ", no GLOBAL_POSITION_INT"
-        deaf = self._deaf_hint() if set(self.last) <= {"HEARTBEAT", "STATUSTEXT"} else ""
+        asked_for = ("GPS_RAW_INT", "GLOBAL_POSITION_INT", "SYS_STATUS")  # (none came)
+        deaf = "" if any(k in self.last for k in asked_for) else self._deaf_hint()
         return (
             f"UAV {self.sysid} ({self.firmware}): no position fix within "
             f"{self.setup_timeout:.0f} s ({state}); {self._last_word()}{deaf}"
@@ -1188,7 +1203,9 @@ class Vehicle:
             self.send_param_set(name, value)
             attempts += 1
             await self._wait_until(lambda: name in self.params, self.command_retry)
-            if name in self.params and not confirmed():
+            if name not in self.params:
+                self._unanswered(f"set {name}", attempts)
+            elif not confirmed():
                 self._emit(
                     EventKind.WARNING,
                     f"{name} is {self.params[name]:g}, not {value:g}: the autopilot kept "
@@ -1242,6 +1259,7 @@ class Vehicle:
             if result is None:
                 self.counters["ack_timeout"] += 1
                 result_name = "no COMMAND_ACK"
+                self._unanswered(what, attempts)
                 continue
             if result == _M.MAV_RESULT_ACCEPTED:
                 return True

@@ -219,10 +219,12 @@ def test_px4_streams_by_default_and_set_message_interval_changes_rates() -> None
 
 
 def test_ardupilot_is_silent_but_heartbeat_until_streams_are_requested() -> None:
-    gcs = Gcs(make_vehicle(AP, "plane"))
+    gcs = Gcs(make_vehicle(AP, "copter"))  # (ArduCopter's SRn_* are 0)
     quiet = gcs.run(5.0)
-    assert {m.get_type() for m in quiet} == {"HEARTBEAT"}
-    assert len(quiet) in (5, 6)
+    # (and its home, once set at the fix, told every link unasked: AP_AHRS::set_home)
+    assert [m.get_type() for m in quiet].count("HOME_POSITION") == 1
+    assert {m.get_type() for m in quiet} == {"HEARTBEAT", "HOME_POSITION"}
+    assert len(quiet) in (6, 7)
     gcs.send(
         mavlink.MAVLink_request_data_stream_message(1, 1, mavlink.MAV_DATA_STREAM_POSITION, 4, 1)
     )
@@ -235,6 +237,26 @@ def test_ardupilot_is_silent_but_heartbeat_until_streams_are_requested() -> None
     assert _count(gcs.run(2.0), "ATTITUDE") in (20, 21)
     gcs.send(mavlink.MAVLink_request_data_stream_message(1, 1, mavlink.MAV_DATA_STREAM_ALL, 0, 0))
     assert {m.get_type() for m in gcs.run(3.0)} == {"HEARTBEAT"}
+
+
+@pytest.mark.parametrize("frame", ["plane", "rover"])
+def test_arduplane_and_ardurover_stream_every_group_at_1_hz_until_asked(frame: str) -> None:
+    """Their SRn_* defaults are 1 Hz (``GCS_MAVLink_Parameters.cpp``): heard, and timed,
+    before anyone asks; the first request sets the rates as ever."""
+    from tests.unit.test_mock_mission import rover
+
+    gcs = Gcs(make_vehicle(AP, "plane") if frame == "plane" else rover(AP))
+    got = gcs.run(5.0)
+    assert _count(got, "GLOBAL_POSITION_INT") in (5, 6)
+    assert _count(got, "SYS_STATUS") in (5, 6)
+    assert _count(got, "EXTENDED_SYS_STATE") == 0  # (in no group)
+    sysid = gcs.vehicle.sysid
+    gcs.send(
+        mavlink.MAVLink_request_data_stream_message(
+            sysid, 1, mavlink.MAV_DATA_STREAM_POSITION, 4, 1
+        )
+    )
+    assert _count(gcs.run(5.0), "GLOBAL_POSITION_INT") in (20, 21)
 
 
 def test_px4_ignores_request_data_stream() -> None:
@@ -508,7 +530,8 @@ def test_reboot_restarts_boot_time_disarms_and_warms_up_again() -> None:
     vehicle.reboot(gcs.now)
     assert not vehicle.armed and vehicle.mode == "STABILIZE"
     after = gcs.run(2.0)
-    assert {m.get_type() for m in after} == {"HEARTBEAT"}  # streams forgotten
+    # streams forgotten (its home set anew at the fix is told unasked, as at boot)
+    assert {m.get_type() for m in after} == {"HEARTBEAT", "HOME_POSITION"}
     gcs.command(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, att, 100_000)
     assert of_type(gcs.run(0.05), "ATTITUDE")[0].time_boot_ms == pytest.approx(2_010, abs=10)
     ack, extra = gcs.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)

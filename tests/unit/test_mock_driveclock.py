@@ -112,7 +112,8 @@ def test_a_rover_stands_in_manual_or_disarmed_and_its_mission_item_waits() -> No
     assert gcs.truth().speed == 0.0 and gcs.truth().north < 400.0
     current = gcs.run(1.0)
     seqs = {m.seq for m in current if m.get_type() == "MISSION_CURRENT"}
-    assert seqs <= {1}, seqs  # still driving to its first waypoint (home is item 0)
+    # still driving to the corner, item 2 (item 1 is where it set off, home item 0)
+    assert seqs == {2}, seqs
     _mode(gcs, Personality.ARDUPILOT, "AUTO")
     ack, _ = gcs.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0.0)
     assert ack.result == mavlink.MAV_RESULT_ACCEPTED
