@@ -332,6 +332,7 @@ class Vehicle:
         self._setup_sent = 0  # setpoints sent since set-up began
         self._airborne_already = False  # set-up found it flying: no take-off
         self._takeoff_accepted = False  # set-up: the take-off mode was ACCEPTED
+        self._asked_params: set[str] = set()  # parameters we set or asked for
         self._pad: tuple[float, float] | None = None  # climbing out straight up from it
         self._hold_requested = False
         self._unsupported = False
@@ -595,6 +596,8 @@ class Vehicle:
         name = msg.param_id if isinstance(msg.param_id, str) else bytes(msg.param_id).decode()
         name = name.rstrip("\x00")
         self.params[name] = float(msg.param_value)
+        if name in self._asked_params:  # (an answer to us: not a change it announces)
+            self.counters["param_answers"] += 1
         if self.firmware is not None:
             self.firmware.on_param(name, float(msg.param_value))
         if name == "SIM_SPEEDUP":  # a simulator says at what rate its clock runs now
@@ -678,6 +681,7 @@ class Vehicle:
         if ap is None:
             return False
         self._send(param_set_message(self.sysid, ap.compid, name, value))
+        self._asked_params.add(name)
         self.counters["param_set"] += 1
         return True
 
@@ -746,6 +750,7 @@ class Vehicle:
         # the speed range, with the streams: as often as they are asked for, until read
         for name in self.firmware.unread_speed_params():
             self._send(param_request_message(self.sysid, self.firmware.compid, name))
+            self._asked_params.add(name)
         self._streams_t = self.clock.now()
         self.counters["stream_requests"] += 1
 
@@ -1042,8 +1047,8 @@ class Vehicle:
 
     def _deaf_hint(self) -> str:
         """Why an ArduPilot may answer nothing of ours, if it has answered nothing
-        (no COMMAND_ACK to us, no PARAM_VALUE)."""
-        answered = self._ack_seq or "PARAM_VALUE" in self.last
+        (no COMMAND_ACK to us, no PARAM_VALUE of a parameter we set or asked for)."""
+        answered = self._ack_seq or self.counters["param_answers"]
         if answered or not isinstance(self.firmware, ArduPilot):
             return ""
         return (
