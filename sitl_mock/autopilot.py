@@ -54,6 +54,7 @@ from sitl_mock.params import Knob, ParamTable
 from sitl_mock.personality import Behaviour, Firmware, FlightMode, Personality, firmware_for
 from sitl_mock.roverdrive import RoverDrive
 from sitl_mock.streams import AIRCRAFT_DEFAULT_INTERVALS, GROUND_DEFAULT_INTERVALS, StreamScheduler
+from sitl_mock.trail import Follower, Trail
 from sitl_mock.uploaded import DEFAULT_WP_SPEED, UploadedMission, upload_result
 
 __all__ = ["SENSORS", "Personality", "SimVehicle", "TruthRow", "VehicleSpec"]
@@ -92,6 +93,7 @@ SENSORS = (  # SYS_STATUS sensors a healthy mock reports present and healthy
 """SYS_STATUS sensors: with GPS and PREARM_CHECK healthy MAVSDK reports the global
 position OK and the vehicle armable; both turn healthy at the end of warm-up."""
 _ROVER_SPEED_MIN = 0.05  # m/s: the least a rover is told (ArduRover's AR_WPNAV_SPEED_MIN)
+_TRAIL_DT = 0.1  # s between samples of a ground vehicle's path, and its followers' steps
 _ONLY_GCS = 1  # MAV_OPTIONS bit 0: hear only MAV_GCS_SYSID (and its own system)
 _RADIO = ("RADIO", "RADIO_STATUS")  # (heard from any system: a telemetry radio's)
 _GPS_FIX_SHARE = 0.5
@@ -125,6 +127,9 @@ class VehicleSpec:
             accepts only signed frames (None: unsigned until a SETUP_SIGNING).
         mission: Ground vehicles: serve the route's road as the mission it drives
             (``sitl_mock.mission``), readable over the mission protocol.
+        follows: Ground vehicles: the system id of the vehicle it drives behind, on the
+            path that one drove (``sitl_mock.trail``), ``lag_s`` behind it and never
+            nearer than ``standstill_m``; None: its own ``route``.
 
     Raises:
         ValueError: A field is out of range; the message names it.
@@ -142,6 +147,9 @@ class VehicleSpec:
     streams_on_boot: bool | None = None
     signing_key: bytes | None = None
     mission: bool = False
+    follows: int | None = None
+    lag_s: float = 0.0
+    standstill_m: float = 0.0
 
     def __post_init__(self) -> None:
         if not 1 <= self.sysid <= 255:
@@ -155,6 +163,15 @@ class VehicleSpec:
         if self.kind == "aircraft" and (self.route is not None or self.mission):
             raise ValueError(
                 f"route, mission: sysid {self.sysid} is an aircraft; only ground vehicles"
+            )
+        if self.follows is not None and (
+            self.kind != "ground"
+            or not (math.isfinite(self.lag_s) and self.lag_s > 0.0)
+            or not (math.isfinite(self.standstill_m) and self.standstill_m >= 0.0)
+        ):
+            raise ValueError(
+                f"follows: sysid {self.sysid} must be a ground vehicle with lag_s > 0 "
+                "and standstill_m >= 0"
             )
         if not (math.isfinite(self.warmup_s) and self.warmup_s >= 0.0):
             raise ValueError(f"warmup_s must be finite and >= 0, got {self.warmup_s!r}")
@@ -236,6 +253,10 @@ class SimVehicle:
         # A rover drives its route in AUTO only, armed; told to stand, it brakes and waits.
         # Told a speed (DO_CHANGE_SPEED), it drives the route retimed (``RoverDrive``).
         self._ground = RoverDrive(spec.route) if spec.route is not None else None
+        # The path it drove, for the vehicles behind it; a follower drives its leader's.
+        self.trail = Trail() if ground else None
+        self.follower: Follower | None = None  # (set by ``follow``)
+        self._trail_t = 0.0  # sim time the trail was last recorded, and followed
         aircraft = None
         if not ground:
             n, e, d = world.to_ned(spec.home)
@@ -378,6 +399,9 @@ class SimVehicle:
         self._update_warm(now)
         if self.flight.aircraft is None:
             self._drive_or_stand(now)
+            if now - self._trail_t >= _TRAIL_DT - 1e-9:
+                self._record_trail(now, now - self._trail_t)
+                self._trail_t = now
         events = self.flight.step(now, dt)
         if self._home_news:
             self._home_news = False
@@ -397,6 +421,23 @@ class SimVehicle:
             mission = self.mission
             if isinstance(mission, UploadedMission) and mission.more:
                 self._go_on(mission, ground, now)
+
+    def follow(self, leader: Trail, lag: float, standstill: float) -> None:
+        """Drive ``leader``'s path from now on, ``lag`` s behind it and never nearer than
+        ``standstill`` metres, speeding up and braking as its own drive does (its road's
+        accel)."""
+        accel = self._ground.clock.accel if self._ground is not None else DEFAULT_ACCEL
+        self.follower = Follower(leader, lag, standstill, accel)
+
+    def _record_trail(self, now: float, dt: float) -> None:
+        """A follower moves on behind its leader (armed in its mission mode, or it
+        brakes to a stand); every ground vehicle's path is recorded for those behind."""
+        fl, follower = self.flight, self.follower
+        if follower is not None:
+            follower.step(now, dt, fl.armed and fl.mode.behaviour is Behaviour.MISSION)
+        if self.trail is not None:
+            (n, e, *_), *_ = self._kinematics(now)
+            self.trail.record(now, n, e)
 
     def _go_on(self, mission: UploadedMission, ground: RoverDrive, now: float) -> None:
         """An uploaded mission's next waypoints laid before the rover gets to the last of
@@ -429,7 +470,9 @@ class SimVehicle:
         ac = self.flight.aircraft
         if ac is None:
             ground = self._ground
-            if ground is None:
+            if self.follower is not None and self.follower.trail.started:
+                n, e, vn, ve = self.follower.state(now - self._trail_t)
+            elif ground is None:
                 (n, e, _), vn, ve = self.world.to_ned(self.spec.home), 0.0, 0.0
             else:
                 n, e, vn, ve = ground.state(now)

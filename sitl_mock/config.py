@@ -52,7 +52,11 @@ Schema (every key optional)::
     speeds = [[1, 4.0]]               # polyline: [point index, m/s] driven from it on
     csv = "track.csv"                 # time,lat,lon (relative to this file)
     track = [[0.0, 47.3977, 8.5456], [60.0, 47.4019, 8.5456]]  # the csv's rows, inline
-    spacing = 20.0                    # m between successive ground vehicles
+    spacing = 20.0                    # m between successive ground vehicles (on a road,
+                                      #   polyline, csv or track: each drives the path the
+                                      #   one ahead drove, the time this takes at the
+                                      #   road's speed behind it, stopping a quarter of it
+                                      #   short of it)
     mission = false                   # the lead serves its road as its mission (polyline,
                                       #   csv, track: a rover in AUTO), read over MAVLink
 
@@ -567,10 +571,13 @@ def _ground_specs(
     specs: list[VehicleSpec] = []
     for j in range(count):
         member: Route = route
+        road = kind in ("polyline", "csv", "track")
+        trails = j > 0 and spacing > 0 and lead_speed > 0 and road
         if j and kind == "stationary":
             member = Stationary(start[0] - j * spacing, start[1])
         elif j and lead_speed > 0:
-            member = Lagged(route, j * spacing / lead_speed)
+            member = Lagged(route, j * spacing / lead_speed)  # (its start, and its own
+            # road if it drives no road behind its leader)
         north, east = member.position(0.0)
         specs.append(
             VehicleSpec(
@@ -581,6 +588,11 @@ def _ground_specs(
                 route=member,
                 warmup_s=g.number("warmup", 3.0, lo=0.0),
                 mission=mission and j == 0,
+                # on a road, the path the one ahead drove (sitl_mock.trail), the time its
+                # spacing takes behind it, stopping short of it by a quarter of it
+                follows=first_sysid + j if trails else None,
+                lag_s=spacing / lead_speed if trails else 0.0,
+                standstill_m=spacing / 4.0 if trails else 0.0,
             )
         )
     return specs

@@ -406,6 +406,16 @@ class MockFleet:
         self._frozen = False  # pause(): no physics, nothing sent, sim time stopped
         for spec in config.vehicles:
             self._links[spec.sysid] = VehicleLink(self, SimVehicle(spec, self.world, 0.0, self))
+        for spec in config.vehicles:  # (a convoy's followers drive behind their leader)
+            if spec.follows is not None:
+                leader = self._links.get(spec.follows)
+                trail = None if leader is None else leader.vehicle.trail
+                if trail is None or spec.follows >= spec.sysid:
+                    raise ValueError(
+                        f"sysid {spec.sysid} follows {spec.follows}: no ground vehicle "
+                        "with a lower sysid (stepped first) of that id"
+                    )
+                self._links[spec.sysid].vehicle.follow(trail, spec.lag_s, spec.standstill_m)
         self._endpoints = tuple(
             _endpoint(s, (config.host, config.port_of(s.sysid))) for s in config.vehicles
         )

@@ -265,9 +265,10 @@ async def test_a_rovers_mission_its_operator_changes_is_read_again_and_flown() -
         count = mission.count(home_first=True)
         home = rover.flight.home
         items = [mission.item(seq, home, target, home_first=True) for seq in range(count)]
-        # (2 m: the convoy's following vehicles drive the road they were given, the old
-        # one; moved 10 m, the prediction was 2.3 points over the truth, scored on them)
-        moved = fleet.world.to_geo(250.0, 352.0)  # (the corner at (250, 350), 2 m east)
+        # (10 m: the convoy's following vehicle drives where the lead drove; when it drove
+        # the road it was given, the old one, the convoy parted and the prediction was
+        # 2.3 points over the truth, scored on both; a 2-m move was all the test took)
+        moved = fleet.world.to_geo(250.0, 360.0)  # (the corner at (250, 350), 10 m east)
         corner = fleet.world.to_geo(250.0, 350.0)
         at = (round(corner.lat * 1e7), round(corner.lon * 1e7))
         for k, it in enumerate(items):

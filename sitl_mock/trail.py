@@ -1,0 +1,155 @@
+"""A convoy's following vehicles drive where their leader drove, a time gap behind it.
+
+A follower given its leader's road with a time lag (``ground.Lagged``) drives that road
+whatever the leader does: held, told a speed, or sent a mission its operator changed,
+the leader goes one way and the followers the other, and the convoy parts. A real
+convoy's drivers follow the vehicle ahead. So the leader's driven path is recorded as
+it goes (:class:`Trail`: its positions, their arc length and when it was there), and
+each follower (:class:`Follower`) drives that path as drivers keep their distance: where
+the leader was ``lag`` seconds ago (a time gap: the two-second rule), but never nearer
+to it than a standstill distance, speeding up and braking within its accel. So on the
+leader's own road it drives exactly what the lagged road drove; where the leader stops,
+it stops behind it. Pure: the mock steps both.
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+from dataclasses import dataclass, field
+
+__all__ = ["Follower", "Trail"]
+
+_MOVED = 1e-3  # m: a sample nearer than this to the last adds nothing
+_KEEP_MARGIN_S = 30.0  # s of trail kept past the longest lag behind it
+_GAIN_SHARE = 0.9  # of the accel a follower's closing speed falls at, as it closes
+
+
+@dataclass(slots=True)
+class Trail:
+    """The path a vehicle drove: samples (north, east) with their arc length ``s`` and
+    sim time ``t``. A vehicle standing adds none: it was where it last moved to."""
+
+    keep_s: float = 0.0  # s of path kept behind the newest sample (its followers' lags)
+    _t: list[float] = field(default_factory=list)
+    _s: list[float] = field(default_factory=list)
+    _n: list[float] = field(default_factory=list)
+    _e: list[float] = field(default_factory=list)
+
+    @property
+    def started(self) -> bool:
+        """True once it has a sample."""
+        return bool(self._s)
+
+    @property
+    def s(self) -> float:
+        """Arc length driven so far (0 before any sample)."""
+        return self._s[-1] if self._s else 0.0
+
+    def record(self, t: float, north: float, east: float) -> None:
+        """The vehicle is at (north, east) at sim time ``t`` (never earlier than before)."""
+        if self._s:
+            step = math.hypot(north - self._n[-1], east - self._e[-1])
+            if step < _MOVED:
+                return
+            s = self._s[-1] + step
+        else:
+            s = 0.0
+        self._t.append(t)
+        self._s.append(s)
+        self._n.append(north)
+        self._e.append(east)
+        cut = bisect.bisect_left(self._t, t - self.keep_s - _KEEP_MARGIN_S) - 1
+        if cut > 1024:  # (pruned in batches: one list copy per thousand samples)
+            del self._t[:cut], self._s[:cut], self._n[:cut], self._e[:cut]
+
+    def s_at(self, t: float) -> float:
+        """Arc length it had driven at sim time ``t`` (0 before its first sample)."""
+        i = bisect.bisect_right(self._t, t) - 1
+        if i < 0:
+            return self._s[0] if self._s else 0.0
+        if i == len(self._t) - 1:
+            return self._s[i]
+        f = (t - self._t[i]) / (self._t[i + 1] - self._t[i])
+        return self._s[i] + f * (self._s[i + 1] - self._s[i])
+
+    def at(self, s: float) -> tuple[float, float, float, float]:
+        """(north, east) at arc length ``s`` (clamped to the path), and the unit tangent
+        (tn, te) there ((0, 0) on a path with no length yet)."""
+        if not self._s:
+            raise ValueError("an empty trail has no points")
+        ss = self._s
+        if len(ss) == 1:
+            return self._n[0], self._e[0], 0.0, 0.0
+        s = min(max(s, ss[0]), ss[-1])
+        i = min(max(bisect.bisect_right(ss, s) - 1, 0), len(ss) - 2)
+        length = ss[i + 1] - ss[i]
+        f = (s - ss[i]) / length
+        dn, de = self._n[i + 1] - self._n[i], self._e[i + 1] - self._e[i]
+        return self._n[i] + f * dn, self._e[i] + f * de, dn / length, de / length
+
+
+@dataclass(slots=True)
+class Follower:
+    """A vehicle driving ``trail`` ``lag`` seconds behind its leader, never nearer than
+    ``standstill`` metres of path to it.
+
+    Args:
+        trail: The leader's.
+        lag: Seconds behind it (> 0).
+        standstill: Metres of path it stops short of the leader.
+        accel: m/s² it speeds up and brakes at (it never runs past its target, though).
+        catch_up: m/s it drives at most above the leader's speed then, closing on it
+            (after it stood while the leader drove on).
+    """
+
+    trail: Trail
+    lag: float
+    standstill: float = 5.0
+    accel: float = 1.0
+    catch_up: float = 3.0
+    s: float = 0.0  # arc length along the trail where it is (it waits at its start)
+    v: float = 0.0  # its speed
+    _target: float = 0.0  # where the leader was its lag before its last step
+    _lead: float = 0.0  # and the leader's speed, then
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.lag) and self.lag > 0.0):
+            raise ValueError(f"lag must be finite and > 0, got {self.lag!r}")
+        self.trail.keep_s = max(self.trail.keep_s, self.lag)
+
+    def step(self, t: float, dt: float, driving: bool) -> None:
+        """On to sim time ``t``, ``dt`` s after its last step: it drives (armed in its
+        mission mode) or brakes to a stand."""
+        trail = self.trail
+        short = trail.s - self.standstill  # (the nearest it comes to the leader)
+        lagged = trail.s_at(t - self.lag)
+        target = max(min(lagged, short), 0.0)
+        lead = max(lagged - self._target, 0.0) / dt  # (the leader's speed, then)
+        swing = lead - self._lead  # (and its change of speed)
+        self._target, self._lead = lagged, lead
+        wanted, room = 0.0, math.inf
+        if driving:  # (there, but no faster than it can brake short of the leader,
+            # were the leader to brake as hard: the room, and the leader's speed now)
+            ahead = (trail.s - trail.s_at(t - dt)) / dt
+            room = math.sqrt(2.0 * self.accel * max(short - self.s, 0.0) + ahead * ahead)
+            # (the gap's error closed no faster than it can brake out of closing it)
+            err = max(target - self.s, 0.0)
+            gain = _GAIN_SHARE * self.accel / self.catch_up
+            closing = min(math.sqrt(2.0 * self.accel * err), gain * err)
+            wanted = lead + min(closing, self.catch_up)
+        # (it drives the leader's changes of speed as the leader drove them, and its own
+        # within its accel: standing while the leader drove on, it pulls away at it)
+        was = self.v + swing if driving else self.v
+        v = max(min(max(wanted, was - self.accel * dt), was + self.accel * dt, room), 0.0)
+        s = self.s + v * dt
+        if s > target:  # (never past where it is to be: the leader stopped short)
+            s = max(target, self.s)
+            v = (s - self.s) / dt
+        self.s, self.v = s, v
+
+    def state(self, ahead: float = 0.0) -> tuple[float, float, float, float]:
+        """(north, east, vn, ve) where it is, or ``ahead`` s after its last step at its
+        speed (the mock steps it at 10 Hz, and reports it between)."""
+        n, e, tn, te = self.trail.at(self.s + self.v * ahead)
+        return n, e, self.v * tn, self.v * te
