@@ -1016,12 +1016,12 @@ class Vehicle:
             _SetupFailed: Nothing stamped within ``setup_timeout``, so counted.
         """
         clock = self.clock
-        asked = waited = 0.0
+        waited = 0.0
         while not clock.synced:
             if waited >= self.setup_timeout:
                 raise _SetupFailed(
-                    f"UAV {self.sysid} ({self.firmware}): HEARTBEATs only for "
-                    f"{self.setup_timeout:.0f} s, none of the telemetry asked for "
+                    f"UAV {self.sysid} ({self.firmware}): heard, but none of the telemetry "
+                    f"asked for in {self.setup_timeout:.0f} s "
                     f"({self.counters['stream_requests']} requests); "
                     f"{self._last_word()}{self._deaf_hint()}"
                 )
@@ -1030,8 +1030,7 @@ class Vehicle:
                 async with asyncio.timeout(span):  # (see eventloop.wait_set)
                     await clock.wait_synced()
             waited += _STREAM_RETRY
-            if not clock.synced and waited - asked >= _STREAM_RETRY:
-                asked = waited
+            if not clock.synced:
                 self._request_streams()
 
     def _unanswered(self, what: str, attempts: int) -> None:

@@ -5,14 +5,26 @@ ArduPilot does the same (``GCS_MAVLINK::accept_packet``), over real UDP."""
 
 from __future__ import annotations
 
+import asyncio
+import contextlib
 from dataclasses import replace
+from typing import TYPE_CHECKING
 
 import pytest
 
 from convoy_mav.app import ConvoyService
+from convoy_mav.clock import MissionClock
 from convoy_mav.demo import SCENARIOS, run_demo
+from convoy_mav.geo import LocalFrame
+from convoy_mav.mavlink import MavLink
+from convoy_mav.types import VehicleStatus
+from convoy_mav.vehicle import Vehicle, VehicleEvent
+from sitl_mock.config import MockConfig
 from sitl_mock.server import MockFleet
 from tests.hostspeed import host_speedup
+
+if TYPE_CHECKING:
+    from tests.conftest import StartMock
 
 pytestmark = pytest.mark.integration
 
@@ -81,3 +93,38 @@ async def test_under_other_ids_it_hears_nothing_and_the_service_says_why(
     if frame == "plane":  # (said early, after five tries, while the set-up went on)
         early = [e for e in report["events"] if "5 tries, no answer" in e]
         assert len(early) == len(report["vehicles"]) and all(e.endswith(hint) for e in early)
+
+
+async def test_a_fleet_that_sends_nothing_asked_for_fails_its_set_up_and_says_why(
+    start_mock: StartMock,
+) -> None:
+    """Nobody streams (an ArduCopter, its SRn_* 0, hearing only its ground station):
+    no mission time ever begins. The set-up asks again every 5 s as the rate hint
+    counts them, and gives up at its time-out; before, it waited for ever."""
+    config = MockConfig.simple(
+        1, speedup=SPEEDUP, base_port=0, personality="ardupilot", frame="copter"
+    )
+    fleet = await start_mock(config)
+    fleet.vehicles[1].gcs_sysid, fleet.vehicles[1].mav_options = GCS, 1
+    clock = MissionClock(rate_hint=SPEEDUP)
+    events: list[VehicleEvent] = []
+    link = MavLink(fleet.endpoint(1).connect, lambda m: vehicle.handle(m))  # noqa: PLW0108
+    vehicle = Vehicle(
+        1, link, clock, LocalFrame(config.origin), on_event=events.append, setup_timeout=20.0
+    )
+    async with link:
+        task = asyncio.create_task(vehicle.run())
+        try:
+            async with asyncio.timeout(20.0 / SPEEDUP + 10.0):
+                while vehicle.status is not VehicleStatus.FAILED:
+                    await asyncio.sleep(0.01)
+        finally:
+            task.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await task
+    assert not clock.synced
+    assert vehicle.failure is not None and vehicle.failure.startswith(
+        "UAV 1 (ArduCopter): heard, but none of the telemetry asked for in 20 s (5 requests)"
+    ), vehicle.failure
+    assert vehicle.failure.endswith("which [mission] source_system must be")
+    assert fleet.vehicles[1].counters["not_from_gcs"] > 5  # (all it was sent, dropped)
