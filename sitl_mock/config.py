@@ -564,14 +564,14 @@ def _ground_specs(
             raise ConfigError(g.key(name), g.data[name], f"is a polyline's, not route {kind}'s")
     lead_speed = speed if kind not in ("csv", "track") else _track_speed(route)
     mission = g.flag("mission", False)
-    if mission and kind not in ("polyline", "csv", "track"):
+    road = kind in ("polyline", "csv", "track")  # (a road to drive, and to drive behind)
+    if mission and not road:
         raise ConfigError(
             g.key("mission"), True, f"needs a road: route polyline, csv or track, not {kind}"
         )
     specs: list[VehicleSpec] = []
     for j in range(count):
         member: Route = route
-        road = kind in ("polyline", "csv", "track")
         trails = j > 0 and spacing > 0 and lead_speed > 0 and road
         if j and kind == "stationary":
             member = Stationary(start[0] - j * spacing, start[1])

@@ -41,6 +41,7 @@ from convoy_mav.demo import (
 from convoy_mav.errors import ConfigError, ConvoyError, PlanningError
 from convoy_mav.fence import fence_from
 from convoy_mav.geo import LocalFrame
+from convoy_mav.mavlink.codec import GCS_SYSTEM
 from convoy_mav.mavlink.signing import load_key
 from convoy_mav.mission.road import FAST_CONVOY_RATIO, RoadMission, RoadSettings
 from convoy_mav.oplog import operator_log
@@ -129,8 +130,8 @@ def _build_parser() -> argparse.ArgumentParser:
     setup.add_argument("--connection", required=True, metavar="CONN",
                        help="e.g. udpout:127.0.0.1:14550 or tcp:127.0.0.1:5760")  # fmt: skip
     setup.add_argument("--sysid", type=int, default=1, metavar="N", help="its system id")
-    setup.add_argument("--source-system", type=int, default=255, metavar="N",
-                       help="ours (default 255; [mission] source_system, where the "
+    setup.add_argument("--source-system", type=int, default=GCS_SYSTEM, metavar="N",
+                       help=f"ours (default {GCS_SYSTEM}; [mission] source_system, where the "
                        "autopilot accepts only its MAV_GCS_SYSID)")  # fmt: skip
     setup.add_argument("--signing-key-file", required=True, metavar="FILE",
                        help="64 hex digits, or a passphrase (its SHA-256)")  # fmt: skip

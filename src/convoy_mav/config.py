@@ -264,8 +264,8 @@ class MissionConfig:
     mission_recording: str | None = None
     safety: SafetyConfig = SafetyConfig()
     sim_speedup_floor: float | None = None
-    source_system: int = 255
-    source_component: int = 190
+    source_system: int = GCS_SYSTEM
+    source_component: int = GCS_COMPONENT
 
     @property
     def planned_uavs(self) -> int | None:

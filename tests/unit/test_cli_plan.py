@@ -216,3 +216,16 @@ def test_console_script_exit_codes() -> None:
         capture_output=True, text=True, check=True,
     )  # fmt: skip
     assert json.loads(ok.stdout)["min_uavs"] == 5
+
+
+@pytest.mark.parametrize(("source", "needle"), [("0", "= 0"), ("1", "not the vehicle's")])
+def test_sign_setup_refuses_a_source_system_it_cannot_speak_as(
+    capsys: pytest.CaptureFixture[str], source: str, needle: str
+) -> None:
+    """Our system id for the signing set-up: 1..255, and not the vehicle's own (checked
+    before any link is opened or key read)."""
+    argv = ["sign-setup", "--connection", "udpout:127.0.0.1:14550", "--sysid", "1"]
+    argv += ["--signing-key-file", "/nonexistent.key", "--source-system", source]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "--source-system" in err and needle in err and err.count("\n") == 1
