@@ -217,6 +217,17 @@ def drive(
     return _operator(link, target, holds, speeds, moves, items)
 
 
+def hail(link: Any) -> tuple[int, int] | None:
+    """Heartbeats to the rover until it answers with its own (a UDP peer is heard only
+    once it has spoken): its (system, component), or None after a minute."""
+    for _ in range(120):
+        link.mav.heartbeat_send(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+        hb = link.recv_match(type="HEARTBEAT", blocking=True, timeout=0.5)
+        if hb is not None and hb.type == mavlink.MAV_TYPE_GROUND_ROVER:
+            return hb.get_srcSystem(), hb.get_srcComponent()
+    return None
+
+
 def send_off(link: Any, target: tuple[int, int], items: list[Any]) -> tuple[str, bool]:
     """Wait until the rover has a home (its position estimate is good: then it can be
     sent off), upload ``items``, switch to AUTO and arm, retried until the firmware

@@ -39,6 +39,7 @@ from pymavlink.dialects.v20 import common as mavlink
 from rover_mission import (  # (checks/, beside this one)
     ROVER_AUTO,
     ROVER_HOLD,
+    hail,
     upload,
     with_ardurover,
 )
@@ -181,15 +182,10 @@ class _Drive:
 
 def run(connection: str) -> int:
     link = mavutil.mavlink_connection(connection, source_system=250, source_component=190)
-    for _ in range(120):
-        link.mav.heartbeat_send(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
-        hb = link.recv_match(type="HEARTBEAT", blocking=True, timeout=0.5)
-        if hb is not None and hb.type == mavlink.MAV_TYPE_GROUND_ROVER:
-            break
-    else:
+    target = hail(link)
+    if target is None:
         print(f"no rover's HEARTBEAT on {connection}")
         return 2
-    target = (hb.get_srcSystem(), hb.get_srcComponent())
     home = mavlink.MAVLINK_MSG_ID_HOME_POSITION
     for _ in range(60):  # (a home, as an operator waits for one)
         link.mav.command_long_send(*target, _REQUEST, 0, home, 0, 0, 0, 0, 0, 0)

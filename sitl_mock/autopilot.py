@@ -53,6 +53,7 @@ from sitl_mock.mission import RoverMission, as_float_item
 from sitl_mock.params import Knob, ParamTable
 from sitl_mock.personality import Behaviour, Firmware, FlightMode, Personality, firmware_for
 from sitl_mock.roverdrive import RoverDrive
+from sitl_mock.rtl import Return, road_home
 from sitl_mock.streams import AIRCRAFT_DEFAULT_INTERVALS, GROUND_DEFAULT_INTERVALS, StreamScheduler
 from sitl_mock.trail import Follower, Trail
 from sitl_mock.uploaded import DEFAULT_WP_SPEED, UploadedMission, upload_result
@@ -93,6 +94,7 @@ SENSORS = (  # SYS_STATUS sensors a healthy mock reports present and healthy
 """SYS_STATUS sensors: with GPS and PREARM_CHECK healthy MAVSDK reports the global
 position OK and the vehicle armable; both turn healthy at the end of warm-up."""
 _ROVER_SPEED_MIN = 0.05  # m/s: the least a rover is told (ArduRover's AR_WPNAV_SPEED_MIN)
+_RTL_SPEED_MAX = 100.0  # m/s: ArduRover's RTL_SPEED range
 _TRAIL_DT = 0.1  # s between samples of a ground vehicle's path, and its followers' steps
 _ONLY_GCS = 1  # MAV_OPTIONS bit 0: hear only MAV_GCS_SYSID (and its own system)
 _RADIO = ("RADIO", "RADIO_STATUS")  # (heard from any system: a telemetry radio's)
@@ -253,6 +255,9 @@ class SimVehicle:
         # A rover drives its route in AUTO only, armed; told to stand, it brakes and waits.
         # Told a speed (DO_CHANGE_SPEED), it drives the route retimed (``RoverDrive``).
         self._ground = RoverDrive(spec.route) if spec.route is not None else None
+        # In RTL it drives home; back in AUTO it resumes the mission it left (``rtl``).
+        self._returning: Return | None = None
+        self._rtl_speed = 0.0  # (ArduRover's RTL_SPEED: 0, its WP_SPEED)
         # The path it drove, for the vehicles behind it; a follower drives its leader's.
         self.trail = Trail() if ground else None
         self.follower: Follower | None = None  # (set by ``follow``)
@@ -310,7 +315,7 @@ class SimVehicle:
             _R.MAV_CMD_DO_REPOSITION: fl.reposition,
             _R.MAV_CMD_DO_CHANGE_SPEED: self._cmd_change_speed,
             _R.MAV_CMD_MISSION_START: self._cmd_mission_start,
-            _R.MAV_CMD_NAV_RETURN_TO_LAUNCH: fl.return_to_launch,
+            _R.MAV_CMD_NAV_RETURN_TO_LAUNCH: self._cmd_return_to_launch,
             _R.MAV_CMD_NAV_LAND: fl.land,
             _R.MAV_CMD_DO_SET_HOME: self._cmd_set_home,
             _R.MAV_CMD_SET_MESSAGE_INTERVAL: self._cmd_set_message_interval,
@@ -397,12 +402,13 @@ class SimVehicle:
             telemetry comes from ``due_telemetry``.
         """
         self._update_warm(now)
+        events: list[Message] = []
         if self.flight.aircraft is None:
-            self._drive_or_stand(now)
+            events = self._drive_or_stand(now)
             if now - self._trail_t >= _TRAIL_DT - 1e-9:
                 self._record_trail(now, now - self._trail_t)
                 self._trail_t = now
-        events = self.flight.step(now, dt)
+        events += self.flight.step(now, dt)
         if self._home_news:
             self._home_news = False
             events.append(TELEMETRY_BUILDERS[_R.MAVLINK_MSG_ID_HOME_POSITION](self._snapshot(now)))
@@ -410,17 +416,87 @@ class SimVehicle:
             self._battery_s += dt
         return events
 
-    def _drive_or_stand(self, now: float) -> None:
-        """A rover drives its route while armed in its mission mode (AUTO), else stands;
-        held during a waypoint's hold, it stands the whole hold again once back in AUTO
-        (``AP_Mission::resume`` restarts the waypoint, whose hold starts on arrival)."""
+    def _drive_or_stand(self, now: float) -> list[Message]:
+        """A rover drives its route while armed in its mission mode (AUTO), home in RTL,
+        else stands; held during a waypoint's hold, it stands the whole hold again once
+        back in AUTO (``AP_Mission::resume`` restarts the waypoint, whose hold starts on
+        arrival). Its texts ("Reached destination")."""
         fl, ground = self.flight, self._ground
-        if ground is not None:
-            driving = fl.armed and fl.mode.behaviour is Behaviour.MISSION
-            ground.follow(now, driving, reset_speed=self.firmware.is_ardupilot)
-            mission = self.mission
-            if isinstance(mission, UploadedMission) and mission.more:
-                self._go_on(mission, ground, now)
+        if ground is None:
+            return []
+        texts = self._return_or_resume(now, ground) if self.follower is None else []
+        auto = fl.mode.behaviour is Behaviour.MISSION
+        home = fl.mode.behaviour is Behaviour.RTL and self._returning is not None
+        driving = fl.armed and (auto or home)
+        ground.follow(now, driving, reset_speed=self.firmware.is_ardupilot and auto)
+        mission = self.mission
+        if isinstance(mission, UploadedMission) and mission.more and self._returning is None:
+            self._go_on(mission, ground, now)
+        return texts
+
+    def _return_or_resume(self, now: float, ground: RoverDrive) -> list[Message]:
+        """Armed in RTL, the rover sets off home (``rtl.road_home``) and says when it is
+        there; armed in AUTO again, it resumes the mission it left at the item it was
+        driving to, from where it stands. In any other mode it stands, still on its way."""
+        fl, back = self.flight, self._returning
+        behaviour = fl.mode.behaviour
+        if not fl.armed or behaviour not in (Behaviour.RTL, Behaviour.MISSION):
+            return []
+        if behaviour is Behaviour.MISSION:
+            if back is not None:
+                self._returning = None
+                self._resume(now, back)
+            return []
+        (n, e, _, vn, ve, _), *_ = self._kinematics(now)
+        hn, he, _ = self.world.to_ned(fl.home)
+        plan = ground.plan
+        wp_radius = plan.wp_radius if isinstance(plan, Polyline) else 2.0
+        if back is None:
+            self._returning = self._leave(now)
+            speed = self._rtl_speed or self._wp_speed() or DEFAULT_WP_SPEED
+            road, arc = road_home((n, e), (vn, ve), (hn, he), speed, ground.clock.accel, wp_radius)
+            ground.drive_anew(now, road, arc=arc, wp_speed=self._wp_speed())
+            return []
+        if back.reached or math.hypot(n - hn, e - he) > wp_radius:
+            return []
+        back.reached = True  # (ArduRover's ModeRTL; PX4 says nothing)
+        if not self.firmware.is_ardupilot:
+            return []
+        return [statustext(_R.MAV_SEVERITY_INFO, "Reached destination")]
+
+    def _leave(self, now: float) -> Return:
+        """The mission the rover leaves for home, and the item it was driving to: the one
+        it serves (uploaded, or its road's), else its road's waypoints as a ground station
+        would read them (``RoverMission``: a replayed track's corners and stands)."""
+        mission = self.mission
+        home_first = self.firmware.is_ardupilot
+        route = self.spec.route
+        if mission is None and route is not None:
+            mission = RoverMission.of(route, self.world)
+        if mission is None:
+            return Return((), 0)
+        ground = self._ground
+        assert ground is not None
+        seq = mission.current(ground.at(now), home_first=home_first, times=_arrivals(ground.route))
+        if isinstance(mission, UploadedMission):
+            return Return(tuple(mission.items), seq)
+        target = (self.sysid, self.compid)
+        count = mission.count(home_first=home_first)
+        items = (
+            mission.item(k, self.flight.home, target, home_first=home_first) for k in range(count)
+        )
+        return Return(tuple(item for item in items if item is not None), seq)
+
+    def _resume(self, now: float, back: Return) -> None:
+        """AUTO again after a return home: the mission left, from where the rover stands,
+        restarting the item it was driving to (nothing to drive: it stands)."""
+        if not back.items:
+            self._drive_anew(self._lay((), now, None, None), now)
+            return
+        first = back.seq if 0 < back.seq < len(back.items) else None
+        mission = self._lay(back.items, now, first, None)
+        self.mission = mission
+        self._drive_anew(mission, now)
 
     def follow(self, leader: Trail, lag: float, standstill: float) -> None:
         """Drive ``leader``'s path from now on, ``lag`` s behind it and never nearer than
@@ -545,10 +621,16 @@ class SimVehicle:
         if mission is None or ground is None:
             return {}
         home_first = self.firmware.is_ardupilot
-        return {
-            "mission_seq": mission.current(
+        back = self._returning  # (on its way home: the item AUTO resumes at)
+        seq = (
+            back.seq
+            if back is not None
+            else mission.current(
                 ground.at(now), home_first=home_first, times=_arrivals(ground.route)
-            ),
+            )
+        )
+        return {
+            "mission_seq": seq,
             # (ArduPilot leaves its home item out of the total: GCS_MAVLINK)
             "mission_total": mission.count(home_first=False),
         }
@@ -767,6 +849,9 @@ class SimVehicle:
         mission = self._lay(items, now, first, speed_now)
         self.mission = mission if items else None
         self._has_mission = mission.count(home_first=False) > 0
+        if self._returning is not None:  # (on its way home: AUTO starts the new one)
+            self._returning = Return(tuple(items), int(ardupilot))
+            return texts
         self._drive_anew(mission, now, wait=in_auto and not running and ardupilot)
         return texts
 
@@ -864,6 +949,7 @@ class SimVehicle:
             Knob.WP_RADIUS: route.wp_radius if isinstance(route, Polyline) else 2.0,
             Knob.GCS_SYSID: float(self.gcs_sysid),
             Knob.MAV_OPTIONS: float(self.mav_options),
+            Knob.RTL_SPEED: self._rtl_speed,
         }
         return values[knob]
 
@@ -921,6 +1007,10 @@ class SimVehicle:
             fl.rtl_alt = value
         elif knob is Knob.WARMUP:
             self._warmup = value
+        elif knob is Knob.RTL_SPEED:
+            if not 0.0 <= value <= _RTL_SPEED_MAX:
+                raise ValueError(f"must be 0..{_RTL_SPEED_MAX:g} m/s, got {value:g}")
+            self._rtl_speed = value
         elif knob in (Knob.GCS_SYSID, Knob.MAV_OPTIONS):
             top = 255 if knob is Knob.GCS_SYSID else 0xFFFF
             if value != int(value) or not 0 <= value <= top:
@@ -995,8 +1085,17 @@ class SimVehicle:
     def _request_mode(self, mode: FlightMode | None, now: float) -> Outcome:
         """A mode change, as the flight takes it; a rover's AUTO needs a mission (ArduRover
         ``ModeAuto::_enter``: "No Mission. Can't set AUTO.", then "Flight mode change
-        failed"; PX4: the mode is not available without a valid mission)."""
+        failed"; PX4: the mode is not available without a valid mission), and its RTL a
+        home (``ModeRTL::_enter``)."""
         fw = self.firmware
+        rtl = mode is not None and mode.behaviour is Behaviour.RTL and mode != self.flight.mode
+        if rtl and self.flight.aircraft is None and not self.flight.home_set:
+            assert mode is not None
+            if fw.is_ardupilot:
+                failed = statustext(_R.MAV_SEVERITY_WARNING, "Flight mode change failed")
+                return _R.MAV_RESULT_FAILED, [failed]
+            text = fw.mode_denied_text(mode, "no home position")
+            return fw.reject_result, [statustext(_R.MAV_SEVERITY_CRITICAL, text)]
         auto = mode is not None and mode.behaviour is Behaviour.MISSION and mode != self.flight.mode
         if auto and self.flight.aircraft is None and not self._has_mission:
             assert mode is not None
@@ -1008,6 +1107,18 @@ class SimVehicle:
             text = fw.mode_denied_text(mode, "no mission")
             return fw.reject_result, [statustext(_R.MAV_SEVERITY_CRITICAL, text)]
         return self.flight.request_mode(mode, now)
+
+    def _cmd_return_to_launch(self, c: Command, now: float) -> Outcome:
+        """MAV_CMD_NAV_RETURN_TO_LAUNCH: RTL mode; an aircraft's (``FlightController``),
+        or a rover's, which drives home (ArduRover: ACCEPTED, or FAILED as its mode
+        change is)."""
+        fw = self.firmware
+        if self.flight.aircraft is not None or fw.rtl is None:
+            return self.flight.return_to_launch(c, now)
+        result, texts = self._request_mode(fw.mode(fw.rtl), now)
+        if fw.is_ardupilot and result != _R.MAV_RESULT_ACCEPTED:
+            result = _R.MAV_RESULT_FAILED
+        return result, texts
 
     def _cmd_change_speed(self, c: Command, now: float) -> Outcome:
         """MAV_CMD_DO_CHANGE_SPEED: an aircraft's (``FlightController.change_speed``), or

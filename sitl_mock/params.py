@@ -48,6 +48,7 @@ class Knob(StrEnum):
     WP_RADIUS = "wp_radius"  # m, read-only: a rover passes its corners within it
     GCS_SYSID = "gcs_sysid"  # ArduPilot: the system id of its ground station (1..255)
     MAV_OPTIONS = "mav_options"  # ArduPilot: bit 0, hear only that ground station
+    RTL_SPEED = "rtl_speed"  # m/s: a rover's speed home in RTL (0: its WP_SPEED)
 
 
 KnobGetter = Callable[[Knob], float]

@@ -407,6 +407,7 @@ def _params(personality: Personality, vehicle_class: VehicleClass) -> tuple[Para
             ParamDef("CRUISE_SPEED", Knob.WP_SPEED, read_only=True),
             ParamDef("ATC_ACCEL_MAX", Knob.ROVER_ACCEL, read_only=True),
             ParamDef("WP_RADIUS", Knob.WP_RADIUS, read_only=True),
+            ParamDef("RTL_SPEED", Knob.RTL_SPEED),
             *common[1:],
         )
     if vehicle_class == "rover":

@@ -1,0 +1,215 @@
+"""A rover called home (RTL) and sent on again (AUTO), from the firmware: as ``sitl_mock`` does.
+
+    SITL_DIR=/path/to/ardupilot .venv/bin/python checks/rover_rtl.py
+    .venv/bin/python checks/rover_rtl.py --mock ardupilot        # the mock's parked rover
+    .venv/bin/python checks/rover_rtl.py --connect tcp:127.0.0.1:5990   # one running
+
+Starts ArduRover SITL (``build/sitl/bin/ardurover``, instance 23, WP_SPEED 8) unless
+``--connect`` names a running one or ``--mock`` starts ``sitl_mock`` with one parked
+rover, sets RTL_SPEED 8 m/s, uploads a mission of an L (600 m east, then 600 m north, then
+600 m west, at 8 m/s by DO_CHANGE_SPEED) and sends it off in AUTO, then, as its
+operator:
+
+1. 200 m up the second leg, heading north away from home: RTL (SET_MODE). It must drive
+   home (its bearing from home, once at speed, steady), say "Reached destination" within
+   WP_RADIUS of home and come to a stand there (within twice that), its
+   MISSION_CURRENT still the item it was driving to (``sitl_mock.rtl``);
+2. 10 s later, AUTO: it must drive from home straight to that item (the corner 600 m
+   east and north), as ``AP_Mission::resume`` restarts the current command, and then on
+   to the next.
+
+Prints the drive every 10 s of boot time and each rule's outcome; exit 0 when all hold.
+Not part of ``make test``: it needs ArduPilot SITL (see the project's notes on building
+it). Run against both to set them side by side.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import subprocess
+import sys
+import time
+from typing import Any
+
+from pymavlink import mavutil
+from pymavlink.dialects.v20 import common as mavlink
+from rover_mission import ROVER_AUTO, hail, send_off, with_ardurover  # (checks/, beside this one)
+
+HOME = (47.397742, 8.545594, 488.0)
+ROVER_RTL = 11
+LEG_M = 600.0
+CORNERS = ((0.0, 0.0), (0.0, LEG_M), (LEG_M, LEG_M), (LEG_M, 0.0))  # (north, east) m
+RTL_AT_NORTH = 200.0  # m up the second leg
+SPEED = 8.0  # m/s: the mission's DO_CHANGE_SPEED and RTL_SPEED (WP_SPEED may differ)
+WP_RADIUS = 2.0  # m: ArduRover's default
+STEADY_RAD = 0.02  # rad: a straight drive's bearing varies less
+
+
+def _geo(north: float, east: float) -> tuple[int, int]:
+    lat, lon, _ = HOME
+    d_lat = north / 111_320.0
+    d_lon = east / (111_320.0 * math.cos(math.radians(lat)))
+    return round((lat + d_lat) * 1e7), round((lon + d_lon) * 1e7)
+
+
+def _ned(msg: Any) -> tuple[float, float]:
+    lat, lon, _ = HOME
+    north = (msg.lat * 1e-7 - lat) * 111_320.0
+    east = (msg.lon * 1e-7 - lon) * 111_320.0 * math.cos(math.radians(lat))
+    return north, east
+
+
+def _mission(target: tuple[int, int]) -> list[Any]:
+    rel, wp = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, mavlink.MAV_CMD_NAV_WAYPOINT
+    speed = (mavlink.MAV_FRAME_MISSION, mavlink.MAV_CMD_DO_CHANGE_SPEED, 1.0, SPEED, 0, 0)
+    rows = [(mavlink.MAV_FRAME_GLOBAL, wp, 0.0, 0.0, *_geo(0.0, 0.0))]  # (item 0: home)
+    rows += [(rel, wp, 0.0, 0.0, *_geo(*CORNERS[0])), speed]
+    rows += [(rel, wp, 0.0, 0.0, *_geo(n, e)) for n, e in CORNERS[1:]]
+    kind = mavlink.MAV_MISSION_TYPE_MISSION
+    return [
+        mavlink.MAVLink_mission_item_int_message(
+            *target, seq, frame, command, 0, 1, p1, p2, 0.0, 0.0, x, y, 0.0, kind
+        )
+        for seq, (frame, command, p1, p2, x, y) in enumerate(rows)
+    ]
+
+
+class _Drive:
+    """What the rover said and did, message by message."""
+
+    def __init__(self, link: Any) -> None:
+        self.link = link
+        self.at = (0.0, 0.0)
+        self.speed = 0.0
+        self.t = 0.0
+        self.seq = -1
+        self.texts: list[str] = []
+        self._shown = -math.inf
+
+    def wait(self, until: Any, timeout: float = 600.0) -> bool:
+        """Read the rover until ``until(self)`` holds (False: it fell silent or never did)."""
+        deadline = time.monotonic() + timeout
+        kinds = ["GLOBAL_POSITION_INT", "MISSION_CURRENT", "STATUSTEXT"]
+        while time.monotonic() < deadline:
+            m = self.link.recv_match(type=kinds, blocking=True, timeout=30)
+            if m is None:
+                print("the rover fell silent")
+                return False
+            kind = m.get_type()
+            if kind == "STATUSTEXT":
+                self.texts.append(m.text)
+                print(f"  STATUSTEXT {m.text!r}", flush=True)
+            elif kind == "MISSION_CURRENT":
+                self.seq = m.seq
+            else:
+                self.t, self.at = m.time_boot_ms * 1e-3, _ned(m)
+                self.speed = math.hypot(m.vx, m.vy) * 0.01
+                if self.t - self._shown >= 10.0:
+                    self._shown = self.t
+                    n, e = self.at
+                    print(f"boot {self.t:6.1f} s  north {n:7.1f}  east {e:7.1f}  "
+                          f"{self.speed:5.2f} m/s  item {self.seq}", flush=True)  # fmt: skip
+            if until(self):
+                return True
+        return False
+
+
+def _bearing(frm: tuple[float, float], to: tuple[float, float]) -> float:
+    return math.atan2(to[1] - frm[1], to[0] - frm[0])
+
+
+def _check(ok: bool, what: str) -> bool:
+    print(f"{'ok ' if ok else 'BAD'} {what}", flush=True)
+    return ok
+
+
+def run(connection: str) -> int:
+    link = mavutil.mavlink_connection(connection, source_system=250, source_component=190)
+    target = hail(link)
+    if target is None:
+        print(f"no rover's HEARTBEAT on {connection}")
+        return 2
+    link.mav.param_set_send(*target, b"RTL_SPEED", SPEED, mavlink.MAV_PARAM_TYPE_REAL32)
+    answer, armed = send_off(link, target, _mission(target))
+    if not armed:
+        print(f"the rover was not sent off: upload {answer}, not armed in AUTO")
+        return 2
+    for stream in (mavlink.MAV_DATA_STREAM_POSITION, mavlink.MAV_DATA_STREAM_EXTENDED_STATUS):
+        link.mav.request_data_stream_send(*target, stream, 4, 1)
+    flag = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
+    drive = _Drive(link)
+    corner = CORNERS[2]
+    if not drive.wait(lambda d: d.at[0] > RTL_AT_NORTH and d.at[1] > LEG_M - 20.0):
+        return 2
+    driving_to = drive.seq
+    link.mav.set_mode_send(target[0], flag, ROVER_RTL)
+    print(f"RTL at north {drive.at[0]:.0f} east {drive.at[1]:.0f}, driving to item {driving_to}")
+    ok = True
+    bearings: list[float] = []
+    seqs: set[int] = set()
+
+    def home_reached(d: _Drive) -> bool:
+        seqs.add(d.seq)
+        if d.speed > 0.9 * SPEED and math.hypot(*d.at) < 500.0:
+            bearings.append(_bearing((0.0, 0.0), d.at))
+        return "Reached destination" in d.texts
+
+    if not drive.wait(home_reached):
+        return _check(False, "never said 'Reached destination'") and 1
+    off = math.hypot(*drive.at)
+    ok &= _check(off <= WP_RADIUS + 1.0, f"'Reached destination' {off:.1f} m from home")
+    spread = max(bearings) - min(bearings) if bearings else math.inf
+    ok &= _check(spread < STEADY_RAD, f"straight home: bearing spread {spread:.4f} rad")
+    ok &= _check(seqs == {driving_to}, f"MISSION_CURRENT while home-bound {sorted(seqs)}")
+    t0 = drive.t
+    drive.wait(lambda d: d.t > t0 + 10.0)
+    stood_at, t0 = drive.at, drive.t
+    drive.wait(lambda d: d.t > t0 + 10.0)
+    moved, off = math.dist(drive.at, stood_at), math.hypot(*drive.at)
+    ok &= _check(moved < 1.0 and drive.speed < 0.2, f"stands: {moved:.1f} m in 10 s")
+    ok &= _check(off <= 2.0 * WP_RADIUS, f"stands {off:.1f} m from home")
+    link.mav.set_mode_send(target[0], flag, ROVER_AUTO)
+    print("AUTO", flush=True)
+    start, way = drive.at, _bearing(drive.at, corner)
+    off_way: list[float] = []
+
+    def at_corner(d: _Drive) -> bool:
+        if math.dist(d.at, start) > 50.0 and math.dist(d.at, corner) > 50.0:
+            off_way.append(abs(math.remainder(_bearing(start, d.at) - way, math.tau)))
+        return math.dist(d.at, corner) < 10.0
+
+    if not drive.wait(at_corner):
+        return _check(False, "never came to the item it had left") and 1
+    worst = max(off_way) if off_way else math.inf
+    ok &= _check(worst < 0.05, f"straight to item {driving_to}: off its bearing {worst:.3f} rad")
+    drive.wait(lambda d: d.seq > driving_to or math.dist(d.at, corner) > 60.0)
+    ok &= _check(drive.seq == driving_to + 1, f"then on to item {drive.seq}")
+    return 0 if ok else 1
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--connect", help="a running rover's MAVLink endpoint")
+    parser.add_argument("--mock", choices=("ardupilot",), help="start sitl_mock instead")
+    args = parser.parse_args()
+    if args.connect:
+        return run(args.connect)
+    if args.mock:
+        lat, lon, alt = HOME
+        mock = subprocess.Popen(
+            [sys.executable, "-m", "sitl_mock", "--aircraft", "0", "--ground", "1",
+             "--personality", args.mock, "--base-port", "14797", "--ground-route", "stationary",
+             "--origin", f"{lat},{lon},{alt}", "--speedup", "5"],
+        )  # fmt: skip
+        try:
+            time.sleep(1.0)
+            return run("udpout:127.0.0.1:14797")
+        finally:
+            mock.terminate()
+            mock.wait()
+    return with_ardurover(run, instance=23, wp_speed=8, home=HOME)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
