@@ -1,6 +1,6 @@
 """A rover's operator at work, in simulation: its mode or speed told the road model, or not.
 
-    .venv/bin/python benchmarks/rover_modes.py            # four testbeds, 14 drives each (~8 min)
+    .venv/bin/python benchmarks/rover_modes.py            # five testbeds, 14 drives each (~9 min)
     .venv/bin/python benchmarks/rover_modes.py --drives 6
 
 The convoy is a rover driving the urban grid (``tracks.roads``) as its mission, the
@@ -18,7 +18,12 @@ drive (seeded):
 - ``speeds``: its mission also changes speed (DO_CHANGE_SPEED to 6 or 8 m/s at three
   random waypoints), and its operator tells it another two or three times
   (DO_CHANGE_SPEED by command, 0.5-1.3 of its plan's speed there, at least 3 m/s), each
-  in force until the mission's next (``sitl_mock.roverdrive``).
+  in force until the mission's next (``sitl_mock.roverdrive``);
+- ``rtl``: calls it home (RTL) once, 200-450 s in: it drives straight home as the mock's
+  rovers do (``sitl_mock.rtl``), stands there 30-90 s, and in AUTO drives straight back
+  to the waypoint it was driving to and on along its mission. Told: RTL with its home,
+  AUTO with that waypoint (``ConvoyModel.set_drive``); not told: RTL as a mode that
+  sets the plan aside, AUTO as any (what the service did before it knew RTL).
 
 Each drive is flown twice by the demo's six planes (``fly_road``, with the fixes' own
 velocity as the mock's rovers report it): the mode told (``drives``, 0.5 s after the
@@ -30,6 +35,7 @@ the mean coverage both ways and the paired difference with its standard error.
 from __future__ import annotations
 
 import argparse
+import bisect
 import math
 import os
 import statistics
@@ -49,6 +55,7 @@ from sitl_mock.driveclock import DriveClock
 from sitl_mock.ground import Polyline
 from sitl_mock.mission import DEFAULT_TOLERANCE_M, thin
 from sitl_mock.roverdrive import RoverDrive
+from sitl_mock.rtl import road_home
 
 REQUEST = PlanRequest(150.0, 100.0, 18.0)  # the demo's planes
 UAVS = 6  # the road's count with a route
@@ -58,7 +65,7 @@ STEP_S = 0.1  # the drive's truth, sampled at 1 Hz for the fixes
 HEARD_S = 0.5
 
 Drive = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
-Told = list[tuple[float, ConvoyDrive]]
+Told = list[tuple[float, ConvoyDrive, tuple[float, float] | None]]
 Testbed = tuple[list[int], Drive, Told, list[tuple[int, float]]]  # (holds, drive, told, speeds)
 
 
@@ -101,18 +108,19 @@ def _clocked(
     """Driven as the mock's rover is (``DriveClock``), told to stand at each (when, for how
     long): ``when`` in sim time, or in drive time (``drive_time``: where it is along its
     timetable, as at a waypoint's hold); and what it was told, when."""
-    clock, pending, told = DriveClock(1.0), sorted(stands), []
+    clock, pending = DriveClock(1.0), sorted(stands)
+    told: Told = []
     resume: list[float] = []
 
     def rate_at(t: float, tau: float) -> float:
         if pending and clock.driving and (tau if drive_time else t) >= pending[0][0]:
             clock.follow(t, False, line)
             resume.append(t + pending.pop(0)[1])
-            told.append((t, ConvoyDrive.HELD))
+            told.append((t, ConvoyDrive.HELD, None))
         if resume and t >= resume[0]:
             resume.pop(0)
             clock.follow(t, True, line)  # (a held waypoint's hold starts again)
-            told.append((t, ConvoyDrive.MISSION))
+            told.append((t, ConvoyDrive.MISSION, None))
         return (clock.at(t + STEP_S) - clock.at(t)) / STEP_S
 
     return _sample(line, rate_at), told
@@ -155,9 +163,9 @@ def _manual(seed: int) -> Testbed:
         rate[0] += float(np.clip(target - rate[0], -0.02, 0.02))  # (about 1 m/s² at 8 m/s)
         return rate[0]
 
-    told = sorted(
-        [(a, ConvoyDrive.OTHER) for a, _, _ in spells]
-        + [(b, ConvoyDrive.MISSION) for _, b, _ in spells]
+    told: Told = sorted(
+        [(a, ConvoyDrive.OTHER, None) for a, _, _ in spells]
+        + [(b, ConvoyDrive.MISSION, None) for _, b, _ in spells]
     )
     return at, _sample(line, rate_at), told, []
 
@@ -189,14 +197,49 @@ def _speeds(seed: int) -> Testbed:
     return at, drive, [], marks
 
 
+def _rtl(seed: int) -> Testbed:
+    rng = np.random.default_rng(seed)
+    line, at = _planned(rng)
+    rover = RoverDrive(line)
+    home = WAYPOINTS[0]
+    called = float(rng.uniform(200.0, 450.0))
+    back: float | None = None
+    told: Told = []
+    rows = []
+    times = np.arange(0.0, HORIZON_S, STEP_S)
+    for now in times.tolist():
+        if not told and now >= called:  # (RTL: straight home, from the way it drives)
+            n, e, vn, ve = rover.state(now)
+            driving_to = bisect.bisect_right(line.arrivals, rover.at(now))
+            road, arc = road_home((n, e), (vn, ve), home, SPEED, 1.0, line.wp_radius)
+            rover.drive_anew(now, road, arc=arc)
+            told.append((now, ConvoyDrive.HOME, (home[1], home[0])))
+        elif len(told) == 1 and rover.finished(now) and back is None:
+            back = now + float(rng.uniform(30.0, 90.0))
+        elif back is not None and now >= back and len(told) == 1:  # (AUTO: the item it left)
+            n, e, _, _ = rover.state(now)
+            rest = WAYPOINTS[driving_to:]
+            holds = tuple((i - driving_to + 1, 30.0) for i in at if i >= driving_to)
+            rover.drive_anew(now, Polyline(((n, e), *rest), SPEED, accel=1.0, holds=holds))
+            goal = WAYPOINTS[driving_to]
+            told.append((now, ConvoyDrive.MISSION, (goal[1], goal[0])))
+        rover.follow(now, True, reset_speed=False)
+        rows.append(rover.state(now))
+    out = np.array(rows)[:: round(1.0 / STEP_S)]
+    drive = times[:: round(1.0 / STEP_S)], out[:, 0], out[:, 1], out[:, 2], out[:, 3]
+    return at, drive, told, []
+
+
 # Each testbed's drive, and whether what is told is the speed kept (the others: the mode).
 TESTBEDS: dict[str, Callable[[int], Testbed]] = {
     "holds": _holds,
     "manual": _manual,
     "stands": _stands,
     "speeds": _speeds,
+    "rtl": _rtl,
 }
 KEPT_TOLD = {"speeds"}
+_UNTOLD = {ConvoyDrive.HOME: ConvoyDrive.OTHER}
 
 
 def _flown(job: tuple[str, int, bool]) -> RoadRun:
@@ -206,7 +249,12 @@ def _flown(job: tuple[str, int, bool]) -> RoadRun:
     paces = [(0.0, SPEED)] + [
         (ROAD.project(WAYPOINTS[i][1], WAYPOINTS[i][0], None), v) for i, v in marks
     ]
-    drives = [(when + HEARD_S, d) for when, d in told] if tell else []
+    if tell:
+        drives = [(when + HEARD_S, d, where) for when, d, where in told]
+    elif testbed == "rtl":  # (before: RTL a mode like MANUAL, AUTO with no waypoint)
+        drives = [(when + HEARD_S, _UNTOLD.get(d, d), None) for when, d, _ in told]
+    else:
+        drives = []
     kept_off = testbed in KEPT_TOLD and not tell
     return fly_road(
         t, n, e, REQUEST, UAVS, reported=(vn, ve), route=ROAD, holds=holds,

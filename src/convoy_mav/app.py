@@ -49,7 +49,7 @@ from convoy_mav.mavlink.autopilots.base import (
     set_message_interval,
 )
 from convoy_mav.mavlink.codec import MavCodec
-from convoy_mav.mavlink.missionread import MissionWatch
+from convoy_mav.mavlink.missionread import MissionItem, MissionWatch
 from convoy_mav.mavlink.rovermode import RoverMode, rover_mode
 from convoy_mav.mavlink.signing import Signing, load_key
 from convoy_mav.mission import (
@@ -75,7 +75,7 @@ from convoy_mav.schedule import POSITION_AT_HORIZON_S, position_at
 from convoy_mav.separation import conflicts
 from convoy_mav.streaming import SetpointStreamer
 from convoy_mav.tracks import load_planned_route
-from convoy_mav.tracks.missionroute import mission_route
+from convoy_mav.tracks.missionroute import driven_to, mission_route
 from convoy_mav.tracks.plannedroute import PlannedRoute
 from convoy_mav.types import ConvoyDrive, ConvoyEstimate, Setpoint, Telemetry, VehicleStatus
 from convoy_mav.vehicle import EventKind, Vehicle, VehicleEvent
@@ -275,6 +275,14 @@ def _firmware_family(vehicle: Vehicle) -> str | None:
 _T = TypeVar("_T")
 
 
+def _home_request(sysid: int) -> Any:
+    """MAV_CMD_REQUEST_MESSAGE of a ground vehicle's HOME_POSITION."""
+    return mavlink.MAVLink_command_long_message(
+        sysid, 1, mavlink.MAV_CMD_REQUEST_MESSAGE, 0,
+        mavlink.MAVLINK_MSG_ID_HOME_POSITION, 0, 0, 0, 0, 0, 0,
+    )  # fmt: skip
+
+
 def _drained(queue: deque[_T]) -> list[_T]:
     """Every item in ``queue``, taken out in order (safe beside another thread's
     ``append``: each ``popleft`` is atomic, where a swap of the whole could drop one)."""
@@ -429,7 +437,11 @@ class ConvoyService:
         # HOLD then AUTO between two steps restarts a held hold) and the report.
         self._lead_id = config.convoy.vehicles[0].sysid if config.convoy.vehicles else None
         self._lead_mode: RoverMode | None = None
-        self._new_drives: deque[ConvoyDrive] = deque()
+        # Its home (x, y: east, north), where RTL drives it: asked for until heard, and
+        # again each time it is sent home (ArduPilot resets home when it arms).
+        self._lead_home: tuple[float, float] | None = None
+        self._mission_items: list[MissionItem] = []  # (its mission as last read)
+        self._new_drives: deque[tuple[ConvoyDrive, tuple[float, float] | None]] = deque()
         self.convoy_modes: list[tuple[float, str]] = []
         # The lead ground vehicle's own mission, read as the convoy's route.
         self._mission_watch = (
@@ -500,6 +512,8 @@ class ConvoyService:
             self._mission_sends(watch.handle(msg, time.monotonic()))
         if sysid == self._lead_id and msg.get_type() == "HEARTBEAT":
             self._lead_heartbeat(sysid, msg)
+        elif sysid == self._lead_id and msg.get_type() == "HOME_POSITION":
+            self._lead_home_heard(msg)
         elif sysid in self._ground_ids and msg.get_type() == "PARAM_VALUE":
             if msg.param_id == "SIM_SPEEDUP":  # (a simulated convoy slowed with the UAVs)
                 self.clock.rate_set(float(msg.param_value), sysid)
@@ -522,19 +536,64 @@ class ConvoyService:
         """The lead ground vehicle's mode: a change is noted and told the road mission
         (``ConvoyModel.set_drive``)."""
         mode = rover_mode(msg)
-        if mode is None or mode == self._lead_mode:
+        if mode is None:
+            return
+        homeward = mode.drive is ConvoyDrive.HOME and mode != self._lead_mode
+        if (self._lead_home is None or homeward) and self._ground_links:
+            self._ground_links[0].send(_home_request(sysid))
+        if mode == self._lead_mode:
             return
         was, self._lead_mode = self._lead_mode, mode
-        self._new_drives.append(mode.drive)
+        back = (
+            mode.drive is ConvoyDrive.MISSION and was is not None and was.drive is ConvoyDrive.HOME
+        )
+        where = self._lead_home if homeward else (self._resumed_at() if back else None)
+        self._new_drives.append((mode.drive, where))
         if len(self.convoy_modes) < _MODES_KEPT:
             self.convoy_modes.append((round(self.clock.now(), 1), mode.name))
+        watch = self._mission_watch
         what = {
-            ConvoyDrive.MISSION: "drives its mission",
+            ConvoyDrive.MISSION: "drives its mission"
+            + (
+                f", straight back to item {watch.current} of it first"
+                if back and where is not None and watch is not None
+                else ""
+            ),
             ConvoyDrive.HELD: "stands until its mode changes",
             ConvoyDrive.OTHER: "is driven otherwise: its mission's plan is set aside",
+            ConvoyDrive.HOME: "drives home: forecast straight there, where it stands"
+            if self._lead_home is not None
+            else "drives home, not known yet: forecast from its own velocity",
         }[mode.drive]
         since = "" if was is None else f" (was {was.name})"
         self._note(f"ground vehicle {sysid} in {mode.name}{since}: it {what}")
+
+    def _resumed_at(self) -> tuple[float, float] | None:
+        """Where (x, y) the lead drives back to in AUTO after RTL: the waypoint its
+        MISSION_CURRENT still names (``AP_Mission::resume``), if its mission was read."""
+        watch = self._mission_watch
+        if watch is None or watch.current is None:
+            return None
+        item = next((i for i in self._mission_items if i.seq == watch.current), None)
+        at = None if item is None else driven_to(item)
+        if at is None:
+            return None
+        north, east, _ = self.frame.to_ned(GeoPoint(*at))
+        return east, north
+
+    def _lead_home_heard(self, msg: Any) -> None:
+        """The lead ground vehicle's HOME_POSITION: where RTL takes it (on its way
+        there already, the road mission is told at once)."""
+        if no_position_yet(msg.latitude, msg.longitude):
+            return
+        north, east, _ = self.frame.to_ned(GeoPoint(msg.latitude * 1e-7, msg.longitude * 1e-7))
+        home = (east, north)
+        if home == self._lead_home:
+            return
+        self._lead_home = home
+        mode = self._lead_mode
+        if mode is not None and mode.drive is ConvoyDrive.HOME:
+            self._new_drives.append((ConvoyDrive.HOME, home))
 
     def _mission_sends(self, out: Sequence[Any]) -> None:
         """Send a mission read's requests to the lead ground vehicle; take a finished read."""
@@ -548,6 +607,7 @@ class ConvoyService:
         if read.error is not None:
             self._note(f"ground vehicle {sysid}'s mission not read: it {read.error}")
             return
+        self._mission_items = read.items or []
         try:
             route = mission_route(
                 read.items or [], home_first=watch.ardupilot, default_speed=watch.default_speed
@@ -1584,8 +1644,8 @@ class ConvoyService:
         if road_mission is not None:
             if roads:
                 road_mission.set_route(*roads[-1])
-            for drive in drives:
-                road_mission.set_drive(drive, t)
+            for drive, home in drives:
+                road_mission.set_drive(drive, t, home)
             road_mission.set_replan_lag(*lead)
         plans_before = 0 if road_mission is None else road_mission.uav_plans
         if est is not None:

@@ -96,7 +96,8 @@ class ConvoyDrive(StrEnum):
 
     MISSION = "mission"  # its mission (AUTO): the plan read from it holds
     HELD = "held"  # it stands until told otherwise (HOLD, disarmed)
-    OTHER = "other"  # a driver or another command (MANUAL, GUIDED, RTL): no plan holds
+    OTHER = "other"  # a driver or another command (MANUAL, GUIDED): no plan holds
+    HOME = "home"  # its way home (RTL): straight there, where it stands; no plan holds
 
 
 @dataclass(frozen=True, slots=True)

@@ -90,7 +90,7 @@ async def test_a_rovers_corners_are_learnt_and_its_convoy_protected(
     assert report["predicted_coverage"] == pytest.approx(truth.fraction, abs=0.015)
 
 
-_ARDUROVER_HOLD, _ARDUROVER_AUTO = 4, 10
+_ARDUROVER_HOLD, _ARDUROVER_AUTO, _ARDUROVER_RTL = 4, 10, 11
 
 
 @pytest.mark.alone
@@ -138,6 +138,54 @@ async def test_a_rover_its_operator_holds_stands_and_is_watched_standing() -> No
     assert report["predicted_coverage"] == pytest.approx(truth.fraction, abs=0.02)
 
 
+@pytest.mark.alone
+async def test_a_rover_its_operator_calls_home_is_watched_off_its_route_and_back() -> None:
+    """RTL from the circuit (the lead alone, the convoy behind it): the lead drives
+    straight home across the block and stands there; in AUTO it drives back to the
+    waypoint it left and on round the circuit. The service hears each mode, asks the
+    lead's HOME_POSITION and forecasts the convoy straight home, off its route, then
+    straight back to the waypoint its MISSION_CURRENT names and on along the route."""
+    marks: dict[str, Any] = {}
+
+    async def operator(fleet: MockFleet, service: ConvoyService) -> None:
+        lead = service.config.convoy.vehicles[0].sysid
+        await _until_protected(fleet, service, 200.0)
+        flag = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
+        home = fleet.world.to_ned(fleet.vehicles[lead].flight.home)
+        async with _ground_station(fleet, service, only=lead) as tell:
+            marks["rtl"], marks["left"] = fleet.now, fleet.truth(lead)
+            await tell("set_mode_send", flag, _ARDUROVER_RTL)
+            await _until(fleet, marks["rtl"] + 120.0)
+            marks["home"] = fleet.truth(lead), home
+            marks["auto"] = fleet.now
+            await tell("set_mode_send", flag, _ARDUROVER_AUTO)
+            await _until(fleet, marks["auto"] + 30.0)
+            marks["auto+30"] = fleet.truth(lead)
+
+    result = await _operated(operator, 480.0)
+    report = result.report.to_dict()
+    assert "auto+30" in marks, marks
+    # Home within 120 s (at most 600 m off at 8 m/s), standing in RTL; then driving.
+    (at_home, (hn, he, _)) = marks["home"]
+    assert at_home.mode == "RTL" and at_home.speed == 0.0, at_home
+    assert math.hypot(at_home.north - hn, at_home.east - he) <= 2.0, (at_home, hn, he)
+    assert marks["auto+30"].mode == "AUTO" and marks["auto+30"].speed > 2.0, marks["auto+30"]
+    modes = [m["mode"] for m in report["planner"]["convoy_modes"]]
+    assert modes == ["AUTO", "RTL", "AUTO"], modes
+    for said in (
+        "in RTL (was AUTO): it drives home: forecast straight there",
+        "in AUTO (was RTL): it drives its mission, straight back to item",
+    ):
+        assert any(said in e for e in report["events"]), (said, report["events"])
+    truth = result.truth
+    assert truth is not None
+    # (three flights at 20x: 97.2, 96.3 and 94.2 %, longest gaps 2.6-8.6 s; forecast along
+    # its route as before, not home: 88.5 and 91.8 %, 21 s unseen as it turned off it)
+    assert truth.fraction >= 0.93, (truth, report["predicted_coverage"])
+    assert truth.longest_gap_s <= 12.0, truth
+    assert report["predicted_coverage"] == pytest.approx(truth.fraction, abs=0.02)
+
+
 async def _operated(
     operator: Callable[[MockFleet, ConvoyService], Coroutine[Any, Any, None]], duration: float
 ) -> DemoResult:
@@ -165,17 +213,19 @@ async def _until_protected(fleet: MockFleet, service: ConvoyService, t: float) -
 
 @contextlib.asynccontextmanager
 async def _ground_station(
-    fleet: MockFleet, service: ConvoyService
+    fleet: MockFleet, service: ConvoyService, only: int | None = None
 ) -> AsyncIterator[Callable[..., Awaitable[None]]]:
-    """An operator's own link to each ground vehicle of the convoy (system 250): tells
-    every one the same, ``tell(sender, *args)`` (a ``link.mav`` method and its arguments
-    after the target system), thrice, as a ground station repeats itself over UDP."""
+    """An operator's own link to each ground vehicle of the convoy (system 250), or
+    ``only`` one: tells every one the same, ``tell(sender, *args)`` (a ``link.mav``
+    method and its arguments after the target system), thrice, as a ground station
+    repeats itself over UDP."""
     links = {
         v.sysid: mavutil.mavlink_connection(
             f"udpout:127.0.0.1:{fleet.endpoint(v.sysid).connect.rsplit(':', 1)[1]}",
             source_system=250,
         )
         for v in service.config.convoy.vehicles
+        if only in (None, v.sysid)
     }
 
     async def tell(sender: str, *args: Any) -> None:

@@ -264,9 +264,11 @@ def test_every_mode_the_lead_rover_changes_to_between_two_mission_steps_is_told_
     told: list[tuple[ConvoyDrive | None, float]] = []
     real = mission.set_drive
 
-    def set_drive(drive: ConvoyDrive | None, t: float) -> None:
+    def set_drive(
+        drive: ConvoyDrive | None, t: float, home: tuple[float, float] | None = None
+    ) -> None:
         told.append((drive, t))
-        real(drive, t)
+        real(drive, t, home)
 
     monkeypatch.setattr(mission, "set_drive", set_drive)
     armed = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mavlink.MAV_MODE_FLAG_SAFETY_ARMED
@@ -281,3 +283,61 @@ def test_every_mode_the_lead_rover_changes_to_between_two_mission_steps_is_told_
     assert [mode for _, mode in service.convoy_modes] == ["AUTO", "HOLD", "AUTO"]
     service._mission_step(6.0, None, [], [], {}, set(), (0.0, 0.0))
     assert len(told) == 3  # (each told once)
+
+
+def test_a_lead_rover_sent_home_is_forecast_straight_to_the_home_it_says() -> None:
+    """RTL: its HOME_POSITION asked for (until heard, and on each RTL), and the road
+    mission told the way home, also when home is heard after the mode."""
+    from pymavlink.dialects.v20 import common as mavlink
+
+    from convoy_mav.types import ConvoyDrive
+
+    rover = {"connection": "udpin:127.0.0.1:14600", "sysid": 60}
+    doc = {**_road_doc(), "convoy": {"source": "mavlink", "vehicle": [rover]}}
+    service = ConvoyService(parse_config(doc))
+    mission = service.mission
+    assert isinstance(mission, RoadMission)
+    sent: list[object] = []
+
+    class _Link:
+        def send(self, msg: object) -> None:
+            sent.append(msg)
+
+    service._ground_links = [_Link()]  # type: ignore[list-item]
+    armed = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mavlink.MAV_MODE_FLAG_SAFETY_ARMED
+
+    def heartbeat(custom: int) -> None:
+        service._lead_heartbeat(
+            60,
+            mavlink.MAVLink_heartbeat_message(
+                mavlink.MAV_TYPE_GROUND_ROVER, mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA, armed,
+                custom, 4, 3,
+            ),
+        )  # fmt: skip
+
+    def asked() -> int:
+        home = mavlink.MAVLINK_MSG_ID_HOME_POSITION
+        return sum(getattr(m, "param1", None) == home for m in sent)
+
+    heartbeat(10)  # AUTO: home unknown, asked for
+    heartbeat(11)  # RTL: asked again; no home to go to yet
+    assert asked() == 2
+    service._mission_step(5.0, None, [], [], {}, set(), (0.0, 0.0))
+    assert mission.model.drive is ConvoyDrive.HOME and mission.model._going is None
+    where = service.frame.to_geo(120.0, -40.0, 0.0)  # (north, east)
+    home = mavlink.MAVLink_home_position_message(
+        round(where.lat * 1e7), round(where.lon * 1e7), 0, 0.0, 0.0, 0.0, [1, 0, 0, 0],
+        0.0, 0.0, 0.0,
+    )  # fmt: skip
+    service._lead_home_heard(home)
+    service._mission_step(6.0, None, [], [], {}, set(), (0.0, 0.0))
+    going = mission.model._going
+    assert going is not None and going == pytest.approx((-40.0, 120.0), abs=0.01)  # (x, y)
+    heartbeat(11)  # (RTL again: no change, home known: not asked)
+    assert asked() == 2
+    heartbeat(10)  # (AUTO again: no mission read, no waypoint to drive back to)
+    service._mission_step(7.0, None, [], [], {}, set(), (0.0, 0.0))
+    assert mission.model.drive is ConvoyDrive.MISSION and mission.model._going is None
+    assert mission.model._rejoin is None
+    events = [e for e in service.events if "ground vehicle 60 in RTL" in e]
+    assert events and "not known yet" in events[0], events

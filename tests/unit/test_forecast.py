@@ -427,6 +427,60 @@ def test_driven_otherwise_its_plan_is_set_aside_and_its_speed_not_learnt() -> No
     assert not keeps._driven  # (a driver's speeds are not the rover's)
 
 
+def test_sent_home_it_is_forecast_straight_there_and_standing_whatever_its_route() -> None:
+    dt = np.arange(0.0, 200.0, 1.0)
+    model = _driven([(10.0, 8.0)])  # (along STRAIGHT, x = 80 m, at 8 m/s)
+    est = model.estimate
+    assert est is not None
+    model.set_drive(ConvoyDrive.HOME, (est.east - 300.0, est.north + 400.0))
+    x, y = model.positions(est.t + dt)
+    far = np.hypot(x - est.east, y - est.north)
+    assert far[10] == pytest.approx(80.0) and far[60] == pytest.approx(480.0)  # (8 m/s)
+    assert np.allclose((x - est.east) * 400.0, (y - est.north) * -300.0)  # (straight)
+    assert x[100] == pytest.approx(est.east - 300.0) and y[199] == pytest.approx(est.north + 400.0)
+    assert model.motion is not None and model.motion.on_route is False
+    assert model.driving_off(est.t + dt, 1.5, 1.0) is None
+    assert model.stopping_short(est.t + dt, 0.04, 5.0) is None
+    # Home not known: as off its route, from its own velocity; back in AUTO, its route.
+    model.set_drive(ConvoyDrive.HOME)
+    x, _ = model.positions(est.t + dt)
+    assert x[10] == pytest.approx(est.east + est.ve * 10.0)
+    model.set_drive(ConvoyDrive.MISSION, (0.0, 0.0))  # (a destination only in HOME)
+    assert model._going is None
+
+
+def test_back_in_auto_after_rtl_it_drives_straight_to_its_waypoint_then_its_route_on() -> None:
+    """The waypoint it was driving to is found on the pass it was driving (the route
+    crosses it again later), and a hold planned there is stood before it drives on."""
+    xs = np.array([0.0, 500.0, 1000.0, 1000.0, 500.0, 500.0])  # (east) crossing (500, 0)
+    ys = np.array([0.0, 0.0, 0.0, 500.0, 500.0, -500.0])  # (north) at 500 m and 2500 m
+    road = Road.from_points(xs, ys)
+    model = ConvoyModel(road)
+    model.set_route(road, holds=[(road.project(500.0, 0.0, 100.0), 20.0)])
+    for t in range(38):  # (east at 8 m/s to 296 m)
+        model.observe(ConvoyEstimate(float(t), 0.0, 8.0 * t, 0.0, 8.0))
+    model.set_drive(ConvoyDrive.HOME, (0.0, 0.0))
+    for t in range(38, 80):  # (home, then standing there)
+        east = max(0.0, 296.0 - 8.0 * (t - 37))
+        model.observe(ConvoyEstimate(float(t), 0.0, east, 0.0, -8.0 if east > 0.0 else 0.0))
+    model.set_drive(ConvoyDrive.MISSION, (500.0, 0.0))
+    est = model.estimate
+    assert est is not None and model._rejoin is not None
+    assert model._rejoin[2] == pytest.approx(500.0, abs=15.0)  # (not 2500 m on)
+    assert model.motion is not None and model.motion.on_route is False
+    dt = np.arange(0.0, 140.0, 1.0)
+    x, y = model.positions(est.t + dt)
+    # From a stand to 8 m/s at 1 m/s^2, 500 m east by about 66 s; 20 s held there; on east.
+    assert np.all(np.abs(y) < 1.0)
+    assert x[8] == pytest.approx(32.0, abs=1.0)
+    assert np.all(np.abs(x[72:85] - 500.0) < 15.0)
+    assert x[130] > 600.0 and np.all(np.diff(x) >= -1e-6)
+    # There: on its route again, its pass, its way.
+    for t in range(80, 150):
+        model.observe(ConvoyEstimate(float(t), 0.0, min(500.0, 0.5 * (t - 80) ** 2), 0.0, 8.0))
+    assert model._rejoin is None and model._s == pytest.approx(500.0, abs=30.0)
+
+
 def _rover(
     drive: list[tuple[float, float]], paces: list[tuple[float, float]], *, keeps: bool = True
 ) -> ConvoyModel:

@@ -31,12 +31,13 @@ def _heartbeat(
         (_AP, 5, ConvoyDrive.HELD, "LOITER"),
         (_AP, 0, ConvoyDrive.OTHER, "MANUAL"),
         (_AP, 15, ConvoyDrive.OTHER, "GUIDED"),
+        (_AP, 11, ConvoyDrive.HOME, "RTL"),
         (_AP, 12, ConvoyDrive.OTHER, "SMART_RTL"),
         (_AP, 99, ConvoyDrive.OTHER, "MODE(99)"),
         (_PX4, _px4(4, 4), ConvoyDrive.MISSION, "AUTO.MISSION"),
         (_PX4, _px4(4, 3), ConvoyDrive.HELD, "AUTO.LOITER"),
         (_PX4, _px4(1), ConvoyDrive.OTHER, "MANUAL"),
-        (_PX4, _px4(4, 5), ConvoyDrive.OTHER, "AUTO.RTL"),
+        (_PX4, _px4(4, 5), ConvoyDrive.HOME, "AUTO.RTL"),
     ],
 )
 def test_each_firmwares_modes_say_what_drives_the_rover(

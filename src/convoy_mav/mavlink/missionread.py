@@ -208,6 +208,7 @@ class MissionWatch:
         self.ardupilot = False  # (its item 0 is home)
         self._heard = False  # a HEARTBEAT: which firmware numbers the mission (home first)
         self._total: int | None = None  # as MISSION_CURRENT last said
+        self.current: int | None = None  # the item it drives to, as MISSION_CURRENT last said
         self._held: int | None = None  # items of the last read, as MISSION_CURRENT counts
         self._total_read: int | None = None  # MISSION_CURRENT's total when it was read
         self._stale = False  # the vehicle said it changed, or entered its mission mode
@@ -234,6 +235,7 @@ class MissionWatch:
             if msg.total != self._total and self._total is not None:
                 self._next_try = 0.0  # changed: read it now
             self._total = int(msg.total)
+            self.current = int(msg.seq)
         elif kind == "STATUSTEXT" and _CHANGED in str(msg.text).lower():
             self._stale, self._next_try = True, 0.0
         elif kind == "PARAM_VALUE" and msg.param_id in SPEED_PARAMS:

@@ -4,13 +4,16 @@ A rover driving its mission in AUTO keeps the mission's plan (its holds, its spe
 which the service reads as the convoy's (``[convoy] route = "mission"``). Switched to
 HOLD, or disarmed, it stands until its operator switches it back, and does not pull
 away at the end of a planned hold; back in AUTO it pulls away at once, seconds before
-its fixes can show it. In MANUAL, GUIDED or RTL something other than the mission
-drives it, at speeds the plan does not say. So the lead vehicle's mode tells the road
-model which forecast holds (``ConvoyModel.set_drive``). Modes by firmware:
+its fixes can show it. In RTL it drives straight home and stands there (ArduRover's
+``ModeRTL``), off its route. In MANUAL, GUIDED or SMART_RTL something other than the
+mission drives it, at speeds the plan does not say. So the lead vehicle's mode tells
+the road model which forecast holds (``ConvoyModel.set_drive``). Modes by firmware:
 
 - ArduRover (``Rover/mode.h``): AUTO 10 drives the mission, HOLD 4 stands (it cuts
-  the throttle: ``ModeHold::update``); LOITER 5 holds a point, a stand for a car.
-- PX4's rovers: AUTO.MISSION drives the mission, AUTO.LOITER is their hold.
+  the throttle: ``ModeHold::update``); LOITER 5 holds a point, a stand for a car; RTL
+  11 goes home (SMART_RTL 12 retraces its path: something else).
+- PX4's rovers: AUTO.MISSION drives the mission, AUTO.LOITER is their hold, AUTO.RTL
+  their return.
 - Other autopilots (a phone, a tracker sending positions): nothing is said (None).
 """
 
@@ -29,6 +32,7 @@ __all__ = ["RoverMode", "rover_mode"]
 
 _MISSION = frozenset({"AUTO", "AUTO.MISSION"})
 _STANDS = frozenset({"HOLD", "LOITER", "AUTO.LOITER"})
+_HOME = frozenset({"RTL", "AUTO.RTL"})
 _GROUND = frozenset({mavlink.MAV_TYPE_GROUND_ROVER, mavlink.MAV_TYPE_SURFACE_BOAT})
 
 
@@ -56,4 +60,6 @@ def rover_mode(heartbeat: Any) -> RoverMode | None:
         return RoverMode(ConvoyDrive.HELD, f"{name}, disarmed")
     if name in _MISSION:
         return RoverMode(ConvoyDrive.MISSION, name)
+    if name in _HOME:
+        return RoverMode(ConvoyDrive.HOME, name)
     return RoverMode(ConvoyDrive.HELD if name in _STANDS else ConvoyDrive.OTHER, name)

@@ -125,6 +125,8 @@ _TURNING_OFF_M = 25.0  # this far off the route and heading away from it ...
 _TURNING_OFF_RAD = math.radians(45.0)  # ... by more than this: it is leaving the route
 _STANDING_MPS = 1.5  # slower along the route, the convoy stands (3 m of GPS noise: ~1 m/s)
 _HOLD_NEAR_M = 20.0  # standing this near a planned hold, it is holding there
+_REJOINED_M = 25.0  # back to its route: this near the point it drives to, it is on it
+_TURN_ACCEL = 1.0  # m/s^2: turned round (RTL) or pulling away, it speeds up at this
 _HOLD_BEHIND_M = 5.0  # a hold not stood at is still ahead until this far behind
 HOLD_ACCEL = 1.0  # m/s^2: braking into a planned hold and pulling away from it
 _PLAN_STEP = 0.25  # s: the timetable's grid
@@ -219,6 +221,9 @@ class ConvoyModel:
         self._driven: deque[tuple[float, float]] = deque()  # (t, speed along) while driving
         self._learnt: tuple[float, float | None] = (math.nan, None)  # (t, cruise) cached
         self._drive: ConvoyDrive | None = None  # what drives it (None: not said)
+        self._going: tuple[float, float] | None = None  # (x, y) it drives straight to, home
+        self._rejoin: tuple[float, float, float] | None = None  # (x, y, arc): back to its route
+        self._left: tuple[float, float, float] | None = None  # (arc, x, y) where sent home
         self._steady: deque[tuple[float, float, float]] = deque()  # (t, arc, speed) driving
         self._kept: tuple[float, float] | None = None  # (from arc, m/s) in place of the plan's
         self.kept_log: list[tuple[float, float | None, float | None]] = []  # (t, kept, plan)
@@ -255,6 +260,8 @@ class ConvoyModel:
             return None
         if self.route is None:
             return RoadMotion(est.t, est.speed, None)
+        if self._going is not None or self._rejoin is not None:  # (off its route)
+            return RoadMotion(est.t, est.speed, False)
         off = self._off_road
         return RoadMotion(est.t, est.speed if off else self._along, not off)
 
@@ -281,6 +288,7 @@ class ConvoyModel:
         self._steady.clear()
         self._circuit = circuit
         self._holding, self._held = None, set()
+        self._rejoin = None  # (a point of the route before)
         self.route = route
         self._roads = (route, route.reversed())
         self._reversed = False
@@ -291,17 +299,42 @@ class ConvoyModel:
         if est is not None:
             self.observe(est)
 
-    def set_drive(self, drive: ConvoyDrive | None) -> None:
+    def set_drive(
+        self, drive: ConvoyDrive | None, destination: tuple[float, float] | None = None
+    ) -> None:
         """What drives the convoy's lead vehicle from now on (its mode; None: not said,
         as its mission). Back in its mission while standing at a planned hold, the hold
-        starts again, as ArduRover restarts the waypoint it stands at."""
+        starts again, as ArduRover restarts the waypoint it stands at. On its way home
+        (``HOME``) to ``destination`` (x, y: the lead's home), it is forecast to drive
+        straight there and stand, whatever its route (``ModeRTL``); not knowing where
+        home is, from its own velocity, as off its route. Back in its mission with a
+        ``destination`` (the waypoint it was driving to when sent home), straight to it
+        and on along the route from there, as ``AP_Mission::resume`` drives it."""
         was, self._drive = self._drive, drive
+        self._going = destination if drive is ConvoyDrive.HOME else None
+        self._rejoin = None
+        route, est = self.route, self._est  # (its mission's way: AUTO drives it so)
+        if drive is ConvoyDrive.HOME and was is not ConvoyDrive.HOME:
+            on = route is not None and not (self._off_road or self._reversed)
+            self._left = (self._s, est.east, est.north) if on and est is not None else None
+        if drive is ConvoyDrive.MISSION and destination is not None and route is not None:
+            self._rejoin = (*destination, self._rejoin_arc(route, destination))
         est = self._est
         back = drive is ConvoyDrive.MISSION and was not in (None, ConvoyDrive.MISSION)
         if back and est is not None and self._holding is not None:
             self._stood_since = est.t
         if back:  # (a speed told is gone: ArduRover drives WP_SPEED again, seen anew)
             self._keep(None, math.nan if est is None else est.t)
+
+    def _rejoin_arc(self, road: Road, point: tuple[float, float]) -> float:
+        """Where along ``road`` the waypoint ``point`` it drives back to is: on the pass
+        it was driving when sent home (a road that comes back along itself passes the
+        same point more than once), within the straight distance to it of where it left."""
+        left = self._left
+        if left is None:
+            return road.project(*point, None)
+        arc, x, y = left
+        return road.project(*point, arc, window=math.dist((x, y), point) + _REJOINED_M)
 
     @property
     def drive(self) -> ConvoyDrive | None:
@@ -312,7 +345,7 @@ class ConvoyModel:
     def _plan_holds(self) -> bool:
         """The convoy keeps its plan: it drives its mission, or stands where it was told
         to (it will drive its mission on from there), or nobody said otherwise."""
-        return self._drive is not ConvoyDrive.OTHER
+        return self._drive not in (ConvoyDrive.OTHER, ConvoyDrive.HOME)
 
     def observe(self, est: ConvoyEstimate) -> None:
         """Fold in a fresh estimate (stale ones say nothing new: skip them)."""
@@ -320,6 +353,15 @@ class ConvoyModel:
             return
         first = self._est is None
         self._est = est
+        rejoin = self._rejoin
+        if (
+            rejoin is not None
+            and math.hypot(est.east - rejoin[0], est.north - rejoin[1]) < _REJOINED_M
+        ):
+            # At the point it drove back to: on its route again, there, its way.
+            self._rejoin, self._s, self._reversed = None, rejoin[2], False
+            self._lost_since = self._off_since = None
+            self.left_route = self._leaving = False
         route = self.road
         if route is None:
             return
@@ -505,10 +547,64 @@ class ConvoyModel:
         if est is None:
             return np.zeros(len(times)), np.zeros(len(times))
         dt = _since(times, est)
+        if self._going is not None:
+            return self._homeward(est, dt)
         road = self.road
+        if self._rejoin is not None and self.route is not None:
+            return self._rejoining(est, dt, self.route, self._rejoin)
         if road is None or self._off_road:
             return est.east + est.ve * dt, est.north + est.vn * dt
         x, y, _, _ = road.arrays(self._lapped(road, self._arcs(dt)))
+        return x, y
+
+    def _homeward(self, est: ConvoyEstimate, dt: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Straight to where it is going (``set_drive``), and standing there."""
+        assert self._going is not None
+        gx, gy = self._going
+        dx, dy = gx - est.east, gy - est.north
+        far = math.hypot(dx, dy)
+        if far < 1e-6:
+            return np.full(len(dt), gx), np.full(len(dt), gy)
+        share = np.minimum(self._gone(est, dt), far) / far
+        return est.east + dx * share, est.north + dy * share
+
+    def _gone(self, est: ConvoyEstimate, dt: FloatArray) -> FloatArray:
+        """Metres driven in ``dt`` s on a way of its own (home, or back to its route):
+        from its speed now up to the last it drove at, at ``_TURN_ACCEL`` (it turns
+        round, or pulls away from a stand)."""
+        v0 = est.speed
+        top = max(v0, self._cruise or 0.0)
+        ramp = (top - v0) / _TURN_ACCEL
+        up = v0 * dt + 0.5 * _TURN_ACCEL * dt**2
+        return np.where(dt < ramp, up, v0 * ramp + 0.5 * _TURN_ACCEL * ramp**2 + top * (dt - ramp))
+
+    def _rejoining(
+        self, est: ConvoyEstimate, dt: FloatArray, road: Road, rejoin: tuple[float, float, float]
+    ) -> tuple[FloatArray, FloatArray]:
+        """Straight to the point of its route it drives back to (``_gone``), then on along
+        the route from there by its plan's timetable (``_arcs``: a hold there stood, its
+        speeds driven), as if it were there now at the speed it gets there at."""
+        gx, gy, arc = rejoin
+        dx, dy = gx - est.east, gy - est.north
+        far = max(math.hypot(dx, dy), 1e-6)
+        gone = self._gone(est, dt)
+        share = np.minimum(gone, far) / far
+        x, y = est.east + dx * share, est.north + dy * share
+        past = gone > far
+        if not past.any():
+            return x, y
+        grid = np.arange(0.0, float(dt[-1]) + _PLAN_STEP, _PLAN_STEP)
+        reach = self._gone(est, grid)
+        k = min(int(np.searchsorted(reach, far)), len(grid) - 1)
+        arrive = float(grid[k])
+        speed = float(reach[k] - reach[k - 1]) / _PLAN_STEP if k > 0 else est.speed
+        saved = (self._s, self._along, self._holding, self._reversed)
+        self._s, self._along, self._holding, self._reversed = arc, speed, None, False
+        try:
+            arcs = self._arcs(np.maximum(dt[past] - arrive, 0.0))
+        finally:
+            self._s, self._along, self._holding, self._reversed = saved
+        x[past], y[past], _, _ = road.arrays(self._lapped(road, arcs))
         return x, y
 
     def _hold_here(self) -> tuple[float, float] | None:
@@ -749,6 +845,8 @@ class ConvoyModel:
         route = self.road
         if est is None or route is None or self._off_road or self._along < _MOVING_MPS:
             return None
+        if self._going is not None or self._rejoin is not None:
+            return None
         s = self._s + self.ahead(_since(times, est))
         ahead = np.arange(self._s, float(s[-1]) + short_m, _CORNER_STEP_M)
         _, _, _, k = route.arrays(self._lapped(route, ahead, end=False))
@@ -784,6 +882,8 @@ class ConvoyModel:
         route = self.road
         cruise = self._cruise
         if est is None or route is None or self._off_road or cruise is None:
+            return None
+        if self._going is not None or self._rejoin is not None:
             return None
         if self._along >= below_mps:
             return None

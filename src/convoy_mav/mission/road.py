@@ -689,12 +689,16 @@ class RoadMission(Roster):
             self.recording.add("set_route", (route, *plan) if any(plan) else (route,))
         self.model.set_route(route, holds, circuit=circuit, speeds=speeds, keeps_speed=keeps_speed)
 
-    def set_drive(self, drive: ConvoyDrive | None, t: float) -> None:
+    def set_drive(
+        self, drive: ConvoyDrive | None, t: float, destination: tuple[float, float] | None = None
+    ) -> None:
         """What drives the convoy's lead vehicle from mission time ``t`` on, as its mode
-        says (``ConvoyModel.set_drive``): its mission, a stand it is told to, or else."""
+        says (``ConvoyModel.set_drive``): its mission, a stand it is told to, its way
+        home to ``destination`` (x, y), or else."""
         if self.recording is not None:
-            self.recording.add("set_drive", (drive, t))
-        self.model.set_drive(drive)
+            home = () if destination is None else (destination,)
+            self.recording.add("set_drive", (drive, t, *home))
+        self.model.set_drive(drive, destination)
 
     def join(self, uav: int, north: float, east: float, yaw: float, t: float) -> list[MissionEvent]:
         """``join_many`` for one UAV."""

@@ -34,6 +34,8 @@ from convoy_mav.types import ConvoyDrive
 __all__ = ["RoadRun", "chord_velocity", "fly_road"]
 
 FloatArray = npt.NDArray[np.float64]
+Told = tuple[float, ConvoyDrive, tuple[float, float] | None]
+"""(time, drive, where): sent home (RTL) to ``where``, or back to its route there."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -102,7 +104,7 @@ def fly_road(
     circuit: bool = False,
     speeds: Sequence[tuple[float, float]] = (),
     keeps_speed: bool = False,
-    drives: Sequence[tuple[float, ConvoyDrive]] = (),
+    drives: Sequence[tuple[float, ConvoyDrive] | Told] = (),
 ) -> RoadRun:
     """Fly ``uavs`` UAVs over a convoy whose fixes are (t, north, east).
 
@@ -140,7 +142,8 @@ def fly_road(
             rover in AUTO drives its default (``ConvoyModel.cruise``).
         drives: What drives the lead vehicle from each time on (time, drive), as its
             mode says (``RoadMission.set_drive``), told the mission at the first step
-            at or after it: an operator's HOLD, AUTO again.
+            at or after it: an operator's HOLD, AUTO again; (time, drive, where) with
+            where it goes (``Told``: RTL's home, the waypoint AUTO drives back to).
     """
     ts = np.asarray(t, dtype=np.float64)
     fn, fe = np.asarray(north, dtype=np.float64), np.asarray(east, dtype=np.float64)
@@ -173,7 +176,8 @@ def fly_road(
     told = sorted(drives, key=lambda d: d[0])
     for now in step_times.tolist():
         while told and told[0][0] <= now:
-            mission.set_drive(told.pop(0)[1], now)
+            _, drive, *where = told.pop(0)
+            mission.set_drive(drive, now, *where)
         while k < len(ts) and ts[k] <= now:
             velocity = None if vn is None or ve is None else (float(vn[k]), float(ve[k]))
             tracker.update(float(ts[k]), float(fn[k]), float(fe[k]), velocity=velocity)

@@ -45,7 +45,7 @@ from pymavlink.dialects.v20 import common as mavlink
 from convoy_mav.mavlink.missionread import MissionItem
 from convoy_mav.tracks.plannedroute import SAME_POINT_DEG, PlannedRoute, closed_lap
 
-__all__ = ["mission_route"]
+__all__ = ["driven_to", "mission_route"]
 
 _GLOBAL_FRAMES = frozenset(
     {
@@ -67,6 +67,13 @@ _DRIVEN_TO = frozenset(
     }
 )
 _HOLDS_P1 = frozenset({mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_CMD_NAV_LOITER_TIME})
+
+
+def driven_to(item: MissionItem) -> tuple[float, float] | None:
+    """Where a rover drives to for ``item`` (lat, lon degrees): a waypoint's or a
+    loiter's position in a global frame; None for any other item."""
+    placed = item.command in _DRIVEN_TO and item.frame in _GLOBAL_FRAMES
+    return (item.lat, item.lon) if placed and (item.lat, item.lon) != (0.0, 0.0) else None
 
 
 def mission_route(
