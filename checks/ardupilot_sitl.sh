@@ -58,6 +58,8 @@
 # time AT s; drive --speed-at): the service sees the speed it keeps (planner.convoy_kept).
 # ROVER_MOVES="AT:METRES ..." has its operator move a waypoint ahead and upload the
 # mission again as it drives (drive --move-at): the service reads it again.
+# ROVER_RTL="AT:FOR ..." has its operator call it home (RTL at boot time AT s, AUTO
+# again FOR s later; drive --rtl-at): the service forecasts it home and back.
 #
 # SITL_DIR is an ArduPilot tree with build/sitl/bin/arducopter and arduplane built
 # (see the project's notes on building SITL; it is not part of `make test`).
@@ -152,6 +154,7 @@ PY
     for h in ${ROVER_HOLDS:-}; do holds+=(--hold "$h"); done  # (its operator's HOLDs)
     for v in ${ROVER_SPEEDS:-}; do holds+=(--speed-at "$v"); done  # (... and speeds)
     for m in ${ROVER_MOVES:-}; do holds+=(--move-at "$m"); done  # (... and its edits)
+    for r in ${ROVER_RTL:-}; do holds+=(--rtl-at "$r"); done  # (... and its RTLs)
     "$py" checks/rover_mission.py drive tcp:127.0.0.1:5962 "$out/road.csv" "$mission_speed" \
       "${holds[@]}" >"$out/rover_drive.log" 2>&1 &
     pids+=($!)

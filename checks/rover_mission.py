@@ -32,6 +32,8 @@ it a speed: DO_CHANGE_SPEED by command at boot time AT s; each prints the rover'
 and its speed 10-20 s later. ``--move-at AT:METRES`` (repeatable) is its operator moving
 a waypoint three ahead of the one it drives to METRES east and uploading the mission
 again at boot time AT s, as it drives; each prints the answer and the texts it sent.
+``--rtl-at AT:FOR`` (repeatable) is its operator calling it home: RTL at boot time AT s,
+AUTO again FOR s later; each prints how far from home it stood and its speed in AUTO.
 
 ``compare`` sets the drive of a real rover (its GLOBAL_POSITION_INT in a tlog, from when
 it first moves to when it last does) beside the mock's rover driving the same road as
@@ -69,6 +71,7 @@ from sitl_mock.mission import DEFAULT_TOLERANCE_M, thin
 MISSION = mavlink.MAV_MISSION_TYPE_MISSION
 ROVER_AUTO = 10  # ArduRover's custom modes
 ROVER_HOLD = 4
+ROVER_RTL = 11
 REL = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
 FIRST = ((-35.3620, 149.1650), (-35.3600, 149.1650), (-35.3600, 149.1680))
 SECOND = (*FIRST, (-35.3620, 149.1680), (-35.3630, 149.1660))
@@ -199,6 +202,7 @@ def drive(
     holds: Sequence[tuple[float, float]] = (),
     speeds: Sequence[tuple[float, float]] = (),
     moves: Sequence[tuple[float, float]] = (),
+    rtls: Sequence[tuple[float, float]] = (),
 ) -> int:
     """Upload the road, AUTO, arm (see the module's ``drive``)."""
     link = mavutil.mavlink_connection(connection, source_system=250, source_component=190)
@@ -214,7 +218,7 @@ def drive(
         print("the rover refused to arm")
         return 1
     print(f"{time.strftime('%H:%M:%S')} armed in AUTO", flush=True)
-    return _operator(link, target, holds, speeds, moves, items)
+    return _operator(link, target, holds, speeds, moves, items, rtls)
 
 
 def hail(link: Any) -> tuple[int, int] | None:
@@ -308,11 +312,13 @@ def _operator(
     speeds: Sequence[tuple[float, float]] = (),
     moves: Sequence[tuple[float, float]] = (),
     items: list[Any] | None = None,
+    rtls: Sequence[tuple[float, float]] = (),
 ) -> int:
     """HOLD at each (boot time, seconds), then AUTO; DO_CHANGE_SPEED at each (boot time,
     m/s); the mission uploaded again with a waypoint ahead moved at each (boot time,
-    metres east); what the rover did, printed."""
-    if not holds and not speeds and not moves:
+    metres east); RTL at each (boot time, seconds), then AUTO; what the rover did,
+    printed."""
+    if not holds and not speeds and not moves and not rtls:
         return 0
     link.mav.request_data_stream_send(*target, mavlink.MAV_DATA_STREAM_POSITION, 4, 1)
     frame: LocalFrame | None = None
@@ -332,7 +338,9 @@ def _operator(
     flag = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
     plan = sorted([(at, "hold", seconds) for at, seconds in holds] +
                   [(at, "speed", mps) for at, mps in speeds] +
-                  [(at, "move", metres) for at, metres in moves])  # fmt: skip
+                  [(at, "move", metres) for at, metres in moves] +
+                  [(at, "rtl", seconds) for at, seconds in rtls])  # fmt: skip
+    home = (0.0, 0.0)  # (north, east: the frame's origin is its first fix, where it armed)
     for at, kind, value in plan:
         t, n0, e0, v0 = fix()
         while t < at:
@@ -365,6 +373,18 @@ def _operator(
             print(f"DO_CHANGE_SPEED {value:.1f} m/s at {at:.0f} s (boot), {v0:.1f} m/s: "
                   f"{said}; 10-20 s later {min(speeds_seen[-10:]):.1f}-"
                   f"{max(speeds_seen[-10:]):.1f} m/s", flush=True)  # fmt: skip
+            continue
+        if kind == "rtl":
+            link.mav.set_mode_send(target[0], flag, ROVER_RTL)
+            while t < at + value:
+                t, n, e, v = fix()
+            off = math.dist((n, e), home)
+            link.mav.set_mode_send(target[0], flag, ROVER_AUTO)
+            while t < at + value + 15.0:
+                t, _, _, v_auto = fix()
+            print(f"RTL at {at:.0f} s (boot), {v0:.1f} m/s, {math.dist((n0, e0), home):.0f} m "
+                  f"from home: {off:.1f} m from it at {at + value:.0f} s, {v:.1f} m/s; AUTO: "
+                  f"{v_auto:.1f} m/s 15 s later", flush=True)  # fmt: skip
             continue
         link.mav.set_mode_send(target[0], flag, ROVER_HOLD)
         stood: tuple[float, float] | None = None  # (boot s, metres run on) once standing
@@ -523,6 +543,10 @@ def main() -> int:
         help="at the rover's boot time AT s, upload the mission again with a waypoint "
         "three ahead moved METRES east (repeatable)",
     )  # fmt: skip
+    d.add_argument(
+        "--rtl-at", action="append", default=[], type=_pair, metavar="AT:FOR",
+        help="RTL at the rover's boot time AT s, AUTO again FOR s later (repeatable)",
+    )  # fmt: skip
     c = sub.add_parser("compare", help="a rover's drive in a tlog against the mock's rover")
     c.add_argument("tlog", help="the tlog of the rover's drive")
     c.add_argument("road", help="the CSV time,lat,lon it was sent down (``drive``)")
@@ -533,7 +557,10 @@ def main() -> int:
     if args.command == "compare":
         return compare(args.tlog, args.road, args.speed, args.accel, args.sysid)
     if args.command == "drive":
-        return drive(args.connection, args.road, args.speed, args.hold, args.speed_at, args.move_at)
+        return drive(
+            args.connection, args.road, args.speed, args.hold, args.speed_at, args.move_at,
+            args.rtl_at,
+        )  # fmt: skip
     return read(args)
 
 

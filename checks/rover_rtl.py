@@ -34,10 +34,15 @@ from typing import Any
 
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import common as mavlink
-from rover_mission import ROVER_AUTO, hail, send_off, with_ardurover  # (checks/, beside this one)
+from rover_mission import (  # (checks/, beside this one)
+    ROVER_AUTO,
+    ROVER_RTL,
+    hail,
+    send_off,
+    with_ardurover,
+)
 
 HOME = (47.397742, 8.545594, 488.0)
-ROVER_RTL = 11
 LEG_M = 600.0
 CORNERS = ((0.0, 0.0), (0.0, LEG_M), (LEG_M, LEG_M), (LEG_M, 0.0))  # (north, east) m
 RTL_AT_NORTH = 200.0  # m up the second leg
