@@ -552,18 +552,17 @@ class ConvoyService:
         if len(self.convoy_modes) < _MODES_KEPT:
             self.convoy_modes.append((round(self.clock.now(), 1), mode.name))
         watch = self._mission_watch
+        driving = "drives its mission"
+        if back and where is not None and watch is not None:
+            driving += f", straight back to item {watch.current} of it first"
+        going = "drives home: forecast straight there, where it stands"
+        if self._lead_home is None:
+            going = "drives home, not known yet: forecast from its own velocity"
         what = {
-            ConvoyDrive.MISSION: "drives its mission"
-            + (
-                f", straight back to item {watch.current} of it first"
-                if back and where is not None and watch is not None
-                else ""
-            ),
+            ConvoyDrive.MISSION: driving,
             ConvoyDrive.HELD: "stands until its mode changes",
             ConvoyDrive.OTHER: "is driven otherwise: its mission's plan is set aside",
-            ConvoyDrive.HOME: "drives home: forecast straight there, where it stands"
-            if self._lead_home is not None
-            else "drives home, not known yet: forecast from its own velocity",
+            ConvoyDrive.HOME: going,
         }[mode.drive]
         since = "" if was is None else f" (was {was.name})"
         self._note(f"ground vehicle {sysid} in {mode.name}{since}: it {what}")

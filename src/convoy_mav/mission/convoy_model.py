@@ -319,7 +319,6 @@ class ConvoyModel:
             self._left = (self._s, est.east, est.north) if on and est is not None else None
         if drive is ConvoyDrive.MISSION and destination is not None and route is not None:
             self._rejoin = (*destination, self._rejoin_arc(route, destination))
-        est = self._est
         back = drive is ConvoyDrive.MISSION and was not in (None, ConvoyDrive.MISSION)
         if back and est is not None and self._holding is not None:
             self._stood_since = est.t
