@@ -236,6 +236,7 @@ class DemoResult:
             out["track_fixes_out_of_order"] = track.cleaning.out_of_order
             out["track_spikes_rejected"] = track.cleaning.spikes
             out["track_points_untimed"] = track.cleaning.untimed
+            out["track_points_unfixed"] = track.cleaning.unfixed
         out["truth_coverage_fraction"] = self.truth.fraction if self.truth else None
         out["truth_longest_gap_s"] = self.truth.longest_gap_s if self.truth else None
         return out

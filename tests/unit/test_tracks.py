@@ -444,6 +444,18 @@ def test_real_receiver_quirks_are_merged_and_counted_not_refused(tmp_path: Path)
     assert len(track.times) == 1 and track.cleaning.merged == 1
 
 
+def test_csv_rows_without_a_position_are_dropped_and_counted(tmp_path: Path) -> None:
+    """A logger's rows before its receiver had a fix: a time, no latitude or longitude
+    (empty or NaN); half a position is still an error."""
+    text = "time,lat,lon\n0,,\n1,nan,NaN\n2,47.0,8.0\n3,47.0001,8.0\n4,,\n"
+    track = load_track(_write(tmp_path, "convoy.csv", text))
+    assert track.times == (0.0, 1.0)  # (rebased: the first fix at 2 s)
+    assert track.cleaning.unfixed == 3 and track.cleaning.changed == 3
+    assert track.cleaning.summary() == "3 rows without a position dropped"
+    with pytest.raises(ValueError, match=r"no data rows with a position \(2 without\)"):
+        load_track(_write(tmp_path, "nofix.csv", "time,lat,lon\n0,,\n1,,\n"))
+
+
 def test_gpx_points_without_a_time_among_timed_ones_are_dropped_and_counted() -> None:
     """A point logged before the receiver knew the time, or added in an editor."""
     from convoy_mav.tracks.gpx import parse_gpx_track

@@ -39,17 +39,20 @@ class TrackCleaning:
         spikes: Single fixes dropped as spikes.
         untimed: Points dropped for having no time, among others that have one (a GPX
             point added in an editor, or logged before the receiver knew the time).
+        unfixed: Rows dropped for having a time but no position (empty or NaN
+            latitude and longitude: a logger's row before its receiver had a fix).
     """
 
     merged: int = 0
     out_of_order: int = 0
     spikes: int = 0
     untimed: int = 0
+    unfixed: int = 0
 
     @property
     def changed(self) -> int:
         """Fixes that did not make it into the track as recorded."""
-        return self.merged + self.out_of_order + self.spikes + self.untimed
+        return self.merged + self.out_of_order + self.spikes + self.untimed + self.unfixed
 
     def summary(self) -> str:
         """One line of what was done, for the operator ("" when nothing was)."""
@@ -60,6 +63,7 @@ class TrackCleaning:
                 (self.out_of_order, "stamped no later than the one before dropped"),
                 (self.spikes, "single-fix spikes dropped"),
                 (self.untimed, "points without a time dropped"),
+                (self.unfixed, "rows without a position dropped"),
             )
             if n
         ]

@@ -37,6 +37,7 @@ _COLUMN_NAMES = {
 _UNIT = re.compile(r"\s*[\(\[]\s*([^\)\]]*?)\s*[\)\]]\s*$")  # "time [s]", "Latitude (deg)"
 _MS_AFTER = 1e11  # a numeric time past this is POSIX milliseconds (1e11 s is year 5138)
 _DECIMAL_COMMA = re.compile(r"^[+-]?\d+,\d+$")
+_NO_FIX = frozenset({"", "nan"})  # a row's latitude and longitude both so: no position yet
 
 _Columns = tuple[int, int, int]  # (time, lat, lon) column; time -1: none
 
@@ -137,13 +138,19 @@ def parse_csv_track(lines: Iterable[str], name: str) -> GeoTrack:
     Raises:
         ValueError: A row is malformed; the message gives file and line. Repeated,
             backward and spiking fixes are merged or dropped and counted
-            (``GeoTrack.cleaning``), never refused.
+            (``GeoTrack.cleaning``), never refused; so are rows with no position
+            (latitude and longitude both empty or NaN, as a logger writes them
+            before its receiver has a fix).
     """
     times: list[float] = []
     lats: list[float] = []
     lons: list[float] = []
+    unfixed = 0
     iso: bool | None = None  # the file's kind of time, from its first row
     for lineno, cells, columns, scale in _data_rows(lines, name, ("time", "lat", "lon")):
+        if all(cells[i].strip().lower() in _NO_FIX for i in columns[1:]):
+            unfixed += 1
+            continue
         t_cell = cells[columns[0]]
         try:
             lat, lon = (float(cells[i]) for i in columns[1:])
@@ -168,10 +175,11 @@ def parse_csv_track(lines: Iterable[str], name: str) -> GeoTrack:
         lats.append(lat)
         lons.append(lon)
     if not times:
-        raise ValueError(f"{name}: no data rows (expected time,lat,lon)")
+        what = f" with a position ({unfixed} without)" if unfixed else ""
+        raise ValueError(f"{name}: no data rows{what} (expected time,lat,lon)")
     if not iso and scale == 1.0 and min(times) > _MS_AFTER:
         times = [t / 1000.0 for t in times]  # (POSIX milliseconds)
-    return GeoTrack.from_fixes(times, lats, lons, name, "csv")
+    return GeoTrack.from_fixes(times, lats, lons, name, "csv", unfixed=unfixed)
 
 
 def _is_number(text: str) -> bool:

@@ -89,12 +89,15 @@ class GeoTrack:
         fmt: str,
         *,
         untimed: int = 0,
+        unfixed: int = 0,
     ) -> GeoTrack:
         """A track from fixes as a receiver recorded them: repeated time stamps merged,
         backward ones and single-fix spikes dropped (``cleaning.clean_fixes``);
-        ``untimed``: points the parser dropped for having no time, counted."""
+        ``untimed``: points the parser dropped for having no time, ``unfixed`` for
+        having no position, counted."""
         (ts, la, lo), cleaning = clean_fixes(times, lats, lons)
-        return cls(ts, la, lo, source, fmt, cleaning=replace(cleaning, untimed=untimed))
+        cleaning = replace(cleaning, untimed=untimed, unfixed=unfixed)
+        return cls(ts, la, lo, source, fmt, cleaning=cleaning)
 
     @property
     def duration(self) -> float:
