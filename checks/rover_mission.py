@@ -305,6 +305,42 @@ def with_ardurover(
                 proc.wait()
 
 
+def check_main(
+    description: str,
+    run: Callable[[str], int],
+    *,
+    home: tuple[float, float, float],
+    instance: int,
+    wp_speed: float,
+    mock_port: int,
+    mock_speedup: float | None = None,
+) -> int:
+    """A rover check's command line: ``run`` against a running rover (``--connect``),
+    the mock's parked rover (``--mock``: ``sitl_mock`` on ``mock_port`` at ``home``), or
+    ArduRover SITL started for it (``with_ardurover``)."""
+    parser = argparse.ArgumentParser(description=description)
+    parser.add_argument("--connect", help="a running rover's MAVLink endpoint")
+    parser.add_argument("--mock", choices=("ardupilot",), help="start sitl_mock instead")
+    args = parser.parse_args()
+    if args.connect:
+        return run(args.connect)
+    if not args.mock:
+        return with_ardurover(run, instance=instance, wp_speed=wp_speed, home=home)
+    lat, lon, alt = home
+    speedup = [] if mock_speedup is None else ["--speedup", f"{mock_speedup:g}"]
+    mock = subprocess.Popen(
+        [sys.executable, "-m", "sitl_mock", "--aircraft", "0", "--ground", "1",
+         "--personality", args.mock, "--base-port", str(mock_port), "--ground-route",
+         "stationary", "--origin", f"{lat},{lon},{alt}", *speedup],
+    )  # fmt: skip
+    try:
+        time.sleep(1.0)
+        return run(f"udpout:127.0.0.1:{mock_port}")
+    finally:
+        mock.terminate()
+        mock.wait()
+
+
 def _operator(
     link: Any,
     target: tuple[int, int],

@@ -25,9 +25,7 @@ it). Run against both to set them side by side.
 
 from __future__ import annotations
 
-import argparse
 import math
-import subprocess
 import sys
 import time
 from typing import Any
@@ -37,9 +35,9 @@ from pymavlink.dialects.v20 import common as mavlink
 from rover_mission import (  # (checks/, beside this one)
     ROVER_AUTO,
     ROVER_RTL,
+    check_main,
     hail,
     send_off,
-    with_ardurover,
 )
 
 HOME = (47.397742, 8.545594, 488.0)
@@ -194,26 +192,10 @@ def run(connection: str) -> int:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--connect", help="a running rover's MAVLink endpoint")
-    parser.add_argument("--mock", choices=("ardupilot",), help="start sitl_mock instead")
-    args = parser.parse_args()
-    if args.connect:
-        return run(args.connect)
-    if args.mock:
-        lat, lon, alt = HOME
-        mock = subprocess.Popen(
-            [sys.executable, "-m", "sitl_mock", "--aircraft", "0", "--ground", "1",
-             "--personality", args.mock, "--base-port", "14797", "--ground-route", "stationary",
-             "--origin", f"{lat},{lon},{alt}", "--speedup", "5"],
-        )  # fmt: skip
-        try:
-            time.sleep(1.0)
-            return run("udpout:127.0.0.1:14797")
-        finally:
-            mock.terminate()
-            mock.wait()
-    return with_ardurover(run, instance=23, wp_speed=8, home=HOME)
+    return check_main(
+        __doc__.split("\n\n")[0], run, home=HOME, instance=23, wp_speed=8,
+        mock_port=14797, mock_speedup=5.0,
+    )  # fmt: skip
 
 
 if __name__ == "__main__":

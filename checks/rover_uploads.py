@@ -27,9 +27,7 @@ of ``make test``: it needs ArduPilot SITL (see the project's notes on building i
 
 from __future__ import annotations
 
-import argparse
 import math
-import subprocess
 import sys
 import time
 from typing import Any
@@ -39,9 +37,9 @@ from pymavlink.dialects.v20 import common as mavlink
 from rover_mission import (  # (checks/, beside this one)
     ROVER_AUTO,
     ROVER_HOLD,
+    check_main,
     hail,
     upload,
-    with_ardurover,
 )
 
 HOME = (47.397742, 8.545594, 488.0)
@@ -251,26 +249,10 @@ def run(connection: str) -> int:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--connect", help="a running rover's MAVLink endpoint")
-    parser.add_argument("--mock", choices=("ardupilot",), help="start sitl_mock instead")
-    args = parser.parse_args()
-    if args.connect:
-        return run(args.connect)
-    if args.mock:
-        lat, lon, alt = HOME
-        mock = subprocess.Popen(
-            [sys.executable, "-m", "sitl_mock", "--aircraft", "0", "--ground", "1",
-             "--personality", args.mock, "--base-port", "14795", "--ground-route", "stationary",
-             "--origin", f"{lat},{lon},{alt}"],
-        )  # fmt: skip
-        try:
-            time.sleep(1.0)
-            return run("udpout:127.0.0.1:14795")
-        finally:
-            mock.terminate()
-            mock.wait()
-    return with_ardurover(run, instance=22, wp_speed=4, home=HOME)
+    return check_main(
+        __doc__.split("\n\n")[0], run, home=HOME, instance=22, wp_speed=4,
+        mock_port=14795,
+    )  # fmt: skip
 
 
 if __name__ == "__main__":
