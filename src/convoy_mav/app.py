@@ -440,6 +440,9 @@ class ConvoyService:
         # Its home (x, y: east, north), where RTL drives it: asked for until heard, and
         # again each time it is sent home (ArduPilot resets home when it arms).
         self._lead_home: tuple[float, float] | None = None
+        # Asked at its heartbeats 1, 3, 6, 11, 20, 37, then every 33rd: one that never
+        # answers is not asked at each heartbeat of a long mission.
+        self._home_wait, self._home_gap = 0, 1
         self._mission_items: list[MissionItem] = []  # (its mission as last read)
         self._new_drives: deque[tuple[ConvoyDrive, tuple[float, float] | None]] = deque()
         self.convoy_modes: list[tuple[float, str]] = []
@@ -539,8 +542,14 @@ class ConvoyService:
         if mode is None:
             return
         homeward = mode.drive is ConvoyDrive.HOME and mode != self._lead_mode
+        if homeward:  # (its home may be new: ask at once)
+            self._home_wait, self._home_gap = 0, 1
         if (self._lead_home is None or homeward) and self._ground_links:
-            self._ground_links[0].send(_home_request(sysid))
+            if self._home_wait > 0:
+                self._home_wait -= 1
+            else:
+                self._ground_links[0].send(_home_request(sysid))
+                self._home_wait, self._home_gap = self._home_gap, min(2 * self._home_gap, 32)
         if mode == self._lead_mode:
             return
         was, self._lead_mode = self._lead_mode, mode

@@ -322,6 +322,14 @@ def test_a_lead_rover_sent_home_is_forecast_straight_to_the_home_it_says() -> No
     heartbeat(10)  # AUTO: home unknown, asked for
     heartbeat(11)  # RTL: asked again; no home to go to yet
     assert asked() == 2
+    asks = []
+    for beat in range(1, 80):  # (unanswered: asked less and less often)
+        before = asked()
+        heartbeat(11)
+        if asked() > before:
+            asks.append(beat)
+    assert asks == [2, 5, 10, 19, 36, 69]
+    n = asked()
     service._mission_step(5.0, None, [], [], {}, set(), (0.0, 0.0))
     assert mission.model.drive is ConvoyDrive.HOME and mission.model._going is None
     where = service.frame.to_geo(120.0, -40.0, 0.0)  # (north, east)
@@ -334,7 +342,7 @@ def test_a_lead_rover_sent_home_is_forecast_straight_to_the_home_it_says() -> No
     going = mission.model._going
     assert going is not None and going == pytest.approx((-40.0, 120.0), abs=0.01)  # (x, y)
     heartbeat(11)  # (RTL again: no change, home known: not asked)
-    assert asked() == 2
+    assert asked() == n
     heartbeat(10)  # (AUTO again: no mission read, no waypoint to drive back to)
     service._mission_step(7.0, None, [], [], {}, set(), (0.0, 0.0))
     assert mission.model.drive is ConvoyDrive.MISSION and mission.model._going is None
