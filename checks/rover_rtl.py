@@ -10,7 +10,8 @@ rover, sets RTL_SPEED 8 m/s, uploads a mission of an L (600 m east, then 600 m n
 600 m west, at 8 m/s by DO_CHANGE_SPEED) and sends it off in AUTO, then, as its
 operator:
 
-1. 200 m up the second leg, heading north away from home: RTL (SET_MODE). It must drive
+1. 200 m up the second leg, heading north away from home: RTL (SET_MODE). It must brake
+   on its way and turn round without a stop (20-45 m on, never under 1 m/s), drive
    home (its bearing from home, once at speed, steady), say "Reached destination" within
    WP_RADIUS of home and come to a stand there (within twice that), its
    MISSION_CURRENT still the item it was driving to (``sitl_mock.rtl``);
@@ -47,6 +48,10 @@ RTL_AT_NORTH = 200.0  # m up the second leg
 SPEED = 8.0  # m/s: the mission's DO_CHANGE_SPEED and RTL_SPEED (WP_SPEED may differ)
 WP_RADIUS = 2.0  # m: ArduRover's default
 STEADY_RAD = 0.02  # rad: a straight drive's bearing varies less
+# Sent home heading away at 8 m/s it brakes on its way at about 1 m/s^2 and turns round
+# without a stop (SITL: 29 m on, 1.65 m/s; what the service forecasts, ``ConvoyModel._way``).
+TURN_ON_M = (20.0, 45.0)
+TURN_SLOWEST_MPS = 1.0
 
 
 def _geo(north: float, east: float) -> tuple[int, int]:
@@ -151,9 +156,14 @@ def run(connection: str) -> int:
     ok = True
     bearings: list[float] = []
     seqs: set[int] = set()
+    told_at, told_t = drive.at, drive.t
+    turn = {"on": 0.0, "slowest": math.inf}  # (how far on its way it went, how slow)
 
     def home_reached(d: _Drive) -> bool:
         seqs.add(d.seq)
+        if d.t - told_t <= 20.0:
+            turn["on"] = max(turn["on"], d.at[0] - told_at[0])
+            turn["slowest"] = min(turn["slowest"], d.speed)
         if d.speed > 0.9 * SPEED and math.hypot(*d.at) < 500.0:
             bearings.append(_bearing((0.0, 0.0), d.at))
         return "Reached destination" in d.texts
@@ -165,6 +175,11 @@ def run(connection: str) -> int:
     spread = max(bearings) - min(bearings) if bearings else math.inf
     ok &= _check(spread < STEADY_RAD, f"straight home: bearing spread {spread:.4f} rad")
     ok &= _check(seqs == {driving_to}, f"MISSION_CURRENT while home-bound {sorted(seqs)}")
+    on, slowest = turn["on"], turn["slowest"]
+    ok &= _check(
+        TURN_ON_M[0] <= on <= TURN_ON_M[1] and slowest >= TURN_SLOWEST_MPS,
+        f"turns round braking on its way: {on:.1f} m on, slowest {slowest:.2f} m/s",
+    )
     t0 = drive.t
     drive.wait(lambda d: d.t > t0 + 10.0)
     stood_at, t0 = drive.at, drive.t

@@ -432,12 +432,23 @@ def test_sent_home_it_is_forecast_straight_there_and_standing_whatever_its_route
     model = _driven([(10.0, 8.0)])  # (along STRAIGHT, x = 80 m, at 8 m/s)
     est = model.estimate
     assert est is not None
-    model.set_drive(ConvoyDrive.HOME, (est.east - 300.0, est.north + 400.0))
+    model.set_drive(ConvoyDrive.HOME, (est.east + 300.0, est.north + 400.0))  # (53° off)
     x, y = model.positions(est.t + dt)
     far = np.hypot(x - est.east, y - est.north)
     assert far[10] == pytest.approx(80.0) and far[60] == pytest.approx(480.0)  # (8 m/s)
-    assert np.allclose((x - est.east) * 400.0, (y - est.north) * -300.0)  # (straight)
-    assert x[100] == pytest.approx(est.east - 300.0) and y[199] == pytest.approx(est.north + 400.0)
+    assert np.allclose((x - est.east) * 400.0, (y - est.north) * 300.0)  # (straight)
+    assert x[100] == pytest.approx(est.east + 300.0) and y[199] == pytest.approx(est.north + 400.0)
+    # Home behind it (127° off): on its way braking at 1 m/s² to 2 m/s (6 s, 30 m), round
+    # there, then straight home speeding up again at 1 m/s² to 8 m/s.
+    model.set_drive(ConvoyDrive.HOME, (est.east - 300.0, est.north + 400.0))
+    x, y = model.positions(est.t + dt)
+    assert np.allclose(y[:7], est.north) and x[3] == pytest.approx(est.east + 19.5)
+    turn = (est.east + 30.0, est.north)
+    assert (x[6], y[6]) == pytest.approx(turn)
+    far = np.hypot(x - turn[0], y - turn[1])
+    assert far[12] == pytest.approx(30.0) and far[62] == pytest.approx(430.0)
+    assert np.allclose((x[6:] - turn[0]) * 400.0, (y[6:] - turn[1]) * -330.0)  # (straight)
+    assert x[199] == pytest.approx(est.east - 300.0) and y[199] == pytest.approx(est.north + 400.0)
     assert model.motion is not None and model.motion.on_route is False
     assert model.driving_off(est.t + dt, 1.5, 1.0) is None
     assert model.stopping_short(est.t + dt, 0.04, 5.0) is None
@@ -447,6 +458,32 @@ def test_sent_home_it_is_forecast_straight_there_and_standing_whatever_its_route
     assert x[10] == pytest.approx(est.east + est.ve * 10.0)
     model.set_drive(ConvoyDrive.MISSION, (0.0, 0.0))  # (a destination only in HOME)
     assert model._going is None
+
+
+@pytest.mark.parametrize("route", [True, False])
+def test_braking_on_its_way_round_it_is_forecast_home_at_the_speed_it_drove(route: bool) -> None:
+    """Sent home heading away at 8 m/s (along its route, or with none), it brakes on its
+    way: each estimate then still turns it round, and after the turn it is forecast to
+    speed up to the 8 m/s it drove before it was sent home, not to the braking's speeds
+    it was seen at (ArduRover SITL: 8 m/s again 13 s after it was told)."""
+    model = _driven([(10.0, 8.0)])
+    if not route:
+        model = ConvoyModel(None)
+        for k in range(10):
+            model.observe(ConvoyEstimate(float(k), 0.0, 8.0 * k, 0.0, 8.0))
+    est = model.estimate
+    assert est is not None
+    home = (est.east - 500.0, 0.0)  # (behind it, along the route)
+    model.set_drive(ConvoyDrive.HOME, home)
+    t, east = est.t, est.east
+    for speed in (7.0, 6.0, 5.0, 4.0):  # (braking at 1 m/s^2, still heading away)
+        t, east = t + 1.0, east + speed + 0.5
+        model.observe(ConvoyEstimate(t, 0.0, east, 0.0, speed))
+    x, _ = model.positions(t + np.arange(0.0, 80.0, 1.0))
+    # 4 -> 2 m/s over 2 s (6 m on), round, then 2 -> 8 m/s over 6 s (30 m), then 8 m/s.
+    assert x.max() == pytest.approx(east + 6.0)
+    assert x[8] == pytest.approx(east + 6.0 - 30.0) and x[18] == pytest.approx(east - 104.0)
+    assert x[-1] == pytest.approx(home[0])
 
 
 def test_back_in_auto_after_rtl_it_drives_straight_to_its_waypoint_then_its_route_on() -> None:

@@ -127,6 +127,8 @@ _STANDING_MPS = 1.5  # slower along the route, the convoy stands (3 m of GPS noi
 _HOLD_NEAR_M = 20.0  # standing this near a planned hold, it is holding there
 _REJOINED_M = 25.0  # back to its route: this near the point it drives to, it is on it
 _TURN_ACCEL = 1.0  # m/s^2: turned round (RTL) or pulling away, it speeds up at this
+_TURN_ROUND_RAD = math.radians(60.0)  # its way this far off its heading: it turns round ...
+_TURN_ROUND_MPS = 2.0  # ... braking at _TURN_ACCEL along its heading to this first
 _HOLD_BEHIND_M = 5.0  # a hold not stood at is still ahead until this far behind
 HOLD_ACCEL = 1.0  # m/s^2: braking into a planned hold and pulling away from it
 _PLAN_STEP = 0.25  # s: the timetable's grid
@@ -214,6 +216,7 @@ class ConvoyModel:
         self._s = 0.0  # arc length on the route
         self._along = 0.0  # speed along the route
         self._cruise: float | None = None  # the last speed along it while driving
+        self._way_top = 0.0  # m/s: its speed (or cruise) when sent home: its own way's top
         self._holds: tuple[tuple[float, float], ...] = ()  # planned: (arc on route, s)
         self._circuit = False  # the route is one lap of a circuit driven round and round
         self._paces: tuple[tuple[float, float], ...] = ()  # planned: (arc on route, m/s on)
@@ -317,6 +320,7 @@ class ConvoyModel:
         if drive is ConvoyDrive.HOME and was is not ConvoyDrive.HOME:
             on = route is not None and not (self._off_road or self._reversed)
             self._left = (self._s, est.east, est.north) if on and est is not None else None
+            self._way_top = max(0.0 if est is None else est.speed, self._cruise or 0.0)
         if drive is ConvoyDrive.MISSION and destination is not None and route is not None:
             self._rejoin = (*destination, self._rejoin_arc(route, destination))
         back = drive is ConvoyDrive.MISSION and was not in (None, ConvoyDrive.MISSION)
@@ -391,8 +395,8 @@ class ConvoyModel:
             and off > _TURNING_OFF_M
             and along < est.speed * math.cos(_TURNING_OFF_RAD)
         )
-        if self._along >= _CRUISING_MPS:
-            self._cruise = self._along
+        if self._along >= _CRUISING_MPS and self._going is None and self._rejoin is None:
+            self._cruise = self._along  # (not off its route on a way of its own)
         if self._along >= _STANDING_MPS:
             self._stood_since = None
             if self._holding is not None:  # pulled away: that hold is done
@@ -557,22 +561,49 @@ class ConvoyModel:
         return x, y
 
     def _homeward(self, est: ConvoyEstimate, dt: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """Straight to where it is going (``set_drive``), and standing there."""
+        """Its own way to where it is going (``set_drive``), and standing there."""
         assert self._going is not None
-        gx, gy = self._going
-        dx, dy = gx - est.east, gy - est.north
-        far = math.hypot(dx, dy)
-        if far < 1e-6:
-            return np.full(len(dt), gx), np.full(len(dt), gy)
-        share = np.minimum(self._gone(est, dt), far) / far
-        return est.east + dx * share, est.north + dy * share
+        x, y, _, _ = self._way(est, self._going, dt)
+        return x, y
 
-    def _gone(self, est: ConvoyEstimate, dt: FloatArray) -> FloatArray:
+    def _way(
+        self, est: ConvoyEstimate, goal: tuple[float, float], dt: FloatArray
+    ) -> tuple[FloatArray, FloatArray, FloatArray, float]:
+        """Where (x, y) a convoy driving its own way to ``goal`` is ``dt`` s on, how far
+        along that way, and its length. Heading more than ``_TURN_ROUND_RAD`` away from
+        the goal, it first brakes along its heading to ``_TURN_ROUND_MPS`` and turns there,
+        as ArduRover SITL sent home 111° off its heading at 8 m/s did (braking at about
+        1 m/s², through the turn at 1.7 m/s, 29 m on; the forecast straight home from
+        where it was told was 60-90 m off it 5-10 s on); then straight there (``_gone``)."""
+        gx, gy = goal
+        v0, x0, y0 = est.speed, est.east, est.north
+        brake_s = brake_m = 0.0
+        if v0 > _TURN_ROUND_MPS:
+            heading = math.atan2(est.vn, est.ve)
+            off = math.remainder(math.atan2(gy - y0, gx - x0) - heading, math.tau)
+            if abs(off) > _TURN_ROUND_RAD:
+                brake_s = (v0 - _TURN_ROUND_MPS) / _TURN_ACCEL
+                brake_m = 0.5 * (v0 + _TURN_ROUND_MPS) * brake_s
+        ux, uy = (est.ve / v0, est.vn / v0) if brake_m > 0.0 else (0.0, 0.0)
+        tx, ty = x0 + ux * brake_m, y0 + uy * brake_m  # (where it turns)
+        dx, dy = gx - tx, gy - ty
+        far = math.hypot(dx, dy)
+        braking = dt < brake_s
+        early = np.minimum(dt, brake_s)
+        along = v0 * early - 0.5 * _TURN_ACCEL * early**2
+        v1 = _TURN_ROUND_MPS if brake_m > 0.0 else v0
+        turned = self._gone(v1, np.maximum(dt - brake_s, 0.0))
+        share = np.minimum(turned, far) / max(far, 1e-6)
+        x = np.where(braking, x0 + ux * along, tx + dx * share)
+        y = np.where(braking, y0 + uy * along, ty + dy * share)
+        return x, y, np.where(braking, along, brake_m + turned), brake_m + max(far, 1e-6)
+
+    def _gone(self, v0: float, dt: FloatArray) -> FloatArray:
         """Metres driven in ``dt`` s on a way of its own (home, or back to its route):
-        from its speed now up to the last it drove at, at ``_TURN_ACCEL`` (it turns
-        round, or pulls away from a stand)."""
-        v0 = est.speed
-        top = max(v0, self._cruise or 0.0)
+        from ``v0`` up to the last speed it drove at (before it was sent home, whatever
+        it braked to for the turn round), at ``_TURN_ACCEL`` (it turns round, or pulls
+        away from a stand)."""
+        top = max(v0, self._cruise or 0.0, self._way_top)
         ramp = (top - v0) / _TURN_ACCEL
         up = v0 * dt + 0.5 * _TURN_ACCEL * dt**2
         return np.where(dt < ramp, up, v0 * ramp + 0.5 * _TURN_ACCEL * ramp**2 + top * (dt - ramp))
@@ -580,20 +611,16 @@ class ConvoyModel:
     def _rejoining(
         self, est: ConvoyEstimate, dt: FloatArray, road: Road, rejoin: tuple[float, float, float]
     ) -> tuple[FloatArray, FloatArray]:
-        """Straight to the point of its route it drives back to (``_gone``), then on along
-        the route from there by its plan's timetable (``_arcs``: a hold there stood, its
-        speeds driven), as if it were there now at the speed it gets there at."""
+        """Its own way to the point of its route it drives back to (``_way``), then on
+        along the route from there by its plan's timetable (``_arcs``: a hold there stood,
+        its speeds driven), as if it were there now at the speed it gets there at."""
         gx, gy, arc = rejoin
-        dx, dy = gx - est.east, gy - est.north
-        far = max(math.hypot(dx, dy), 1e-6)
-        gone = self._gone(est, dt)
-        share = np.minimum(gone, far) / far
-        x, y = est.east + dx * share, est.north + dy * share
+        x, y, gone, far = self._way(est, (gx, gy), dt)
         past = gone > far
         if not past.any():
             return x, y
         grid = np.arange(0.0, float(dt[-1]) + _PLAN_STEP, _PLAN_STEP)
-        reach = self._gone(est, grid)
+        _, _, reach, _ = self._way(est, (gx, gy), grid)
         k = min(int(np.searchsorted(reach, far)), len(grid) - 1)
         arrive = float(grid[k])
         speed = float(reach[k] - reach[k - 1]) / _PLAN_STEP if k > 0 else est.speed
