@@ -356,6 +356,7 @@ class ConvoyService:
         self._replans_late_t: float | None = None  # last look that found re-plans late
         # convoy_fast, convoy_outruns in force: since when the convoy is slow (None: fast)
         self._speed_alarms: dict[str, float | None] = {}
+        self._astray = False  # the convoy on its way home drives elsewhere (as last said)
         self._warned: set[str] = set()  # what ``_warn_once`` has warned of
         self._setpoints_late_t: float | None = None  # last look that found rounds late
         self.streamer: SetpointStreamer | None = None  # (while the mission flies)
@@ -928,6 +929,23 @@ class ConvoyService:
         self._speed_alarm(t, "convoy_fast", ratio, FAST_CONVOY_RATIO)
         self._speed_alarm(t, "convoy_outruns", ratio, top)
 
+    def _check_convoy_way(self) -> None:
+        """Say when the convoy sent home (or back to its route) is seen to drive elsewhere
+        past its turn round (``ConvoyModel.astray``: a rally point nearer than home, a
+        home moved, SMART_RTL's way back read as RTL), and when it heads there again."""
+        mission = self.mission
+        if not isinstance(mission, RoadMission) or mission.model.astray == self._astray:
+            return
+        self._astray = mission.model.astray
+        who = f"ground vehicle {self._lead_id}"
+        if self._astray:
+            self._note(
+                f"{who} drives elsewhere than it was forecast to (a rally point nearer than "
+                "home, or a home moved?): forecast from its own velocity"
+            )
+        else:
+            self._note(f"{who} heads where it was forecast to again")
+
     def _speed_alarm(self, t: float, kind: str, ratio: float, bound: float) -> None:
         """Raise ``kind`` at ``bound`` (a speed ratio); clear it once the convoy has been
         below 0.9 of that for ``_FAST_CLEARS_AFTER_S``: in city traffic the recorded drive
@@ -1488,6 +1506,7 @@ class ConvoyService:
             last = now
             await self._control_step(t)
             self._check_convoy_speed(t)
+            self._check_convoy_way()
             if t >= next_publish:
                 next_publish = t + self._publish_every
                 self._publish_state(t)

@@ -349,3 +349,9 @@ def test_a_lead_rover_sent_home_is_forecast_straight_to_the_home_it_says() -> No
     assert mission.model._rejoin is None
     events = [e for e in service.events if "ground vehicle 60 in RTL" in e]
     assert events and "not known yet" in events[0], events
+    # Seen driving elsewhere (ConvoyModel.astray), and back on its way: each said once.
+    for astray in (True, True, False):
+        mission.model.astray = astray
+        service._check_convoy_way()
+    said = [e for e in service.events if "ground vehicle 60 " in e and "forecast to" in e]
+    assert len(said) == 2 and "drives elsewhere" in said[0] and "again" in said[1], said

@@ -486,6 +486,39 @@ def test_braking_on_its_way_round_it_is_forecast_home_at_the_speed_it_drove(rout
     assert x[-1] == pytest.approx(home[0])
 
 
+def test_sent_home_but_driving_elsewhere_it_is_forecast_from_its_own_velocity() -> None:
+    """Its turn round at 15 m/s (13 s of braking) is not taken for driving elsewhere;
+    driving on at 90° to its way home past it (a rally point nearer than home) is, after
+    5 s: it is forecast from its own velocity, and home again once it heads there."""
+    model = ConvoyModel(None)
+    for k in range(10):
+        model.observe(ConvoyEstimate(float(k), 0.0, 15.0 * k, 0.0, 15.0))
+    home = (-2000.0, 0.0)
+    model.set_drive(ConvoyDrive.HOME, home)
+    t, east, speed = 9.0, 135.0, 15.0
+    for _ in range(12):  # (braking on its way, still heading away: its turn round)
+        t, speed = t + 1.0, speed - 1.0
+        east += speed + 0.5
+        model.observe(ConvoyEstimate(t, 0.0, east, 0.0, speed))
+    assert not model.astray
+    north = 0.0
+    for k in range(15):  # (then north at 8 m/s: 90° off its way home)
+        t, north = t + 1.0, north + 8.0
+        model.observe(ConvoyEstimate(t, north, east, 8.0, 0.0))
+        # (looked at from 18 s after the RTL, its 13 s of braking + 5 s: 5 s more)
+        assert model.astray == (k >= 11), k
+    assert model.counters["astray"] == 1
+    x, y = model.positions(t + np.array([0.0, 10.0]))
+    assert (x[1], y[1]) == pytest.approx((east, north + 80.0))
+    far = math.hypot(home[0] - east, home[1] - north)
+    ux, uy = (home[0] - east) / far, (home[1] - north) / far
+    model.observe(ConvoyEstimate(t + 1.0, north, east, 8.0 * uy, 8.0 * ux))  # (home again)
+    assert not model.astray
+    x, y = model.positions(t + 1.0 + np.array([0.0, 10.0]))
+    gone = 8.0 * 7.0 + 0.5 * 7.0**2 + 15.0 * 3.0  # (8 -> 15 m/s, its speed before RTL)
+    assert (x[1], y[1]) == pytest.approx((east + gone * ux, north + gone * uy))
+
+
 def test_back_in_auto_after_rtl_it_drives_straight_to_its_waypoint_then_its_route_on() -> None:
     """The waypoint it was driving to is found on the pass it was driving (the route
     crosses it again later), and a hold planned there is stood before it drives on."""

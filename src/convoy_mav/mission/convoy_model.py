@@ -129,6 +129,7 @@ _REJOINED_M = 25.0  # back to its route: this near the point it drives to, it is
 _TURN_ACCEL = 1.0  # m/s^2: turned round (RTL) or pulling away, it speeds up at this
 _TURN_ROUND_RAD = math.radians(60.0)  # its way this far off its heading: it turns round ...
 _TURN_ROUND_MPS = 2.0  # ... braking at _TURN_ACCEL along its heading to this first
+_ASTRAY_S = 5.0  # s: on its own way, past its turn round, heading elsewhere this long ...
 _HOLD_BEHIND_M = 5.0  # a hold not stood at is still ahead until this far behind
 HOLD_ACCEL = 1.0  # m/s^2: braking into a planned hold and pulling away from it
 _PLAN_STEP = 0.25  # s: the timetable's grid
@@ -227,6 +228,11 @@ class ConvoyModel:
         self._going: tuple[float, float] | None = None  # (x, y) it drives straight to, home
         self._rejoin: tuple[float, float, float] | None = None  # (x, y, arc): back to its route
         self._left: tuple[float, float, float] | None = None  # (arc, x, y) where sent home
+        # On a way of its own (home, back to its route): from when, how long its turn
+        # round may take, and since when it has driven elsewhere (``_check_way``).
+        self._way_from = (math.nan, 0.0)
+        self._astray_since: float | None = None
+        self.astray = False
         self._steady: deque[tuple[float, float, float]] = deque()  # (t, arc, speed) driving
         self._kept: tuple[float, float] | None = None  # (from arc, m/s) in place of the plan's
         self.kept_log: list[tuple[float, float | None, float | None]] = []  # (t, kept, plan)
@@ -235,7 +241,9 @@ class ConvoyModel:
         self._stood_since: float | None = None  # standing (along the route) since
         self._off_since: float | None = None
         self.left_route = False
-        self.counters = {"left_route": 0, "back_on_route": 0, "found_again": 0, "laps": 0}
+        self.counters = {
+            "left_route": 0, "back_on_route": 0, "found_again": 0, "laps": 0, "astray": 0
+        }  # fmt: skip
         self.corner_habit = CornerHabit(corner_curvature, standing_mps=_STANDING_MPS)
 
     @property
@@ -317,6 +325,9 @@ class ConvoyModel:
         self._going = destination if drive is ConvoyDrive.HOME else None
         self._rejoin = None
         route, est = self.route, self._est  # (its mission's way: AUTO drives it so)
+        if drive is not was and est is not None:  # (a way of its own starts here)
+            turn = max(0.0, est.speed - _TURN_ROUND_MPS) / _TURN_ACCEL
+            self._way_from, self._astray_since, self.astray = (est.t, turn + _ASTRAY_S), None, False
         if drive is ConvoyDrive.HOME and was is not ConvoyDrive.HOME:
             on = route is not None and not (self._off_road or self._reversed)
             self._left = (self._s, est.east, est.north) if on and est is not None else None
@@ -339,6 +350,29 @@ class ConvoyModel:
         arc, x, y = left
         return road.project(*point, arc, window=math.dist((x, y), point) + _REJOINED_M)
 
+    def _check_way(self, est: ConvoyEstimate) -> None:
+        """Whether the convoy drives the way of its own it is forecast to (home, or back
+        to its route). Past the time its turn round takes (braking from its speed then at
+        ``_TURN_ACCEL``, plus ``_ASTRAY_S``), ``_ASTRAY_S`` s driving at ``_CRUISING_MPS``
+        or more over ``_TURNING_OFF_RAD`` off the way there is ``astray``: a rally point
+        nearer than home, a home moved, a mode read wrong. It is then forecast from its
+        own velocity (and back on its route, by its route) until it heads there again."""
+        goal = self._going or (None if self._rejoin is None else self._rejoin[:2])
+        since, grace = self._way_from
+        if goal is None or not est.t - since > grace or est.speed < _CRUISING_MPS:
+            self._astray_since = None
+            return
+        way = math.atan2(goal[1] - est.north, goal[0] - est.east)
+        if abs(math.remainder(way - math.atan2(est.vn, est.ve), math.tau)) <= _TURNING_OFF_RAD:
+            self._astray_since, self.astray = None, False
+            return
+        if self._astray_since is None:
+            self._astray_since = est.t
+        if not self.astray and est.t - self._astray_since >= _ASTRAY_S:
+            self.astray = True
+            self.counters["astray"] += 1
+            self._rejoin = None  # (its route is watched as any drive's on it)
+
     @property
     def drive(self) -> ConvoyDrive | None:
         """What drives the lead vehicle, as last said (None: never said)."""
@@ -356,6 +390,7 @@ class ConvoyModel:
             return
         first = self._est is None
         self._est = est
+        self._check_way(est)
         rejoin = self._rejoin
         if (
             rejoin is not None
@@ -551,6 +586,8 @@ class ConvoyModel:
             return np.zeros(len(times)), np.zeros(len(times))
         dt = _since(times, est)
         if self._going is not None:
+            if self.astray:
+                return est.east + est.ve * dt, est.north + est.vn * dt
             return self._homeward(est, dt)
         road = self.road
         if self._rejoin is not None and self.route is not None:

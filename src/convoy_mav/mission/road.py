@@ -1421,6 +1421,8 @@ class RoadMission(Roster):
             "convoy_left_route": self.model.counters["left_route"],
             "convoy_found_again_on_route": self.model.counters["found_again"],
             "convoy_laps": self.model.counters["laps"],
+            # Sent home or back to its route, seen driving elsewhere (a rally point?).
+            "convoy_astray": self.model.counters["astray"],
             # How fast it was seen to take the route's sharp corners (None: not yet).
             "convoy_corner_speed_mps": None if corner is None else round(corner, 2),
             # The speed a rover driving its mission keeps where none is planned (learnt).
