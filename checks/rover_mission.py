@@ -107,16 +107,17 @@ def items(
     ]
 
 
-def upload(link: Any, target: tuple[int, int], mission: list[Any]) -> str:
-    """The operator's upload; the autopilot's final answer."""
-    link.mav.send(mavlink.MAVLink_mission_count_message(*target, len(mission), MISSION))
+def upload(link: Any, target: tuple[int, int], mission: list[Any], kind: int = MISSION) -> str:
+    """The operator's upload (of ``kind``: the mission, its rally points); the
+    autopilot's final answer."""
+    link.mav.send(mavlink.MAVLink_mission_count_message(*target, len(mission), kind))
     deadline = time.monotonic() + 10.0
     while time.monotonic() < deadline:
         msg = link.recv_match(
             type=["MISSION_REQUEST", "MISSION_REQUEST_INT", "MISSION_ACK"], blocking=True,
             timeout=0.5,
         )  # fmt: skip
-        if msg is None or getattr(msg, "mission_type", MISSION) != MISSION:
+        if msg is None or getattr(msg, "mission_type", MISSION) != kind:
             continue
         if msg.get_type() == "MISSION_ACK":
             return str(mavlink.enums["MAV_MISSION_RESULT"][msg.type].name)

@@ -17,7 +17,12 @@ operator:
    MISSION_CURRENT still the item it was driving to (``sitl_mock.rtl``);
 2. 10 s later, AUTO: it must drive from home straight to that item (the corner 600 m
    east and north), as ``AP_Mission::resume`` restarts the current command, and then on
-   to the next.
+   to the next;
+3. two rally points uploaded (MAV_MISSION_TYPE_RALLY) and read back as the service reads
+   them (``convoy_mav.mavlink.rally.RallyRead``, with RALLY_LIMIT_KM and RALLY_INCL_HOME),
+   RTL: it must drive to the one ``rally.rtl_destination`` picks from where it is, not
+   home, and say "Reached destination" there; AUTO, and 200 m on with RALLY_LIMIT_KM
+   set to 0.1, RTL again: home.
 
 Prints the drive every 10 s of boot time and each rule's outcome; exit 0 when all hold.
 Not part of ``make test``: it needs ArduPilot SITL (see the project's notes on building
@@ -29,6 +34,7 @@ from __future__ import annotations
 import math
 import sys
 import time
+from types import SimpleNamespace
 from typing import Any
 
 from pymavlink import mavutil
@@ -39,7 +45,10 @@ from rover_mission import (  # (checks/, beside this one)
     check_main,
     hail,
     send_off,
+    upload,
 )
+
+from convoy_mav.mavlink.rally import RallyRead, rtl_destination
 
 HOME = (47.397742, 8.545594, 488.0)
 LEG_M = 600.0
@@ -51,6 +60,9 @@ STEADY_RAD = 0.02  # rad: a straight drive's bearing varies less
 # Sent home heading away at 8 m/s it brakes on its way at about 1 m/s^2 and turns round
 # without a stop (SITL: 29 m on, 1.65 m/s; what the service forecasts, ``ConvoyModel._way``).
 TURN_ON_M = (20.0, 45.0)
+# Then, heading west past item 4: one rally point 330 m off (nearer than home, within
+# Rover's RALLY_LIMIT_KM 0.5), one 1 km off.
+RALLY_POINTS = ((450.0, 250.0), (1200.0, 1200.0))
 TURN_SLOWEST_MPS = 1.0
 
 
@@ -203,7 +215,70 @@ def run(connection: str) -> int:
     ok &= _check(worst < 0.05, f"straight to item {driving_to}: off its bearing {worst:.3f} rad")
     drive.wait(lambda d: d.seq > driving_to or math.dist(d.at, corner) > 60.0)
     ok &= _check(drive.seq == driving_to + 1, f"then on to item {drive.seq}")
-    return 0 if ok else 1
+    return 0 if _to_rally(link, target, drive) and ok else 1
+
+
+def _to_rally(link: Any, target: tuple[int, int], drive: _Drive) -> bool:
+    """Rally points uploaded, read back as the service reads them (``RallyRead``), and
+    RTL: the rover must drive to the one ``rtl_destination`` picks from where it is."""
+    rally = mavlink.MAV_MISSION_TYPE_RALLY
+    rel, point = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, mavlink.MAV_CMD_NAV_RALLY_POINT
+    points = []
+    for seq, (n, e) in enumerate(RALLY_POINTS):
+        x, y = _geo(n, e)
+        points.append(
+            mavlink.MAVLink_mission_item_int_message(
+                *target, seq, rel, point, 0, 0, 0, 0, 0, 0, x, y, 0.0, rally
+            )
+        )
+    answer = upload(link, target, points, rally)
+    ok = _check(answer == "MAV_MISSION_ACCEPTED", f"rally points uploaded: {answer}")
+    read = RallyRead(*target, own=250)
+    for out in read.start(time.monotonic()):
+        link.mav.send(out)
+    deadline = time.monotonic() + 20.0
+    while not read.done and time.monotonic() < deadline:
+        msg = link.recv_match(blocking=True, timeout=0.1)
+        now = time.monotonic()
+        outs = read.poll(now) if msg is None else read.handle(msg, now) + read.poll(now)
+        for out in outs:
+            link.mav.send(out)
+    got = [_ned(SimpleNamespace(lat=lat * 1e7, lon=lon * 1e7)) for lat, lon in read.points]
+    ok &= _check(
+        read.done and read.error is None and len(got) == len(RALLY_POINTS),
+        f"read back: {len(got)} points, RALLY_LIMIT_KM {read.limit_km:g}, "
+        f"RALLY_INCL_HOME {read.incl_home:d} ({read.error or 'ok'})",
+    )
+    ok &= _rtl_to(link, target, drive, got, read.limit_km, read.incl_home, "the rally point")
+    # On in AUTO until 200 m from it, RALLY_LIMIT_KM 0.1: RTL must now take it home.
+    link.mav.set_mode_send(target[0], mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, ROVER_AUTO)
+    rally_at = drive.at
+    drive.wait(lambda d: math.dist(d.at, rally_at) > 200.0)
+    link.mav.param_set_send(*target, b"RALLY_LIMIT_KM", 0.1, mavlink.MAV_PARAM_TYPE_REAL32)
+    time.sleep(0.5)
+    return _rtl_to(link, target, drive, got, 0.1, read.incl_home, "home, the point too far") and ok
+
+
+def _rtl_to(
+    link: Any,
+    target: tuple[int, int],
+    drive: _Drive,
+    rallies: list[tuple[float, float]],
+    limit_km: float,
+    incl_home: bool,
+    what: str,
+) -> bool:
+    """RTL now: the rover must say "Reached destination" where ``rtl_destination`` says."""
+    drive.wait(lambda d: d.t > 0.0)  # (where it is now)
+    goal = rtl_destination(drive.at, (0.0, 0.0), rallies, limit_km, incl_home)
+    (n, e), (gn, ge) = drive.at, goal
+    print(f"RTL at north {n:.0f} east {e:.0f}: to north {gn:.0f} east {ge:.0f}", flush=True)
+    drive.texts.clear()
+    link.mav.set_mode_send(target[0], mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, ROVER_RTL)
+    if not drive.wait(lambda d: "Reached destination" in d.texts):
+        return _check(False, "never said 'Reached destination'")
+    off = math.dist(drive.at, goal)
+    return _check(off <= WP_RADIUS + 1.0, f"at {what}: {off:.1f} m off")
 
 
 def main() -> int:

@@ -36,6 +36,7 @@ from typing import Any, Literal
 from pymavlink.dialects.v20 import common as mavlink
 
 from convoy_mav.geo import GeoPoint, LocalFrame
+from convoy_mav.mavlink.rally import ROVER_RALLY_DEFAULTS, rtl_destination
 from sitl_mock.clock import Speedup
 from sitl_mock.driveclock import DEFAULT_ACCEL
 from sitl_mock.flight import FlightController, Outcome
@@ -258,6 +259,11 @@ class SimVehicle:
         # In RTL it drives home; back in AUTO it resumes the mission it left (``rtl``).
         self._returning: Return | None = None
         self._rtl_speed = 0.0  # (ArduRover's RTL_SPEED: 0, its WP_SPEED)
+        # Its rally points (MISSION_ITEM_INT, NAV_RALLY_POINT; ArduPilot rovers'), and the
+        # rule RTL picks one or home by (``rally.rtl_destination``; Rover's defaults).
+        self.rally: list[Message] = []
+        self._rally_limit_km = ROVER_RALLY_DEFAULTS["RALLY_LIMIT_KM"]
+        self._rally_incl_home = ROVER_RALLY_DEFAULTS["RALLY_INCL_HOME"]
         # The path it drove, for the vehicles behind it; a follower drives its leader's.
         self.trail = Trail() if ground else None
         self.follower: Follower | None = None  # (set by ``follow``)
@@ -448,21 +454,35 @@ class SimVehicle:
                 self._resume(now, back)
             return []
         (n, e, _, vn, ve, _), *_ = self._kinematics(now)
-        hn, he, _ = self.world.to_ned(fl.home)
         plan = ground.plan
         wp_radius = plan.wp_radius if isinstance(plan, Polyline) else 2.0
         if back is None:
-            self._returning = self._leave(now)
+            self._returning = back = self._leave(now)
+            back.goal = self._rtl_goal((n, e))
             speed = self._rtl_speed or self._wp_speed() or DEFAULT_WP_SPEED
-            road, arc = road_home((n, e), (vn, ve), (hn, he), speed, ground.clock.accel, wp_radius)
+            road, arc = road_home((n, e), (vn, ve), back.goal, speed, ground.clock.accel, wp_radius)
             ground.drive_anew(now, road, arc=arc, wp_speed=self._wp_speed())
             return []
+        hn, he = back.goal or self.world.to_ned(fl.home)[:2]
         if back.reached or math.hypot(n - hn, e - he) > wp_radius:
             return []
         back.reached = True  # (ArduRover's ModeRTL; PX4 says nothing)
         if not self.firmware.is_ardupilot:
             return []
         return [statustext(_R.MAV_SEVERITY_INFO, "Reached destination")]
+
+    def _rtl_goal(self, here: tuple[float, float]) -> tuple[float, float]:
+        """Where RTL takes the rover from ``here`` (north, east): home, or the rally point
+        ArduPilot picks (``rally.rtl_destination``; PX4's: home)."""
+        hn, he, _ = self.world.to_ned(self.flight.home)
+        if not self.firmware.is_ardupilot or not self.rally:
+            return hn, he
+        points = []
+        for p in self.rally:
+            n, e, _ = self.world.to_ned(GeoPoint(p.x * 1e-7, p.y * 1e-7))
+            points.append((n, e))
+        incl = self._rally_incl_home != 0.0
+        return rtl_destination(here, (hn, he), points, self._rally_limit_km, incl)
 
     def _leave(self, now: float) -> Return:
         """The mission the rover leaves for home, and the item it was driving to: the one
@@ -696,12 +716,16 @@ class SimVehicle:
         return [_R.MAVLink_ping_message(msg.time_usec, msg.seq, src, comp)]
 
     def _on_mission_request_list(self, msg: Message, now: float) -> list[Message]:
-        """How many items a read will get: a rover's mission, else none of any type."""
+        """How many items a read will get: a rover's mission, an ArduPilot rover's rally
+        points, else none of any type."""
         src, comp = msg.get_srcSystem(), msg.get_srcComponent()
         count = 0
         if self.mission is not None and msg.mission_type == _R.MAV_MISSION_TYPE_MISSION:
             count = self.mission.count(home_first=self.firmware.is_ardupilot)
             self.counters["mission_reads"] += 1
+        elif msg.mission_type == _R.MAV_MISSION_TYPE_RALLY:
+            count = len(self.rally)
+            self.counters["rally_reads"] += 1
         return [_R.MAVLink_mission_count_message(src, comp, count, msg.mission_type)]
 
     def _on_mission_request(self, msg: Message, now: float) -> list[Message]:
@@ -715,6 +739,12 @@ class SimVehicle:
             item = self.mission.item(
                 msg.seq, self.flight.home, (src, comp), home_first=self.firmware.is_ardupilot
             )
+        elif kind == _R.MAV_MISSION_TYPE_RALLY and 0 <= msg.seq < len(self.rally):
+            p = self.rally[msg.seq]
+            item = _R.MAVLink_mission_item_int_message(
+                src, comp, msg.seq, p.frame, p.command, 0, 0, p.param1, p.param2, p.param3,
+                p.param4, p.x, p.y, p.z, kind,
+            )  # fmt: skip
         if item is None:
             bad = _R.MAV_MISSION_INVALID_SEQUENCE
             return [_R.MAVLink_mission_ack_message(src, comp, bad, kind)]
@@ -730,15 +760,19 @@ class SimVehicle:
     def _on_mission_count(
         self, msg: Message, now: float, sender: tuple[int, int] | None = None
     ) -> list[Message]:
-        """An upload begins: a geofence (MAV_MISSION_TYPE_FENCE), or a rover's mission
-        (``sitl_mock.uploaded``): ask for item 0; a count of 0 clears it.
+        """An upload begins: a geofence (MAV_MISSION_TYPE_FENCE), a rover's mission
+        (``sitl_mock.uploaded``) or an ArduPilot rover's rally points: ask for item 0; a
+        count of 0 clears it.
 
-        Rally points, and an aircraft's mission, are refused: the mock flies no missions.
+        An aircraft's mission or rally points, and a PX4 rover's rally points, are
+        refused: the mock flies no missions, and models ArduRover's RTL only.
         """
         src, comp = sender or (msg.get_srcSystem(), msg.get_srcComponent())
         kind = msg.mission_type
-        rover_mission = self.flight.aircraft is None and kind == _R.MAV_MISSION_TYPE_MISSION
-        if kind != _R.MAV_MISSION_TYPE_FENCE and not rover_mission:
+        rover = self.flight.aircraft is None
+        rover_mission = rover and kind == _R.MAV_MISSION_TYPE_MISSION
+        rally = rover and self.firmware.is_ardupilot and kind == _R.MAV_MISSION_TYPE_RALLY
+        if kind != _R.MAV_MISSION_TYPE_FENCE and not (rover_mission or rally):
             return [_R.MAVLink_mission_ack_message(src, comp, _R.MAV_MISSION_UNSUPPORTED, kind)]
         if msg.count == 0:
             self._upload = None
@@ -776,7 +810,8 @@ class SimVehicle:
             return _R.MAVLink_mission_ack_message(src, comp, result, kind)
 
         ardupilot = self.firmware.is_ardupilot
-        if kind not in (_R.MAV_MISSION_TYPE_FENCE, _R.MAV_MISSION_TYPE_MISSION):
+        kinds = (_R.MAV_MISSION_TYPE_FENCE, _R.MAV_MISSION_TYPE_MISSION, _R.MAV_MISSION_TYPE_RALLY)
+        if kind not in kinds:
             return [ack(_R.MAV_MISSION_UNSUPPORTED)]
         if self._upload is None or self._upload[0] != kind:
             if ardupilot:
@@ -796,6 +831,9 @@ class SimVehicle:
                 _R.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION,
             )
             ok = msg.command in vertex
+            result = _R.MAV_MISSION_ACCEPTED if ok else _R.MAV_MISSION_UNSUPPORTED
+        elif kind == _R.MAV_MISSION_TYPE_RALLY:  # (``MissionItemProtocol_Rally``)
+            ok = msg.command == _R.MAV_CMD_NAV_RALLY_POINT
             result = _R.MAV_MISSION_ACCEPTED if ok else _R.MAV_MISSION_UNSUPPORTED
         else:  # (ArduPilot's item 0 is home: whatever is sent there, home stays its own)
             home = ardupilot and msg.seq == 0
@@ -817,6 +855,8 @@ class SimVehicle:
         """How many items of ``kind`` the last upload stored."""
         if kind == _R.MAV_MISSION_TYPE_FENCE:
             return len(self.fence)
+        if kind == _R.MAV_MISSION_TYPE_RALLY:
+            return len(self.rally)
         return len(self.mission.items) if isinstance(self.mission, UploadedMission) else 0
 
     def _store(self, kind: int, items: list[Message], now: float) -> list[Message]:
@@ -830,6 +870,10 @@ class SimVehicle:
         if kind == _R.MAV_MISSION_TYPE_FENCE:
             self.fence = items
             self.counters["fence_uploads"] += bool(items)
+            return []
+        if kind == _R.MAV_MISSION_TYPE_RALLY:  # (RTL picks among them when entered)
+            self.rally = items
+            self.counters["rally_uploads"] += 1
             return []
         self.counters["mission_uploads"] += 1
         fw, fl, ground = self.firmware, self.flight, self._ground
@@ -850,7 +894,7 @@ class SimVehicle:
         self.mission = mission if items else None
         self._has_mission = mission.count(home_first=False) > 0
         if self._returning is not None:  # (on its way home: AUTO starts the new one)
-            self._returning = Return(tuple(items), int(ardupilot))
+            self._returning = Return(tuple(items), int(ardupilot), goal=self._returning.goal)
             return texts
         self._drive_anew(mission, now, wait=in_auto and not running and ardupilot)
         return texts
@@ -950,6 +994,9 @@ class SimVehicle:
             Knob.GCS_SYSID: float(self.gcs_sysid),
             Knob.MAV_OPTIONS: float(self.mav_options),
             Knob.RTL_SPEED: self._rtl_speed,
+            Knob.RALLY_LIMIT_KM: self._rally_limit_km,
+            Knob.RALLY_INCL_HOME: self._rally_incl_home,
+            Knob.RALLY_TOTAL: float(len(self.rally)),
         }
         return values[knob]
 
@@ -1011,6 +1058,14 @@ class SimVehicle:
             if not 0.0 <= value <= _RTL_SPEED_MAX:
                 raise ValueError(f"must be 0..{_RTL_SPEED_MAX:g} m/s, got {value:g}")
             self._rtl_speed = value
+        elif knob is Knob.RALLY_LIMIT_KM:
+            if not value >= 0.0:
+                raise ValueError(f"must be 0 km or more, got {value:g}")
+            self._rally_limit_km = value
+        elif knob is Knob.RALLY_INCL_HOME:
+            if value not in (0.0, 1.0):
+                raise ValueError(f"must be 0 or 1, got {value:g}")
+            self._rally_incl_home = value
         elif knob in (Knob.GCS_SYSID, Knob.MAV_OPTIONS):
             top = 255 if knob is Knob.GCS_SYSID else 0xFFFF
             if value != int(value) or not 0 <= value <= top:

@@ -49,6 +49,9 @@ class Knob(StrEnum):
     GCS_SYSID = "gcs_sysid"  # ArduPilot: the system id of its ground station (1..255)
     MAV_OPTIONS = "mav_options"  # ArduPilot: bit 0, hear only that ground station
     RTL_SPEED = "rtl_speed"  # m/s: a rover's speed home in RTL (0: its WP_SPEED)
+    RALLY_LIMIT_KM = "rally_limit_km"  # km: RTL to a rally point only this near (0: any)
+    RALLY_INCL_HOME = "rally_incl_home"  # 1: RTL to a rally point only if nearer than home
+    RALLY_TOTAL = "rally_total"  # read-only: the rally points it holds
 
 
 KnobGetter = Callable[[Knob], float]

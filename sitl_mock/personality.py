@@ -408,6 +408,9 @@ def _params(personality: Personality, vehicle_class: VehicleClass) -> tuple[Para
             ParamDef("ATC_ACCEL_MAX", Knob.ROVER_ACCEL, read_only=True),
             ParamDef("WP_RADIUS", Knob.WP_RADIUS, read_only=True),
             ParamDef("RTL_SPEED", Knob.RTL_SPEED),
+            ParamDef("RALLY_LIMIT_KM", Knob.RALLY_LIMIT_KM),
+            ParamDef("RALLY_INCL_HOME", Knob.RALLY_INCL_HOME),
+            ParamDef("RALLY_TOTAL", Knob.RALLY_TOTAL, read_only=True),
             *common[1:],
         )
     if vehicle_class == "rover":

@@ -31,11 +31,12 @@ _BEHIND_M = 1.0  # m: a moving rover's road home starts this far behind it
 class Return:
     """A rover on its way home, and what AUTO resumes: ``items`` the mission it drove
     (as a ground station reads it: ArduPilot's home first), ``seq`` the item it was
-    driving to. ``reached``: "Reached destination" said."""
+    driving to. ``reached``: "Reached destination" said; ``goal`` where it goes."""
 
     items: tuple[Message, ...]
     seq: int
     reached: bool = False
+    goal: tuple[float, float] | None = None  # (north, east): home, or a rally point
 
 
 def road_home(

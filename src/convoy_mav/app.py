@@ -50,6 +50,7 @@ from convoy_mav.mavlink.autopilots.base import (
 )
 from convoy_mav.mavlink.codec import MavCodec
 from convoy_mav.mavlink.missionread import MissionItem, MissionWatch
+from convoy_mav.mavlink.rally import RallyRead, rtl_destination
 from convoy_mav.mavlink.rovermode import RoverMode, rover_mode
 from convoy_mav.mavlink.signing import Signing, load_key
 from convoy_mav.mission import (
@@ -444,6 +445,12 @@ class ConvoyService:
         # Asked at its heartbeats 1, 3, 6, 11, 20, 37, then every 33rd: one that never
         # answers is not asked at each heartbeat of a long mission.
         self._home_wait, self._home_gap = 0, 1
+        # ArduPilot's RTL drives to the nearest rally point instead, by its RALLY_ params
+        # (``rally.rtl_destination``), from where it was sent home: read at each RTL.
+        self._rally: RallyRead | None = None  # (a read under way)
+        self._rallies: tuple[list[tuple[float, float]], float, bool] | None = None  # (x, y)
+        self._rtl_from: tuple[float, float] | None = None  # (x, y) the lead sent home at
+        self._ground_xy: dict[int, tuple[float, float]] = {}  # (x, y) each last heard at
         self._mission_items: list[MissionItem] = []  # (its mission as last read)
         self._new_drives: deque[tuple[ConvoyDrive, tuple[float, float] | None]] = deque()
         self.convoy_modes: list[tuple[float, str]] = []
@@ -514,6 +521,8 @@ class ConvoyService:
         watch = self._mission_watch
         if watch is not None and sysid == watch.target[0]:
             self._mission_sends(watch.handle(msg, time.monotonic()))
+        if self._rally is not None and sysid == self._lead_id:
+            self._rally_sends(self._rally.handle(msg, time.monotonic()))
         if sysid == self._lead_id and msg.get_type() == "HEARTBEAT":
             self._lead_heartbeat(sysid, msg)
         elif sysid == self._lead_id and msg.get_type() == "HOME_POSITION":
@@ -535,6 +544,7 @@ class ConvoyService:
             velocity = (msg.vx * 0.01, msg.vy * 0.01)
             self.tracker.update(t, north, east, source=sysid, velocity=velocity)
             self._ground_heard[sysid] = t
+            self._ground_xy[sysid] = (east, north)
 
     def _lead_heartbeat(self, sysid: int, msg: Any) -> None:
         """The lead ground vehicle's mode: a change is noted and told the road mission
@@ -551,13 +561,18 @@ class ConvoyService:
             else:
                 self._ground_links[0].send(_home_request(sysid))
                 self._home_wait, self._home_gap = self._home_gap, min(2 * self._home_gap, 32)
+        if homeward:
+            self._rtl_from, self._rallies = self._ground_xy.get(sysid), None
+            if msg.autopilot == mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA and self._ground_links:
+                self._rally = RallyRead(sysid, own=self.config.source_system)
+                self._rally_sends(self._rally.start(time.monotonic()))
         if mode == self._lead_mode:
             return
         was, self._lead_mode = self._lead_mode, mode
         back = (
             mode.drive is ConvoyDrive.MISSION and was is not None and was.drive is ConvoyDrive.HOME
         )
-        where = self._lead_home if homeward else (self._resumed_at() if back else None)
+        where = self._lead_destination() if homeward else (self._resumed_at() if back else None)
         self._new_drives.append((mode.drive, where))
         if len(self.convoy_modes) < _MODES_KEPT:
             self.convoy_modes.append((round(self.clock.now(), 1), mode.name))
@@ -587,22 +602,62 @@ class ConvoyService:
         at = None if item is None else driven_to(item)
         if at is None:
             return None
-        north, east, _ = self.frame.to_ned(GeoPoint(*at))
-        return east, north
+        return self._xy(*at)
 
     def _lead_home_heard(self, msg: Any) -> None:
         """The lead ground vehicle's HOME_POSITION: where RTL takes it (on its way
         there already, the road mission is told at once)."""
         if no_position_yet(msg.latitude, msg.longitude):
             return
-        north, east, _ = self.frame.to_ned(GeoPoint(msg.latitude * 1e-7, msg.longitude * 1e-7))
-        home = (east, north)
+        home = self._xy(msg.latitude * 1e-7, msg.longitude * 1e-7)
         if home == self._lead_home:
             return
         self._lead_home = home
         mode = self._lead_mode
         if mode is not None and mode.drive is ConvoyDrive.HOME:
-            self._new_drives.append((ConvoyDrive.HOME, home))
+            self._new_drives.append((ConvoyDrive.HOME, self._lead_destination()))
+
+    def _lead_destination(self) -> tuple[float, float] | None:
+        """Where the lead's RTL takes it (x, y): its home, or the rally point its firmware
+        picks from where it was sent home (``rtl_destination``); None: home not known."""
+        home, rallies, here = self._lead_home, self._rallies, self._rtl_from
+        if home is None or rallies is None or here is None:
+            return home
+        points, limit_km, incl_home = rallies
+        return rtl_destination(here, home, points, limit_km, incl_home)
+
+    def _rally_sends(self, out: Sequence[Any]) -> None:
+        """Send a rally read's requests to the lead; take it once done, and tell the road
+        mission the lead's way if a rally point is where it goes."""
+        for msg in out:
+            self._ground_links[0].send(msg)
+        read = self._rally
+        if read is None or not read.done:
+            return
+        self._rally = None
+        who = f"ground vehicle {read.target[0]}"
+        if read.error is not None:
+            self._note(f"{who}'s rally points not read: it {read.error}; forecast home")
+            return
+        points = [self._xy(lat, lon) for lat, lon in read.points]
+        self._rallies = (points, read.limit_km, read.incl_home)
+        mode, where = self._lead_mode, self._lead_destination()
+        if mode is None or mode.drive is not ConvoyDrive.HOME or where == self._lead_home:
+            return
+        self._new_drives.append((ConvoyDrive.HOME, where))
+        assert where is not None and self._rtl_from is not None
+        far = math.dist(where, self._rtl_from)
+        nearer = ", nearer than home" if read.incl_home else ""
+        self._note(
+            f"{who} in RTL drives to its rally point {points.index(where) + 1} of "
+            f"{len(points)}, {far:.0f} m off (its nearest, within RALLY_LIMIT_KM "
+            f"{read.limit_km:g}{nearer}): forecast straight there, where it stands"
+        )
+
+    def _xy(self, lat: float, lon: float) -> tuple[float, float]:
+        """(x, y): east, north in the mission frame."""
+        north, east, _ = self.frame.to_ned(GeoPoint(lat, lon))
+        return east, north
 
     def _mission_sends(self, out: Sequence[Any]) -> None:
         """Send a mission read's requests to the lead ground vehicle; take a finished read."""
@@ -1464,6 +1519,8 @@ class ConvoyService:
             now = self.clock.now() if self.clock.synced else 0.0
             if watch is not None:
                 self._mission_sends(watch.poll(time.monotonic()))
+            if self._rally is not None:
+                self._rally_sends(self._rally.poll(time.monotonic()))
             for i, (link, g) in enumerate(zip(links, self.config.convoy.vehicles, strict=True)):
                 if now - self._ground_heard.get(g.sysid, -math.inf) > _GROUND_STREAM_RETRY:
                     if watch is not None and i == 0:

@@ -144,7 +144,9 @@ async def test_a_rover_its_operator_calls_home_is_watched_off_its_route_and_back
     straight home across the block and stands there; in AUTO it drives back to the
     waypoint it left and on round the circuit. The service hears each mode, asks the
     lead's HOME_POSITION and forecasts the convoy straight home, off its route, then
-    straight back to the waypoint its MISSION_CURRENT names and on along the route."""
+    straight back to the waypoint its MISSION_CURRENT names and on along the route.
+    RTL again with a rally point nearer than home: the service reads it and forecasts
+    the convoy there."""
     marks: dict[str, Any] = {}
 
     async def operator(fleet: MockFleet, service: ConvoyService) -> None:
@@ -161,20 +163,56 @@ async def test_a_rover_its_operator_calls_home_is_watched_off_its_route_and_back
             await tell("set_mode_send", flag, _ARDUROVER_AUTO)
             await _until(fleet, marks["auto"] + 30.0)
             marks["auto+30"] = fleet.truth(lead)
+            # Once 300 m from home, a rally point 150 m to its left (its operator's upload,
+            # as stored), and RTL: ArduRover drives there, nearer than home; AUTO again.
+            hn, he, _ = home
+            while math.hypot((at := fleet.truth(lead)).north - hn, at.east - he) < 300.0:
+                await asyncio.sleep(0.01)
+            left = at.yaw - math.pi / 2.0
+            rally = (at.north + 150.0 * math.cos(left), at.east + 150.0 * math.sin(left))
+            where = fleet.world.to_geo(*rally, 0.0)
+            rel, point = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, mavlink.MAV_CMD_NAV_RALLY_POINT
+            fleet.vehicles[lead].rally = [
+                mavlink.MAVLink_mission_item_int_message(
+                    lead,
+                    1,
+                    0,
+                    rel,
+                    point,
+                    0,
+                    0,
+                    0,
+                    0,
+                    0,
+                    0,
+                    round(where.lat * 1e7),
+                    round(where.lon * 1e7),
+                    0.0,
+                    mavlink.MAV_MISSION_TYPE_RALLY,
+                )
+            ]
+            await tell("set_mode_send", flag, _ARDUROVER_RTL)
+            await _until(fleet, at.t + 60.0)
+            marks["rally"] = fleet.truth(lead), rally
+            await tell("set_mode_send", flag, _ARDUROVER_AUTO)
 
-    result = await _operated(operator, 480.0)
+    result = await _operated(operator, 540.0)
     report = result.report.to_dict()
-    assert "auto+30" in marks, marks
+    assert "rally" in marks, marks
     # Home within 120 s (at most 600 m off at 8 m/s), standing in RTL; then driving.
     (at_home, (hn, he, _)) = marks["home"]
     assert at_home.mode == "RTL" and at_home.speed == 0.0, at_home
     assert math.hypot(at_home.north - hn, at_home.east - he) <= 2.0, (at_home, hn, he)
     assert marks["auto+30"].mode == "AUTO" and marks["auto+30"].speed > 2.0, marks["auto+30"]
+    (at_rally, (rn, re_)) = marks["rally"]
+    assert at_rally.mode == "RTL" and at_rally.speed == 0.0, at_rally
+    assert math.hypot(at_rally.north - rn, at_rally.east - re_) <= 2.0, (at_rally, rn, re_)
     modes = [m["mode"] for m in report["planner"]["convoy_modes"]]
-    assert modes == ["AUTO", "RTL", "AUTO"], modes
+    assert modes == ["AUTO", "RTL", "AUTO", "RTL", "AUTO"], modes
     for said in (
         "in RTL (was AUTO): it drives home: forecast straight there",
         "in AUTO (was RTL): it drives its mission, straight back to item",
+        "in RTL drives to its rally point 1 of 1, ",
     ):
         assert any(said in e for e in report["events"]), (said, report["events"])
     truth = result.truth

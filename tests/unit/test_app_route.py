@@ -6,6 +6,7 @@ an hour before, a route timed from boot would start 3600 s x speed down the road
 
 from __future__ import annotations
 
+import time
 from dataclasses import replace
 from types import SimpleNamespace
 from typing import Any
@@ -285,6 +286,34 @@ def test_every_mode_the_lead_rover_changes_to_between_two_mission_steps_is_told_
     assert len(told) == 3  # (each told once)
 
 
+def _lead_service() -> tuple[ConvoyService, RoadMission, list[Any]]:
+    """A road service whose convoy is one ArduRover (system 60) heard over MAVLink, and
+    what it sends that rover."""
+    rover = {"connection": "udpin:127.0.0.1:14600", "sysid": 60}
+    doc = {**_road_doc(), "convoy": {"source": "mavlink", "vehicle": [rover]}}
+    service = ConvoyService(parse_config(doc))
+    mission = service.mission
+    assert isinstance(mission, RoadMission)
+    sent: list[Any] = []
+
+    class _Link:
+        def send(self, msg: Any) -> None:
+            sent.append(msg)
+
+    service._ground_links = [_Link()]  # type: ignore[list-item]
+    return service, mission, sent
+
+
+def _rover_heartbeat(custom: int) -> Any:
+    """An armed ArduRover's HEARTBEAT in mode ``custom`` (10 AUTO, 11 RTL)."""
+    from pymavlink.dialects.v20 import common as mavlink
+
+    armed = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mavlink.MAV_MODE_FLAG_SAFETY_ARMED
+    return mavlink.MAVLink_heartbeat_message(
+        mavlink.MAV_TYPE_GROUND_ROVER, mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA, armed, custom, 4, 3
+    )
+
+
 def test_a_lead_rover_sent_home_is_forecast_straight_to_the_home_it_says() -> None:
     """RTL: its HOME_POSITION asked for (until heard, and on each RTL), and the road
     mission told the way home, also when home is heard after the mode."""
@@ -292,28 +321,10 @@ def test_a_lead_rover_sent_home_is_forecast_straight_to_the_home_it_says() -> No
 
     from convoy_mav.types import ConvoyDrive
 
-    rover = {"connection": "udpin:127.0.0.1:14600", "sysid": 60}
-    doc = {**_road_doc(), "convoy": {"source": "mavlink", "vehicle": [rover]}}
-    service = ConvoyService(parse_config(doc))
-    mission = service.mission
-    assert isinstance(mission, RoadMission)
-    sent: list[object] = []
-
-    class _Link:
-        def send(self, msg: object) -> None:
-            sent.append(msg)
-
-    service._ground_links = [_Link()]  # type: ignore[list-item]
-    armed = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mavlink.MAV_MODE_FLAG_SAFETY_ARMED
+    service, mission, sent = _lead_service()
 
     def heartbeat(custom: int) -> None:
-        service._lead_heartbeat(
-            60,
-            mavlink.MAVLink_heartbeat_message(
-                mavlink.MAV_TYPE_GROUND_ROVER, mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA, armed,
-                custom, 4, 3,
-            ),
-        )  # fmt: skip
+        service._lead_heartbeat(60, _rover_heartbeat(custom))
 
     def asked() -> int:
         home = mavlink.MAVLINK_MSG_ID_HOME_POSITION
@@ -355,3 +366,62 @@ def test_a_lead_rover_sent_home_is_forecast_straight_to_the_home_it_says() -> No
         service._check_convoy_way()
     said = [e for e in service.events if "ground vehicle 60 " in e and "forecast to" in e]
     assert len(said) == 2 and "drives elsewhere" in said[0] and "again" in said[1], said
+
+
+def test_a_lead_ardurover_sent_home_is_forecast_to_the_rally_point_its_firmware_picks() -> None:
+    """RTL on an ArduPilot lead: its rally points and RALLY_ parameters read, and the
+    road mission told the nearest point (nearer than home, within RALLY_LIMIT_KM) as
+    where it goes, from where it was sent home; a failed read leaves it going home."""
+    from pymavlink.dialects.v20 import common as mavlink
+
+    service, mission, sent = _lead_service()
+    heartbeat = _rover_heartbeat
+
+    def geo(north: float, east: float) -> tuple[int, int]:
+        at = service.frame.to_geo(north, east, 0.0)
+        return round(at.lat * 1e7), round(at.lon * 1e7)
+
+    service._lead_home = (0.0, 0.0)
+    service._ground_xy[60] = (600.0, 200.0)  # (x, y: east, north)
+    service._lead_heartbeat(60, heartbeat(10))  # AUTO
+    sent.clear()
+    service._lead_heartbeat(60, heartbeat(11))  # RTL: its rally points asked for
+    rally = mavlink.MAV_MISSION_TYPE_RALLY
+    asked = [m for m in sent if getattr(m, "mission_type", None) == rally]
+    assert [m.get_type() for m in asked] == ["MISSION_REQUEST_LIST"]
+    service._mission_step(5.0, None, [], [], {}, set(), (0.0, 0.0))
+    assert mission.model._going == (0.0, 0.0)  # (home, until the points are read)
+
+    def answer(msg: Any) -> None:
+        msg.pack(mavlink.MAVLink(None, 60, 1))  # (as heard: its sender's ids)
+        service._route(60, msg)
+
+    answer(mavlink.MAVLink_mission_count_message(255, 190, 2, rally))
+    points = ((900.0, 900.0), (200.0, 350.0))  # (north, east): 1.1 km off, 250 m off
+    rel, point = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, mavlink.MAV_CMD_NAV_RALLY_POINT
+    for seq, (north, east) in enumerate(points):
+        lat, lon = geo(north, east)
+        answer(
+            mavlink.MAVLink_mission_item_int_message(
+                255, 190, seq, rel, point, 0, 0, 0, 0, 0, 0, lat, lon, 0.0, rally
+            )
+        )
+    real = mavlink.MAV_PARAM_TYPE_REAL32
+    for name, value in (("RALLY_LIMIT_KM", 0.5), ("RALLY_INCL_HOME", 1.0)):
+        answer(mavlink.MAVLink_param_value_message(name.encode(), value, real, 300, 1))
+    service._mission_step(6.0, None, [], [], {}, set(), (0.0, 0.0))
+    going = mission.model._going
+    assert going is not None and going == pytest.approx((350.0, 200.0), abs=0.1)
+    said = [e for e in service.events if "rally point 2 of 2, 250 m off" in e]
+    assert said and "forecast straight there" in said[0], service.events
+    # Sent home again, unanswered: the read given up, said, and home the destination.
+    service._lead_heartbeat(60, heartbeat(10))
+    service._lead_heartbeat(60, heartbeat(11))
+    read = service._rally
+    assert read is not None
+    for k in range(1, 12):
+        service._rally_sends(read.poll(time.monotonic() + 2.0 * k))
+    assert service._rally is None
+    assert any("rally points not read" in e for e in service.events), service.events
+    service._mission_step(7.0, None, [], [], {}, set(), (0.0, 0.0))
+    assert mission.model._going == (0.0, 0.0)

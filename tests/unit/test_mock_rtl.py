@@ -12,6 +12,7 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from sitl_mock.autopilot import Personality, SimVehicle, VehicleSpec
 from sitl_mock.ground import Polyline
+from sitl_mock.params import Knob
 from sitl_mock.rtl import road_home
 from tests.fakes import WORLD, Gcs
 from tests.unit.test_mock_driveclock import _mode
@@ -215,3 +216,81 @@ def test_the_road_home_starts_along_its_way_and_ends_at_home(
             )
     if len(points) == 4:  # (a turn to brake for first: no further than v^2/2a and a jerk)
         assert math.dist(points[2], (north, east)) <= speed * speed / 2.0 + speed + 1e-6
+
+
+REL, POINT = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, mavlink.MAV_CMD_NAV_RALLY_POINT
+RALLY = mavlink.MAV_MISSION_TYPE_RALLY
+
+
+def _rally(*points: tuple[float, float]) -> list[mavlink.MAVLink_mission_item_int_message]:
+    """Rally points at (north, east), as a ground station uploads them."""
+    out = []
+    for seq, (north, east) in enumerate(points):
+        at = WORLD.to_geo(north, east, 0.0)
+        x, y = round(at.lat * 1e7), round(at.lon * 1e7)
+        out.append(
+            mavlink.MAVLink_mission_item_int_message(
+                11, 1, seq, REL, POINT, 0, 0, 0.0, 0.0, 0.0, 0.0, x, y, 0.0, RALLY
+            )
+        )
+    return out
+
+
+def _param(gcs: Gcs, name: str, value: float | None = None) -> float:
+    """PARAM_SET (with ``value``) or PARAM_REQUEST_READ: the value it answers."""
+    real = mavlink.MAV_PARAM_TYPE_REAL32
+    msg = (
+        mavlink.MAVLink_param_request_read_message(11, 1, name.encode(), -1)
+        if value is None
+        else mavlink.MAVLink_param_set_message(11, 1, name.encode(), value, real)
+    )
+    (answer,) = [m for m in gcs.send(msg) if m.get_type() == "PARAM_VALUE"]
+    return float(answer.param_value)
+
+
+def test_an_ardurover_keeps_rally_points_and_gives_them_back() -> None:
+    gcs = Gcs(rover(Personality.ARDUPILOT, LAP))
+    rally = mavlink.MAV_MISSION_TYPE_RALLY
+    points = _rally((1000.0, 350.0), (-900.0, 0.0))
+    upload(gcs, points, rally)
+    assert _param(gcs, "RALLY_TOTAL") == 2.0
+    assert (_param(gcs, "RALLY_LIMIT_KM"), _param(gcs, "RALLY_INCL_HOME")) == (0.5, 1.0)
+    (count,) = gcs.send(mavlink.MAVLink_mission_request_list_message(11, 1, rally))
+    assert (count.count, count.mission_type) == (2, rally)
+    for sent in points:
+        (got,) = gcs.send(mavlink.MAVLink_mission_request_int_message(11, 1, sent.seq, rally))
+        assert (got.seq, got.command, got.x, got.y) == (sent.seq, sent.command, sent.x, sent.y)
+    # Not a rally point, refused; a count of none clears them; not on PX4's rovers.
+    wrong = _rally((0.0, 0.0))[0]
+    wrong.command = mavlink.MAV_CMD_NAV_WAYPOINT
+    gcs.send(mavlink.MAVLink_mission_count_message(11, 1, 1, rally))
+    (ack,) = gcs.send(wrong)
+    assert ack.type == mavlink.MAV_MISSION_UNSUPPORTED
+    gcs.send(mavlink.MAVLink_mission_count_message(11, 1, 0, rally))
+    assert _param(gcs, "RALLY_TOTAL") == 0.0
+    with pytest.raises(ValueError, match="0 or 1"):
+        gcs.vehicle._set_knob(Knob.RALLY_INCL_HOME, 0.5)
+    px4 = Gcs(rover(Personality.PX4, LAP))
+    (ack,) = px4.send(mavlink.MAVLink_mission_count_message(11, 1, 1, rally))
+    assert ack.type == mavlink.MAV_MISSION_UNSUPPORTED
+
+
+@pytest.mark.parametrize(
+    ("limit_km", "goes"),
+    [(0.5, (1000.0, 350.0)), (0.05, None)],  # (the point ~120 m off; beyond 50 m: home)
+)
+def test_an_ardurover_in_rtl_drives_to_its_nearest_rally_point_within_its_limit(
+    limit_km: float, goes: tuple[float, float] | None
+) -> None:
+    gcs = Gcs(rover(Personality.ARDUPILOT, LAP))
+    upload(gcs, _rally((1000.0, 350.0), (-900.0, 0.0)), mavlink.MAV_MISSION_TYPE_RALLY)
+    assert _param(gcs, "RALLY_LIMIT_KM", limit_km) == pytest.approx(limit_km)
+    gcs.run(160.0, telemetry=False)  # (on the second leg, 1000 m north, ~230 m east)
+    was = gcs.truth()
+    assert 100.0 < math.hypot(was.north - 1000.0, was.east - 350.0) < 150.0
+    _rtl(gcs, Personality.ARDUPILOT)
+    path, texts = _drive(gcs, 200.0)
+    n, e, speed = path[-1]
+    goal = goes or _home(gcs)
+    assert math.hypot(n - goal[0], e - goal[1]) <= 2.0 and speed == 0.0, (was, path[-1])
+    assert texts.count("Reached destination") == 1

@@ -52,9 +52,9 @@ def item(seq: int, command: int, frame: int, p1: float, p2: float, where: GeoPoi
     )  # fmt: skip
 
 
-def upload(gcs: Gcs, sent: list[Msg]) -> list[Msg]:
-    """The upload in turn, each answer checked; the last replies."""
-    replies = gcs.send(mavlink.MAVLink_mission_count_message(11, 1, len(sent), MISSION))
+def upload(gcs: Gcs, sent: list[Msg], kind: int = MISSION) -> list[Msg]:
+    """The upload in turn (of ``kind``), each answer checked; the last replies."""
+    replies = gcs.send(mavlink.MAVLink_mission_count_message(11, 1, len(sent), kind))
     (request,) = of_type(replies, "MISSION_REQUEST_INT")
     assert request.seq == 0
     for item in sent:
@@ -63,7 +63,7 @@ def upload(gcs: Gcs, sent: list[Msg]) -> list[Msg]:
         if item is not sent[-1]:
             assert [r.seq for r in nxt] == [item.seq + 1], replies
     (ack,) = of_type(replies, "MISSION_ACK")
-    assert (ack.type, ack.mission_type) == (mavlink.MAV_MISSION_ACCEPTED, MISSION)
+    assert (ack.type, ack.mission_type) == (mavlink.MAV_MISSION_ACCEPTED, kind)
     return replies
 
 

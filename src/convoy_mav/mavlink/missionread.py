@@ -30,7 +30,7 @@ from convoy_mav.mavlink.codec import GCS_SYSTEM, Message
 from convoy_mav.mavlink.rovermode import rover_mode
 from convoy_mav.types import ConvoyDrive
 
-__all__ = ["MissionItem", "MissionRead", "MissionWatch"]
+__all__ = ["MissionItem", "MissionRead", "MissionWatch", "ParamAsks"]
 
 TIMEOUT_S = 1.5
 TRIES = 5
@@ -60,7 +60,8 @@ class MissionItem:
 
 
 class MissionRead:
-    """One download of a vehicle's mission (MAV_MISSION_TYPE_MISSION).
+    """One download of a vehicle's mission (``mission_type``: MAV_MISSION_TYPE_MISSION,
+    or its rally points, MAV_MISSION_TYPE_RALLY).
 
     Drive it with :meth:`start`, :meth:`handle` for every message from that vehicle, and
     :meth:`poll` now and then; each returns the messages to send. It ends ``done`` with
@@ -70,10 +71,16 @@ class MissionRead:
     """
 
     def __init__(
-        self, target_system: int, target_component: int = 1, *, own: int = GCS_SYSTEM
+        self,
+        target_system: int,
+        target_component: int = 1,
+        *,
+        own: int = GCS_SYSTEM,
+        mission_type: int = mavlink.MAV_MISSION_TYPE_MISSION,
     ) -> None:
         self.target = (target_system, target_component)
         self.own = own
+        self.mission_type = mission_type
         self.items: list[MissionItem] | None = None  # when done and read
         self.error: str | None = None  # when done and failed
         self.busy = False  # ... refused as another transfer was under way
@@ -101,7 +108,7 @@ class MissionRead:
         if self.done or not self.started:
             return []
         kind = msg.get_type()
-        if getattr(msg, "mission_type", 0) != mavlink.MAV_MISSION_TYPE_MISSION:
+        if getattr(msg, "mission_type", 0) != self.mission_type:
             return []
         if getattr(msg, "target_system", 0) not in (0, self.own):
             return []  # (to another ground station)
@@ -147,7 +154,7 @@ class MissionRead:
         self._sent_at = now
         self._tries = 1 if first else self._tries + 1
         system, component = self.target
-        kind = mavlink.MAV_MISSION_TYPE_MISSION
+        kind = self.mission_type
         if self._count is None:
             return [mavlink.MAVLink_mission_request_list_message(system, component, kind)]
         seq = len(self._got)
@@ -155,8 +162,7 @@ class MissionRead:
 
     def _ack(self, result: int) -> Message:
         system, component = self.target
-        kind = mavlink.MAV_MISSION_TYPE_MISSION
-        return mavlink.MAVLink_mission_ack_message(system, component, result, kind)
+        return mavlink.MAVLink_mission_ack_message(system, component, result, self.mission_type)
 
     def _fail(self, why: str) -> list[Message]:
         self.error = why
@@ -172,6 +178,45 @@ SPEED_PARAMS = ("WP_SPEED", "CRUISE_SPEED")
 PARAM_TIMEOUT_S = 1.5  # before asking again for a parameter not answered
 PARAM_TRIES = 3  # ... and then the read is handed over without it
 _CHANGED = "mission changed"  # (ArduRover's and ArduCopter's "Auto mission changed, ...")
+
+
+class ParamAsks:
+    """Parameters of a vehicle asked by PARAM_REQUEST_READ, again each ``PARAM_TIMEOUT_S``
+    while unanswered, ``PARAM_TRIES`` times at most (then the caller's defaults stand)."""
+
+    def __init__(self, target: tuple[int, int], names: tuple[str, ...]) -> None:
+        self.target = target
+        self.names = names
+        self.values: dict[str, float] = {}  # (finite values answered, by name)
+        self.tries = 0
+        self._next = 0.0
+
+    @property
+    def settled(self) -> bool:
+        """All answered, or asked as often as they will be."""
+        return len(self.values) == len(self.names) or self.tries >= PARAM_TRIES
+
+    def take(self, msg: Message) -> bool:
+        """Keep a PARAM_VALUE of one of them (True: it was)."""
+        if msg.get_type() != "PARAM_VALUE" or msg.param_id not in self.names:
+            return False
+        value = float(msg.param_value)
+        if math.isfinite(value):
+            self.values[msg.param_id] = value
+        return True
+
+    def ask(self, now: float) -> list[Message]:
+        """The requests due at ``now`` (those still unanswered)."""
+        if self.settled or now < self._next:
+            return []
+        self.tries += 1
+        self._next = now + PARAM_TIMEOUT_S
+        system, component = self.target
+        return [
+            param_request_message(system, component, name)
+            for name in self.names
+            if name not in self.values
+        ]
 
 
 class MissionWatch:
@@ -216,9 +261,7 @@ class MissionWatch:
         self._next_try = 0.0
         self._finished: MissionRead | None = None
         self.default_speed: float | None = None  # m/s, AUTO's where no item says one
-        self._params: dict[str, float] = {}
-        self._param_tries = 0
-        self._param_next = 0.0
+        self._asks = ParamAsks(self.target, SPEED_PARAMS)
 
     def handle(self, msg: Message, now: float) -> list[Message]:
         """A message from the vehicle; what to send in answer."""
@@ -238,9 +281,8 @@ class MissionWatch:
             self.current = int(msg.seq)
         elif kind == "STATUSTEXT" and _CHANGED in str(msg.text).lower():
             self._stale, self._next_try = True, 0.0
-        elif kind == "PARAM_VALUE" and msg.param_id in SPEED_PARAMS:
-            self._params[msg.param_id] = float(msg.param_value)
-            wp, cruise = (self._params.get(name, math.nan) for name in SPEED_PARAMS)
+        elif self._asks.take(msg):
+            wp, cruise = (self._asks.values.get(name, math.nan) for name in SPEED_PARAMS)
             speed = wp if wp > 0.0 else cruise  # (WP_SPEED 0: CRUISE_SPEED is AUTO's)
             self.default_speed = speed if math.isfinite(speed) and speed > 0.0 else None
         read = self.read
@@ -253,21 +295,13 @@ class MissionWatch:
     @property
     def _params_done(self) -> bool:
         """The default speed known, or not to be asked (not ArduPilot), or given up."""
-        wp = self._params.get(SPEED_PARAMS[0])
-        known = (wp is not None and wp > 0.0) or len(self._params) == len(SPEED_PARAMS)
-        return not self.ardupilot or known or self._param_tries >= PARAM_TRIES
+        wp = self._asks.values.get(SPEED_PARAMS[0])
+        return not self.ardupilot or (wp is not None and wp > 0.0) or self._asks.settled
 
     def _ask_params(self, now: float) -> list[Message]:
-        if not self._heard or self._params_done or now < self._param_next:
+        if not self._heard or self._params_done:
             return []
-        self._param_tries += 1
-        self._param_next = now + PARAM_TIMEOUT_S
-        system, component = self.target
-        return [
-            param_request_message(system, component, name)
-            for name in SPEED_PARAMS
-            if name not in self._params
-        ]
+        return self._asks.ask(now)
 
     def poll(self, now: float) -> list[Message]:
         """Start a read when one is due; time the one under way out; ask for the
