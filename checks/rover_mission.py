@@ -33,7 +33,9 @@ and its speed 10-20 s later. ``--move-at AT:METRES`` (repeatable) is its operato
 a waypoint three ahead of the one it drives to METRES east and uploading the mission
 again at boot time AT s, as it drives; each prints the answer and the texts it sent.
 ``--rtl-at AT:FOR`` (repeatable) is its operator calling it home: RTL at boot time AT s,
-AUTO again FOR s later; each prints how far from home it stood and its speed in AUTO.
+AUTO again FOR s later; each prints how far from home it stood and its speed in AUTO;
+with ``--rally-left METRES`` a rally point that far to its left is uploaded first
+(ArduRover drives there if it is nearer than home and within RALLY_LIMIT_KM).
 
 ``compare`` sets the drive of a real rover (its GLOBAL_POSITION_INT in a tlog, from when
 it first moves to when it last does) beside the mock's rover driving the same road as
@@ -69,6 +71,7 @@ from sitl_mock.ground import Polyline
 from sitl_mock.mission import DEFAULT_TOLERANCE_M, thin
 
 MISSION = mavlink.MAV_MISSION_TYPE_MISSION
+RALLY = mavlink.MAV_MISSION_TYPE_RALLY
 ROVER_AUTO = 10  # ArduRover's custom modes
 ROVER_HOLD = 4
 ROVER_RTL = 11
@@ -204,6 +207,7 @@ def drive(
     speeds: Sequence[tuple[float, float]] = (),
     moves: Sequence[tuple[float, float]] = (),
     rtls: Sequence[tuple[float, float]] = (),
+    rally_left: float | None = None,
 ) -> int:
     """Upload the road, AUTO, arm (see the module's ``drive``)."""
     link = mavutil.mavlink_connection(connection, source_system=250, source_component=190)
@@ -219,7 +223,7 @@ def drive(
         print("the rover refused to arm")
         return 1
     print(f"{time.strftime('%H:%M:%S')} armed in AUTO", flush=True)
-    return _operator(link, target, holds, speeds, moves, items, rtls)
+    return _operator(link, target, holds, speeds, moves, items, rtls, rally_left)
 
 
 def hail(link: Any) -> tuple[int, int] | None:
@@ -350,11 +354,12 @@ def _operator(
     moves: Sequence[tuple[float, float]] = (),
     items: list[Any] | None = None,
     rtls: Sequence[tuple[float, float]] = (),
+    rally_left: float | None = None,
 ) -> int:
     """HOLD at each (boot time, seconds), then AUTO; DO_CHANGE_SPEED at each (boot time,
     m/s); the mission uploaded again with a waypoint ahead moved at each (boot time,
-    metres east); RTL at each (boot time, seconds), then AUTO; what the rover did,
-    printed."""
+    metres east); RTL at each (boot time, seconds), then AUTO (with ``rally_left``, a
+    rally point that far to its left uploaded first); what the rover did, printed."""
     if not holds and not speeds and not moves and not rtls:
         return 0
     link.mav.request_data_stream_send(*target, mavlink.MAV_DATA_STREAM_POSITION, 4, 1)
@@ -412,16 +417,23 @@ def _operator(
                   f"{max(speeds_seen[-10:]):.1f} m/s", flush=True)  # fmt: skip
             continue
         if kind == "rtl":
+            goal, to = home, "home"
+            if rally_left is not None and frame is not None:
+                _, n1, e1, _ = fix()
+                left = math.atan2(e1 - e0, n1 - n0) - math.pi / 2.0
+                goal = (n1 + rally_left * math.cos(left), e1 + rally_left * math.sin(left))
+                answer = upload(link, target, [_rally_item(target, frame, goal)], RALLY)
+                to = f"a rally point {rally_left:.0f} m to its left ({answer})"
             link.mav.set_mode_send(target[0], flag, ROVER_RTL)
             while t < at + value:
                 t, n, e, v = fix()
-            off = math.dist((n, e), home)
+            off = math.dist((n, e), goal)
             link.mav.set_mode_send(target[0], flag, ROVER_AUTO)
             while t < at + value + 15.0:
                 t, _, _, v_auto = fix()
             print(f"RTL at {at:.0f} s (boot), {v0:.1f} m/s, {math.dist((n0, e0), home):.0f} m "
-                  f"from home: {off:.1f} m from it at {at + value:.0f} s, {v:.1f} m/s; AUTO: "
-                  f"{v_auto:.1f} m/s 15 s later", flush=True)  # fmt: skip
+                  f"from home, to {to}: {off:.1f} m from it at {at + value:.0f} s, {v:.1f} m/s; "
+                  f"AUTO: {v_auto:.1f} m/s 15 s later", flush=True)  # fmt: skip
             continue
         link.mav.set_mode_send(target[0], flag, ROVER_HOLD)
         stood: tuple[float, float] | None = None  # (boot s, metres run on) once standing
@@ -438,6 +450,16 @@ def _operator(
         print(f"HOLD at {at:.0f} s (boot), {v0:.1f} m/s: {said}; AUTO at {at + value:.0f} s: "
               f"{v:.1f} m/s 15 s later", flush=True)  # fmt: skip
     return 0
+
+
+def _rally_item(target: tuple[int, int], frame: LocalFrame, at: tuple[float, float]) -> Any:
+    """A rally point at ``at`` (north, east in ``frame``), as a ground station uploads it."""
+    where = frame.to_geo(at[0], at[1], 0.0)
+    x, y = round(where.lat * 1e7), round(where.lon * 1e7)
+    rel, point = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, mavlink.MAV_CMD_NAV_RALLY_POINT
+    return mavlink.MAVLink_mission_item_int_message(
+        *target, 0, rel, point, 0, 0, 0, 0, 0, 0, x, y, 0.0, RALLY
+    )
 
 
 def _slow_spells(
@@ -584,6 +606,10 @@ def main() -> int:
         "--rtl-at", action="append", default=[], type=_pair, metavar="AT:FOR",
         help="RTL at the rover's boot time AT s, AUTO again FOR s later (repeatable)",
     )  # fmt: skip
+    d.add_argument(
+        "--rally-left", type=float, metavar="METRES",
+        help="before each RTL, upload a rally point METRES to the rover's left",
+    )  # fmt: skip
     c = sub.add_parser("compare", help="a rover's drive in a tlog against the mock's rover")
     c.add_argument("tlog", help="the tlog of the rover's drive")
     c.add_argument("road", help="the CSV time,lat,lon it was sent down (``drive``)")
@@ -596,7 +622,7 @@ def main() -> int:
     if args.command == "drive":
         return drive(
             args.connection, args.road, args.speed, args.hold, args.speed_at, args.move_at,
-            args.rtl_at,
+            args.rtl_at, args.rally_left,
         )  # fmt: skip
     return read(args)
 
