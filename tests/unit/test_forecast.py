@@ -508,6 +508,8 @@ def test_sent_home_but_driving_elsewhere_it_is_forecast_from_its_own_velocity() 
         # (looked at from 18 s after the RTL, its 13 s of braking + 5 s: 5 s more)
         assert model.astray == (k >= 11), k
     assert model.counters["astray"] == 1
+    model.set_drive(ConvoyDrive.HOME, home)  # (told the same again: still astray)
+    assert model.astray
     x, y = model.positions(t + np.array([0.0, 10.0]))
     assert (x[1], y[1]) == pytest.approx((east, north + 80.0))
     far = math.hypot(home[0] - east, home[1] - north)
@@ -517,6 +519,12 @@ def test_sent_home_but_driving_elsewhere_it_is_forecast_from_its_own_velocity() 
     x, y = model.positions(t + 1.0 + np.array([0.0, 10.0]))
     gone = 8.0 * 7.0 + 0.5 * 7.0**2 + 15.0 * 3.0  # (8 -> 15 m/s, its speed before RTL)
     assert (x[1], y[1]) == pytest.approx((east + gone * ux, north + gone * uy))
+    # Told where it goes (a rally point read, north of it): watched anew, forecast there.
+    model.set_drive(ConvoyDrive.HOME, (east, north + 500.0))
+    model.observe(ConvoyEstimate(t + 2.0, north, east, 8.0, 0.0))
+    assert not model.astray
+    x, y = model.positions(t + 2.0 + np.array([0.0, 10.0]))
+    assert (x[1], y[1]) == pytest.approx((east, north + gone))
 
 
 def test_back_in_auto_after_rtl_it_drives_straight_to_its_waypoint_then_its_route_on() -> None:

@@ -322,12 +322,14 @@ class ConvoyModel:
         ``destination`` (the waypoint it was driving to when sent home), straight to it
         and on along the route from there, as ``AP_Mission::resume`` drives it."""
         was, self._drive = self._drive, drive
-        self._going = destination if drive is ConvoyDrive.HOME else None
+        going, self._going = self._going, destination if drive is ConvoyDrive.HOME else None
         self._rejoin = None
         route, est = self.route, self._est  # (its mission's way: AUTO drives it so)
         if drive is not was and est is not None:  # (a way of its own starts here)
             turn = max(0.0, est.speed - _TURN_ROUND_MPS) / _TURN_ACCEL
-            self._way_from, self._astray_since, self.astray = (est.t, turn + _ASTRAY_S), None, False
+            self._way_from = (est.t, turn + _ASTRAY_S)
+        if drive is not was or self._going != going:  # (where it goes is new: watched anew)
+            self._astray_since, self.astray = None, False
         if drive is ConvoyDrive.HOME and was is not ConvoyDrive.HOME:
             on = route is not None and not (self._off_road or self._reversed)
             self._left = (self._s, est.east, est.north) if on and est is not None else None
