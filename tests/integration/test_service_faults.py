@@ -109,11 +109,13 @@ async def test_a_fleet_wide_pause_is_followed_and_everyone_rejoins(
     # Mission time followed the autopilots across the silence. The first 0.2 s of wall
     # time are left out (a step is confirmed from a few packets of the new timeline);
     # each sample compares two loops' readings of the time 20 ms apart at most, so
-    # one sample may be off by the speedup x a scheduling delay: the median is held
-    # to 0.2 s, every sample to well under the pause (the bug ran 14 s ahead).
+    # one sample may be off by the speedup x a scheduling delay (a loaded CI host: one
+    # sample 4.1 s off, the median 0.03 s): the median is held to 0.2 s, 95 % of the
+    # samples to 1 s, and every one to half the pause (the bug ran 14 s ahead, always).
     settled = sorted(abs(e) for e in errors[10:])
     assert settled, "no clock samples after the pause"
-    assert settled[len(settled) // 2] < 0.2 and settled[-1] < 2.0, (settled[0], settled[-1])
+    median, p95 = settled[len(settled) // 2], settled[int(0.95 * (len(settled) - 1))]
+    assert median < 0.2 and p95 < 1.0 and settled[-1] < 0.5 * pause_s, (median, p95, settled[-1])
     # every UAV that was declared lost flies its slot again
     assert counting and all(why is None for why in counting.values()), counting
     # Set up again in seconds (0.5 s in most runs). On a loaded host about one run in
