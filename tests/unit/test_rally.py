@@ -108,3 +108,21 @@ def test_a_rally_read_unanswered_fails_and_unanswered_parameters_take_rovers_def
         read.poll(now)
     assert read.done and read.error is not None and "did not answer" in read.error
     assert read.points == [] and read.limit_km == 0.5 and read.incl_home is True
+
+
+def test_a_rally_read_refused_says_why_and_its_answered_parameters_still_count() -> None:
+    """Firmware built without rally points refuses the read (MISSION_ACK, unsupported)."""
+    read = RallyRead(ROVER, own=255)
+    read.start(0.0)
+    unsupported = mavlink.MAV_MISSION_UNSUPPORTED
+    read.handle(wire(mavlink.MAVLink_mission_ack_message(255, 190, unsupported, RALLY)), 0.1)
+    assert not read.done  # (its parameters not answered yet)
+    read.handle(_param("RALLY_LIMIT_KM", 0.0), 0.2)
+    read.handle(_param("RALLY_INCL_HOME", 1.0), 0.2)
+    assert read.done and read.error is not None and "MAV_MISSION_UNSUPPORTED" in read.error
+    assert read.points == [] and read.limit_km == 0.0
+    # (the mission's own refusal is another read's)
+    other = RallyRead(ROVER, own=255)
+    other.start(0.0)
+    other.handle(wire(mavlink.MAVLink_mission_ack_message(255, 190, unsupported, 0)), 0.1)
+    assert other.error is None
