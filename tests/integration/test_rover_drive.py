@@ -25,6 +25,7 @@ from pymavlink import mavutil
 from pymavlink.dialects.v20 import common as mavlink
 
 from convoy_mav.app import ConvoyService
+from convoy_mav.coverage import CoverageStats
 from convoy_mav.demo import SCENARIOS, DemoResult, run_demo
 from sitl_mock.drive import Ramps, corner_speed
 from sitl_mock.server import MockFleet
@@ -36,6 +37,7 @@ from tests.hostspeed import host_speedup
 # gave up to 2.6 points under it; at 20x, 0.6-1.4 in three.
 SPEEDUP = host_speedup(20.0)
 pytestmark = pytest.mark.integration
+_LATE_OVER = 0.04  # (the prediction's further room over the truth on a host late to fly)
 
 # A lap of 2.2 km round six city corners, the third held 30 s; 8 m/s, then 6 m/s from
 # the fourth corner back round to the start.
@@ -87,7 +89,7 @@ async def test_a_rovers_corners_are_learnt_and_its_convoy_protected(
     assert truth.fraction >= 0.96, (truth, report["predicted_coverage"])
     assert truth.longest_gap_s <= 12.0, truth
     # (1.5 points, as the road replays allow a flight beside another)
-    assert report["predicted_coverage"] == pytest.approx(truth.fraction, abs=0.015)
+    _assert_predicted(report, truth, 0.015)
 
 
 _ARDUROVER_HOLD, _ARDUROVER_AUTO, _ARDUROVER_RTL = 4, 10, 11
@@ -135,7 +137,7 @@ async def test_a_rover_its_operator_holds_stands_and_is_watched_standing() -> No
     # protection one 10-s gap is 2.8 points.)
     assert truth.fraction >= 0.94, (truth, report["predicted_coverage"])
     assert truth.longest_gap_s <= 12.0, truth
-    assert report["predicted_coverage"] == pytest.approx(truth.fraction, abs=0.02)
+    _assert_predicted(report, truth, 0.02)
 
 
 @pytest.mark.alone
@@ -224,14 +226,22 @@ async def test_a_rover_its_operator_calls_home_is_watched_off_its_route_and_back
     # its route as before, not home: 88.5 and 91.8 %, 21 s unseen as it turned off it.
     # With the rally RTL as well, six flights: 94.1-97.8 %, gaps 2.8-16.9 s; its rally
     # points not read, 91.9-94.5 % in four, 91.6-94.1 % in three with no astray either.)
-    # The prediction may run over the truth on a loaded host, where the UAVs fly their
-    # legs late (a clean-clone CI run: 98.5 % predicted, 94.5 % true, the service
-    # warning "setpoints late: 0.53 mission s between two rounds at 20x"; ten flights
-    # on a quiet host: -0.1 to +0.5 points).
     assert truth.fraction >= 0.91, (truth, report["predicted_coverage"])
     assert truth.longest_gap_s <= 20.0, truth
+    _assert_predicted(report, truth, 0.03)  # (ten flights on a quiet host: -0.1 to +0.5)
+
+
+def _assert_predicted(report: dict[str, Any], truth: CoverageStats, tol: float) -> None:
+    """The service's prediction within ``tol`` of the truth; over it by up to
+    ``_LATE_OVER`` more only where the service said its re-plans or setpoints reached
+    the UAVs late: a host short of CPU for the test's speedup flies the plans behind
+    them (clean-clone CI runs of 2026-12-01: 98.5 % predicted against 94.5 % true with
+    "setpoints late: 0.53 mission s between two rounds at 20x", 98.5 against 96.7 %
+    with "re-plans late ... 0.20 mission s"; on a quiet host within 0.5 points)."""
     over = report["predicted_coverage"] - truth.fraction
-    assert -0.03 <= over <= 0.05, (report["predicted_coverage"], truth)
+    late = any("re-plans late" in e or "setpoints late" in e for e in report["events"])
+    top = tol + (_LATE_OVER if late else 0.0)
+    assert -tol <= over <= top, (report["predicted_coverage"], truth, late)
 
 
 async def _operated(
@@ -320,7 +330,7 @@ async def test_a_rover_its_operator_slows_keeps_the_speed_and_is_forecast_at_it(
     # (seven flights: 95.6-99.0 %, the prediction 0.6-2.6 points higher at 40x, 0.6-1.4 at 20x)
     assert truth.fraction >= 0.94, (truth, report["predicted_coverage"])
     assert truth.longest_gap_s <= 12.0, truth
-    assert report["predicted_coverage"] == pytest.approx(truth.fraction, abs=0.02)
+    _assert_predicted(report, truth, 0.02)
 
 
 async def _upload(fleet: MockFleet, sysid: int, items: list[Any]) -> str:
@@ -392,4 +402,4 @@ async def test_a_rovers_mission_its_operator_changes_is_read_again_and_flown() -
     truth = result.truth
     assert truth is not None
     assert truth.fraction >= 0.94, (truth, report["predicted_coverage"])
-    assert report["predicted_coverage"] == pytest.approx(truth.fraction, abs=0.02)
+    _assert_predicted(report, truth, 0.02)
