@@ -296,18 +296,26 @@ def with_ardurover(
             fh.write(f"WP_SPEED {wp_speed:g}\nCRUISE_SPEED {wp_speed:g}\n")
         defaults = f"{sitl}/Tools/autotest/default_params/rover.parm,{params}"
         at = ",".join(str(c) for c in (*home, 0))
+        argv = [binary, "--model", "rover", "--speedup", "5", "-I", str(instance), "--home", at,
+                "--defaults", defaults]  # fmt: skip
         with open(os.path.join(work, "sitl.log"), "w") as log:
-            proc = subprocess.Popen(
-                [binary, "--model", "rover", "--speedup", "5", "-I", str(instance), "--home", at,
-                 "--defaults", defaults],
+            return _beside(
+                argv, 2.0, run, f"tcp:127.0.0.1:{5760 + 10 * instance}",
                 cwd=work, stdout=log, stderr=subprocess.STDOUT,
             )  # fmt: skip
-            try:
-                time.sleep(2.0)
-                return run(f"tcp:127.0.0.1:{5760 + 10 * instance}")
-            finally:
-                proc.terminate()
-                proc.wait()
+
+
+def _beside(
+    argv: list[str], settle_s: float, run: Callable[[str], int], connection: str, **popen: Any
+) -> int:
+    """``run`` on ``connection`` while the process ``argv`` runs (``settle_s`` to start)."""
+    proc = subprocess.Popen(argv, **popen)
+    try:
+        time.sleep(settle_s)
+        return run(connection)
+    finally:
+        proc.terminate()
+        proc.wait()
 
 
 def check_main(
@@ -333,17 +341,10 @@ def check_main(
         return with_ardurover(run, instance=instance, wp_speed=wp_speed, home=home)
     lat, lon, alt = home
     speedup = [] if mock_speedup is None else ["--speedup", f"{mock_speedup:g}"]
-    mock = subprocess.Popen(
-        [sys.executable, "-m", "sitl_mock", "--aircraft", "0", "--ground", "1",
-         "--personality", args.mock, "--base-port", str(mock_port), "--ground-route",
-         "stationary", "--origin", f"{lat},{lon},{alt}", *speedup],
-    )  # fmt: skip
-    try:
-        time.sleep(1.0)
-        return run(f"udpout:127.0.0.1:{mock_port}")
-    finally:
-        mock.terminate()
-        mock.wait()
+    argv = [sys.executable, "-m", "sitl_mock", "--aircraft", "0", "--ground", "1",
+            "--personality", args.mock, "--base-port", str(mock_port), "--ground-route",
+            "stationary", "--origin", f"{lat},{lon},{alt}", *speedup]  # fmt: skip
+    return _beside(argv, 1.0, run, f"udpout:127.0.0.1:{mock_port}")
 
 
 def _operator(
