@@ -553,19 +553,18 @@ class ConvoyService:
         if mode is None:
             return
         homeward = mode.drive is ConvoyDrive.HOME and mode != self._lead_mode
-        if homeward:  # (its home may be new: ask at once)
+        if homeward:  # (its home may be new: ask at once; and where it goes instead)
             self._home_wait, self._home_gap = 0, 1
+            self._rtl_from, self._rallies = self._ground_xy.get(sysid), None
+            if msg.autopilot == mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA and self._ground_links:
+                self._rally = RallyRead(sysid, own=self.config.source_system)
+                self._rally_sends(self._rally.start(time.monotonic()))
         if (self._lead_home is None or homeward) and self._ground_links:
             if self._home_wait > 0:
                 self._home_wait -= 1
             else:
                 self._ground_links[0].send(_home_request(sysid))
                 self._home_wait, self._home_gap = self._home_gap, min(2 * self._home_gap, 32)
-        if homeward:
-            self._rtl_from, self._rallies = self._ground_xy.get(sysid), None
-            if msg.autopilot == mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA and self._ground_links:
-                self._rally = RallyRead(sysid, own=self.config.source_system)
-                self._rally_sends(self._rally.start(time.monotonic()))
         if mode == self._lead_mode:
             return
         was, self._lead_mode = self._lead_mode, mode
