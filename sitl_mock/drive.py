@@ -253,10 +253,19 @@ def _reachable(
             v[0] = v[-1] = min(v[0], v[-1])
     # Entered at its speed then, it brakes at the accel from there: to the next vertex's
     # speed if it can, else as near it as it can (braked on after it: ``_leg_down``).
+    # On a loop the lap's last vertex is its first: braking on past it goes on into the
+    # next lap (else the next lap would start at a speed the rover never slowed to).
     two_a = 2.0 * ramps.accel
     for k in sorted(entered):
         v[k], j = cap[k], k
-        while j + 1 < n and v[j] ** 2 > v[j + 1] ** 2 + two_a * lengths[j] + 1e-9:
+        for _ in range(n):
+            if j + 1 == n and loop:
+                j = 0
+                if v[0] >= v[-1]:
+                    break
+                v[0] = v[-1]
+            if j + 1 >= n or v[j] ** 2 <= v[j + 1] ** 2 + two_a * lengths[j] + 1e-9:
+                break
             v[j + 1] = math.sqrt(v[j] ** 2 - two_a * lengths[j])
             j += 1
     return v

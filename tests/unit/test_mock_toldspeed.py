@@ -6,7 +6,7 @@ import itertools
 import math
 
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from pymavlink.dialects.v20 import common as mavlink
 
@@ -155,7 +155,25 @@ def test_a_px4_rover_back_in_its_mission_forgets_a_told_speed_for_its_missions(
     assert gcs.truth().speed == pytest.approx(8.0)
 
 
+def test_told_slower_just_before_a_laps_end_it_brakes_on_into_the_next_lap() -> None:
+    """The lap's last vertex is its first: told 1 m/s less than a metre before it, braking
+    at 1 m/s² on from the speed it has, it starts the next lap at the speed it got to
+    there, not at the 1 m/s it was told (once a jump of 1.4 m/s at the lap's start)."""
+    road = _road(loop=True)
+    end = road.arrivals[-1]  # (the lap's end: its first vertex again, the 8 m/s mark)
+    tau = end - 0.3
+    now = math.hypot(*road.velocity(tau))
+    told, at = road.with_speed_from(tau, 1.0)
+    ends = told.told_until(at)
+    before, after = told.velocity(ends - 1e-6), told.velocity(ends + 1e-6)
+    assert told.position(ends) == pytest.approx(LAP[0], abs=1e-6)
+    assert math.hypot(*after) == pytest.approx(math.hypot(*before), abs=1e-3)
+    gone = math.dist(road.position(tau), LAP[0])  # (braked over at 1 m/s²)
+    assert math.hypot(*after) == pytest.approx(math.sqrt(now * now - 2.0 * gone), abs=1e-3)
+
+
 @settings(max_examples=60, deadline=None)
+@example([(9.0, 12.0), (83.0, 12.0), (50.0, 12.0), (90.0, 12.0), (5.0, 1.0)], True, True, False)
 @given(
     st.lists(st.tuples(st.floats(3.0, 90.0), st.floats(1.0, 12.0)), min_size=1, max_size=6),
     st.booleans(),
