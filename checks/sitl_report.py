@@ -6,7 +6,8 @@ The autopilots' own GLOBAL_POSITION_INT are the aircraft's truth (SITL's estimat
 its simulated state within centimetres), airborne above 3 m over home; the convoy is
 the config's scripted route, set off at the report's ``route_start_s``, or (``[convoy]
 source = "mavlink"``: ``sitl-mock`` rovers driving a road) the centroid of its vehicles'
-own GLOBAL_POSITION_INT, which the mock reports without noise. Times are mission time,
+own GLOBAL_POSITION_INT, which the mock reports without noise (of the lead's group, a
+vehicle parted from it left out, as the service does: ``parting``). Times are mission time,
 rebuilt from ``time_boot_ms`` the way the service does (``MissionClock`` fed with the
 tlog's arrival stamps, the rovers' clocks mapped onto the aircraft's).
 """
@@ -97,7 +98,11 @@ def main(config_path: str, report_path: str, tlog_path: str) -> int:
             else:
                 truth.append(TruthFix(t, sysid, "aircraft", lat, lon, True, alt > _AIRBORNE_M))
         t += _TICK
-    stats = score_truth(truth, cfg.origin, cfg.sensor_radius_m, start=start, end=end)
+    lead = c.vehicles[0].sysid if c.vehicles else None  # (its group is the convoy)
+    stats = score_truth(
+        truth, cfg.origin, cfg.sensor_radius_m, start=start, end=end,
+        lead=lead, part_m=cfg.convoy_part_m,
+    )  # fmt: skip
     print(
         f"protect phase {start:.1f}..{end:.1f} s: coverage {100 * stats.fraction:.2f} % "
         f"(service's monitor {100 * (report['coverage_fraction'] or 0):.2f} %, predicted "

@@ -35,7 +35,7 @@ from pymavlink.dialects.v20 import common as mavlink
 
 from convoy_mav.clock import MissionClock, Observed
 from convoy_mav.config import MissionConfig, UavConfig
-from convoy_mav.convoy import ConvoyTracker
+from convoy_mav.convoy import ConvoyTracker, Source
 from convoy_mav.errors import ConfigError, PlanningError
 from convoy_mav.fence import Fence, fence_from, fence_items, join_orbit, orbit_setpoint
 from convoy_mav.gcpolicy import collect_on_schedule, flight_gc
@@ -284,6 +284,11 @@ def _home_request(sysid: int) -> Any:
     )  # fmt: skip
 
 
+def _source_name(source: Source) -> str:
+    """A convoy source as the operator knows it: a ground vehicle by its system id."""
+    return f"ground vehicle {source}" if isinstance(source, int) else f"convoy source {source!r}"
+
+
 def _drained(queue: deque[_T]) -> list[_T]:
     """Every item in ``queue``, taken out in order (safe beside another thread's
     ``append``: each ``popleft`` is atomic, where a swap of the whole could drop one)."""
@@ -334,7 +339,15 @@ class ConvoyService:
         self.clock = MissionClock(
             rate_hint=rate_hint, silence_cap=max(10.0, 3.0 * config.lost_after_s)
         )
-        self.tracker = ConvoyTracker(stale_after=config.convoy.stale_after_s, window=4.0)
+        # (the convoy is the lead's group: a vehicle parted from it is not in its centroid)
+        self.tracker = ConvoyTracker(
+            stale_after=config.convoy.stale_after_s,
+            window=4.0,
+            part_m=config.convoy_part_m,
+            lead=config.convoy.vehicles[0].sysid if config.convoy.vehicles else None,
+        )
+        self._parted: frozenset[Source] = frozenset()  # (as last said)
+        self.convoy_parted: list[dict[str, Any]] = []  # each part and rejoin, for the report
         self.fence = fence_from(config.safety, self.frame)
         self._fence_clamps: Counter[int] = Counter()  # setpoints moved inside the fence, per UAV
         craft = config.plan_aircraft  # (once: the setpoint path runs 20 times a second a UAV)
@@ -542,7 +555,7 @@ class ConvoyService:
             north, east, _ = self.frame.to_ned(GeoPoint(msg.lat * 1e-7, msg.lon * 1e-7))
             # vx, vy: the vehicle's own NED ground velocity, cm/s (the tracker judges it)
             velocity = (msg.vx * 0.01, msg.vy * 0.01)
-            self.tracker.update(t, north, east, source=sysid, velocity=velocity)
+            self._convoy_fix(t, north, east, sysid, velocity)
             self._ground_heard[sysid] = t
             self._ground_xy[sysid] = (east, north)
 
@@ -721,7 +734,46 @@ class ConvoyService:
                     t, now, self._fixes_rejected,
                 )  # fmt: skip
             return False
-        return self.tracker.update(now if t is None else t, north, east, source, velocity)
+        return self._convoy_fix(now if t is None else t, north, east, source, velocity)
+
+    def _convoy_fix(
+        self,
+        t: float,
+        north: float,
+        east: float,
+        source: Source,
+        velocity: tuple[float, float] | None,
+    ) -> bool:
+        """A fix of one of the convoy's vehicles into its estimate; a vehicle that parts
+        from the lead's group, or rejoins it, said."""
+        used = self.tracker.update(t, north, east, source=source, velocity=velocity)
+        if self.tracker.parted != self._parted:
+            self._say_parted(t)
+        return used
+
+    def _say_parted(self, t: float) -> None:
+        """Alarm a vehicle parted from the convoy (no longer in the centroid the UAVs
+        protect: stopped while the rest drive on, sent home, gone elsewhere), and clear
+        it when it rejoins or is no longer heard."""
+        tracker, was = self.tracker, self._parted
+        self._parted = now = tracker.parted
+        for source in sorted(now - was, key=str):
+            apart = tracker.apart(source)
+            far = "" if apart is None else f"{apart:.0f} m from the nearest of the rest, "
+            self._alarm(
+                Alarm(t, "convoy_parted", True, f"{_source_name(source)} parted from the "
+                      f"convoy ({far}beyond {tracker.part_m:.0f} m): the UAVs protect the "
+                      f"rest, not it")
+            )  # fmt: skip
+            self.convoy_parted.append({"t": t, "source": source, "event": "parted",
+                                       "apart_m": apart})  # fmt: skip
+        for source in sorted(was - now, key=str):
+            back = source in tracker.sources
+            what = "rejoined the convoy" if back else "is no longer heard"
+            self._alarm(Alarm(t, "convoy_parted", False, f"{_source_name(source)} {what}"))
+            self.convoy_parted.append(
+                {"t": t, "source": source, "event": "rejoined" if back else "silent"}
+            )
 
     def command(self, command: str) -> None:
         """Operator command: ``pause`` (every UAV loiters) or ``resume``."""
@@ -2133,6 +2185,8 @@ class ConvoyService:
         out["convoy_modes"] = [{"t": t, "mode": name} for t, name in self.convoy_modes]
         # Convoy estimates whose velocity was the vehicles' own, and the fixes' slope.
         out["convoy_velocity"] = {k: self.tracker.counters[k] for k in _VELOCITY_SOURCES}
+        # Vehicles parted from the lead's group and back (``parting``): each, when.
+        out["convoy_parted"] = list(self.convoy_parted)
         if isinstance(self.mission, RoadMission):
             out.update(self.mission.report())
         return out

@@ -59,6 +59,11 @@ times <= a day)::
     heading_deg = 0.0             # route: compass course
     start = { north = 0.0, east = 0.0 }   # route: start point in the mission frame
     stale_after_s = 3.0           # no fresh convoy fix this long: hold + alarm
+    part_m = 200.0                # optional: a ground vehicle farther than this from every
+                                  #   other of the lead's group has parted from the convoy
+                                  #   (stopped, sent home, gone elsewhere): it leaves the
+                                  #   convoy's centroid until back within half of it
+                                  #   (default twice the sensor radius; 0: never)
     route = "route.gpx"           # optional: the road the convoy will drive (GPX trk/rte,
                                   #   CSV lat,lon[,time], GeoJSON LineString, KML/KMZ path,
                                   #   a rover's mission saved as .plan or .waypoints;
@@ -116,6 +121,7 @@ from convoy_mav.errors import ConfigError
 from convoy_mav.geo import GeoPoint
 from convoy_mav.mavlink.codec import GCS_COMPONENT, GCS_SYSTEM
 from convoy_mav.mavlink.connection import ConnectionSpec
+from convoy_mav.parting import default_part_m
 from convoy_mav.planning.export import compass_to_planner
 from convoy_mav.planning.plan import PlanRequest
 
@@ -207,6 +213,8 @@ class ConvoyConfig:
     vehicles: tuple[ConvoyVehicleConfig, ...] = ()
     route_file: str | None = None  # the road it will drive (GPX/CSV), if known
     route_from_mission: bool = False  # ... or the lead ground vehicle's own mission
+    part_m: float | None = None  # a vehicle this far from the lead's group has parted
+    # from the convoy (None: twice the sensor radius, ``MissionConfig.convoy_part_m``)
 
 
 @dataclass(frozen=True, slots=True)
@@ -273,6 +281,13 @@ class MissionConfig:
         if self.uav_count is not None:
             return self.uav_count
         return len(self.uav_list) or None
+
+    @property
+    def convoy_part_m(self) -> float:
+        """How far from every other vehicle of the lead's group a ground vehicle has
+        parted from the convoy (``parting``; 0: none ever does)."""
+        part = self.convoy.part_m
+        return default_part_m(self.sensor_radius_m) if part is None else part
 
     @property
     def plan_aircraft(self) -> AircraftConfig:
@@ -486,8 +501,11 @@ def _convoy(data: Mapping[str, Any]) -> ConvoyConfig:
     table = _table(
         data,
         "convoy",
-        {"source", "speed_mps", "heading_deg", "start", "stale_after_s", "vehicle", "route"},
-    )
+        {
+            "source", "speed_mps", "heading_deg", "start", "stale_after_s", "vehicle", "route",
+            "part_m",
+        },
+    )  # fmt: skip
     route = table.get("route")
     if route is not None and (not isinstance(route, str) or not route):
         raise ConfigError("convoy.route", route, 'must be the path of a route file, or "mission"')
@@ -535,6 +553,11 @@ def _convoy(data: Mapping[str, Any]) -> ConvoyConfig:
         vehicles=tuple(vehicles),
         route_file=None if from_mission else route,
         route_from_mission=from_mission,
+        part_m=(
+            _number(table, "convoy", "part_m", None, non_negative=True, at_most=MAX_DISTANCE_M)
+            if "part_m" in table
+            else None
+        ),
     )
 
 

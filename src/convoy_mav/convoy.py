@@ -16,7 +16,11 @@ Design rules:
   ``agree_mps`` of the slope).  A feed that reports zeros, another frame, or a
   difference of 3-m-noisy fixes fails one of the two and the slope is used.
 - A source silent for longer than ``stale_after`` leaves the centroid, so one
-  dead truck does not freeze the convoy in place.  Whenever the set of
+  dead truck does not freeze the convoy in place; so does one that has parted from
+  the lead's group (``parting.convoy_group``: farther than ``part_m`` from every
+  other), so one truck stopped while the rest drive on does not drag the convoy
+  back between them.  The fixes are compared as they come (at 1 Hz, a second or
+  so apart: a few tens of metres at most against a part distance of hundreds).  Whenever the set of
   sources changes, the centroid jumps (it is now the centre of other
   vehicles): the sample history restarts and the last velocity is held until
   the new history spans ``min_span`` seconds, so the jump never shows up as a
@@ -35,6 +39,7 @@ import statistics
 from collections import Counter, deque
 from dataclasses import dataclass, replace
 
+from convoy_mav.parting import convoy_group
 from convoy_mav.plausible import JumpGate
 from convoy_mav.types import ConvoyEstimate
 
@@ -81,11 +86,17 @@ class ConvoyTracker:
             are not trusted (3 m of GPS noise differenced at 1 Hz changes 7 m/s).
         agree_mps: Reported velocities whose mean over the window is farther than
             this from the fixes' slope are not trusted.
+        part_m: A source farther than this from every other of the lead's group has
+            parted from the convoy and leaves the centroid (0: none ever parts).
+        lead: The source whose group is the convoy (None, or while it is silent:
+            the largest group).
 
     Attributes:
         counters: ``accepted``, ``non_finite``, ``out_of_order``, ``jump``
             (farther than the convoy can drive), ``source_dropped`` (a source left
-            the centroid), ``source_added``, ``velocity_non_finite`` (a report's
+            the centroid), ``source_added``, ``source_parted`` and
+            ``source_rejoined`` (left the centroid for parting from the convoy, and
+            back in it), ``velocity_non_finite`` (a report's
             velocity ignored, its position kept), ``velocity_reported`` and
             ``velocity_fitted`` (estimates from the reports and from the slope).
     """
@@ -99,12 +110,19 @@ class ConvoyTracker:
         max_speed: float = 70.0,
         steady_mps: float = 2.0,
         agree_mps: float = 1.5,
+        part_m: float = 0.0,
+        lead: Source | None = None,
     ):
         for name, value in (("stale_after", stale_after), ("window", window)):
             if not (math.isfinite(value) and value > 0.0):
                 raise ValueError(f"{name} must be positive and finite, got {value!r}")
         if not (math.isfinite(min_span) and 0.0 < min_span <= window):
             raise ValueError(f"min_span must be in (0, window], got {min_span!r}")
+        if not (math.isfinite(part_m) and part_m >= 0.0):
+            raise ValueError(f"part_m must be >= 0 and finite, got {part_m!r}")
+        self.part_m = part_m
+        self.lead = lead
+        self._parted: frozenset[Source] = frozenset()
         self.stale_after = stale_after
         self.window = window
         self.min_span = min_span
@@ -127,6 +145,22 @@ class ConvoyTracker:
     def sources(self) -> frozenset[Source]:
         """The sources in the current centroid."""
         return self._active
+
+    @property
+    def parted(self) -> frozenset[Source]:
+        """Heard sources left out of the centroid for having parted from the convoy."""
+        return self._parted
+
+    def apart(self, source: Source) -> float | None:
+        """How far ``source``'s latest fix is from the nearest of the centroid's (None:
+        it is one of them, or no other is heard), metres."""
+        fix = self._fixes.get(source)
+        if fix is None or source in self._active or not self._active:
+            return None
+        return min(
+            math.hypot(fix.north - f.north, fix.east - f.east)
+            for f in (self._fixes[s] for s in self._active)
+        )
 
     def update(
         self,
@@ -164,7 +198,14 @@ class ConvoyTracker:
         self._fixes[source] = _Fix(t, north, east, velocity)
         self.counters["accepted"] += 1
         now = t if self._last is None else max(t, self._last.t)
-        active = frozenset(s for s, f in self._fixes.items() if now - f.t <= self.stale_after)
+        fresh = {
+            s: (f.north, f.east) for s, f in self._fixes.items() if now - f.t <= self.stale_after
+        }
+        active = convoy_group(fresh, lead=self.lead, part_m=self.part_m, parted=self._parted)
+        parted = frozenset(fresh) - active
+        self.counters["source_parted"] += len(parted - self._parted)
+        self.counters["source_rejoined"] += len(self._parted & active)
+        self._parted = parted
         if active != self._active:
             self.counters["source_dropped"] += len(self._active - active)
             self.counters["source_added"] += len(active - self._active)

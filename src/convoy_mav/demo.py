@@ -452,11 +452,16 @@ async def run_demo(
 def score_fleet(
     fleet: MockFleet | MockProcess, cfg: MissionConfig, start: float, end: float
 ) -> CoverageStats:
-    """Coverage from the mock's ground truth (killed or grounded aircraft see nothing)."""
+    """Coverage from the mock's ground truth (killed or grounded aircraft see nothing):
+    of the lead's group, as the service's convoy is (a vehicle parted from it is not)."""
     if fleet.history is None:
         raise ValueError("the fleet keeps no truth history (record_truth=False)")
     fixes = (
         TruthFix(r.t, r.sysid, r.kind, r.lat, r.lon, r.mode != "KILLED", r.airborne)
         for r in fleet.history.rows
     )
-    return score_truth(fixes, cfg.origin, cfg.sensor_radius_m, start=start, end=end)
+    lead = cfg.convoy.vehicles[0].sysid if cfg.convoy.vehicles else None
+    return score_truth(
+        fixes, cfg.origin, cfg.sensor_radius_m, start=start, end=end,
+        lead=lead, part_m=cfg.convoy_part_m,
+    )  # fmt: skip

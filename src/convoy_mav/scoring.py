@@ -3,8 +3,9 @@
 The mock (or any simulator) writes every vehicle's true position at a fixed
 rate; this module replays those rows through the same coverage arithmetic the
 live monitor uses, with the convoy centroid taken from the ground vehicles'
-true positions.  A service that is wrong about where its UAVs or the convoy
-are is caught here.
+true positions: those of the lead's group, by the service's own rule
+(``parting.convoy_group``), when a part distance is given.  A service that is
+wrong about where its UAVs or the convoy are is caught here.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from dataclasses import dataclass
 
 from convoy_mav.coverage import CoverageStats, CoverageTracker
 from convoy_mav.geo import GeoPoint, LocalFrame
+from convoy_mav.parting import convoy_group
 
 __all__ = ["TruthFix", "read_truth_csv", "score_truth"]
 
@@ -58,11 +60,14 @@ def score_truth(
     start: float,
     end: float | None = None,
     max_hold: float = 1.0,
+    lead: int | None = None,
+    part_m: float = 0.0,
 ) -> CoverageStats:
     """Coverage of the convoy by the aircraft between ``start`` and ``end`` (mission s).
 
     Rows are grouped by time stamp; at each stamp the convoy is the centroid of
-    the ground vehicles' true positions and every live aircraft's true position
+    the ground vehicles' true positions (with ``part_m``, those of ``lead``'s group:
+    one parted from it is not the convoy) and every live aircraft's true position
     counts.  Killed vehicles and aircraft on the ground see nothing.
     """
     frame = LocalFrame(origin)
@@ -71,22 +76,26 @@ def score_truth(
         if fix.t >= start and (end is None or fix.t <= end):
             by_t[fix.t].append(fix)
     tracker = CoverageTracker(sensor_radius, max_hold)
+    parted: frozenset[int] = frozenset()
     for t in sorted(by_t):
-        ground: list[tuple[float, float]] = []
+        ground: dict[int, tuple[float, float]] = {}
         aircraft: dict[int, tuple[float, float]] = {}
         for fix in by_t[t]:
             if not (math.isfinite(fix.lat) and math.isfinite(fix.lon)):
                 continue
             north, east, _ = frame.to_ned(GeoPoint(fix.lat, fix.lon))
             if fix.kind == "ground":
-                ground.append((north, east))
+                ground[fix.sysid] = (north, east)
             elif fix.alive and fix.airborne:
                 aircraft[fix.sysid] = (north, east)
         if not ground:
             continue
+        group = convoy_group(ground, lead=lead, part_m=part_m, parted=parted)
+        parted = frozenset(ground) - group
+        members = [ground[s] for s in group]
         centre = (
-            sum(p[0] for p in ground) / len(ground),
-            sum(p[1] for p in ground) / len(ground),
+            sum(p[0] for p in members) / len(members),
+            sum(p[1] for p in members) / len(members),
         )
         tracker.update(t, centre, aircraft)
     return tracker.stats()

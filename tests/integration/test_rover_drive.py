@@ -9,7 +9,8 @@ personalities, scored from the mock's ground truth. And its
 operator holds it a minute (HOLD, then AUTO, from a ground station of their own): the
 rover stands, the service hears it and watches a standing convoy; or tells it a slower
 speed (DO_CHANGE_SPEED): the rover keeps it until its mission's next, and the service
-forecasts it at that.
+forecasts it at that. Or holds the follower alone: it parts from the convoy, and the
+service protects the lead.
 """
 
 from __future__ import annotations
@@ -135,6 +136,53 @@ async def test_a_rover_its_operator_holds_stands_and_is_watched_standing() -> No
     # (seven flights at 40x: 95.2-98.8 %, predicted 0.0-2.6 points higher, as the UAVs flew
     # their legs late at that speedup; 98.1-98.3 % without the hold. Over 360 s of
     # protection one 10-s gap is 2.8 points.)
+    assert truth.fraction >= 0.94, (truth, report["predicted_coverage"])
+    assert truth.longest_gap_s <= 12.0, truth
+    _assert_predicted(report, truth, 0.02)
+
+
+@pytest.mark.alone
+async def test_a_follower_its_operator_holds_parts_and_the_lead_is_protected() -> None:
+    """One truck stopped while the lead drives on (its operator's HOLD to the follower
+    alone): 200 m behind (twice the sensor radius) it has parted from the convoy, the
+    service says so and protects the lead, scored from the truth of the lead's group.
+    (Before, the convoy stayed the centroid of the two, drifting back between them: in a
+    flight of 600 s at 20x its UAVs saw the lead 52 % of the protect phase, the truth
+    of the centroid 93 %.)"""
+    marks: dict[str, Any] = {}
+
+    async def operator(fleet: MockFleet, service: ConvoyService) -> None:
+        follower = service.config.convoy.vehicles[1].sysid
+        await _until_protected(fleet, service, 220.0)
+        flag = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
+        async with _ground_station(fleet, service, only=follower) as tell:
+            marks["held"] = fleet.now
+            await tell("set_mode_send", flag, _ARDUROVER_HOLD)
+            await _until(fleet, marks["held"] + 200.0)
+            marks["end"] = (
+                fleet.truth(follower),
+                fleet.truth(service.config.convoy.vehicles[0].sysid),
+            )
+
+    result = await _operated(operator, 480.0)
+    report = result.report.to_dict()
+    assert "end" in marks, marks
+    stood, lead = marks["end"]
+    assert stood.mode == "HOLD" and stood.speed == 0.0, stood
+    assert (
+        lead.mode == "AUTO" and math.hypot(lead.north - stood.north, lead.east - stood.east) > 300.0
+    )
+    # Parted once 200 m from the lead (it drives on at up to 8 m/s, round a corner).
+    (parted,) = report["planner"]["convoy_parted"]
+    assert parted["source"] == stood.sysid and parted["event"] == "parted", parted
+    assert marks["held"] + 20.0 <= parted["t"] <= marks["held"] + 90.0, (parted, marks["held"])
+    assert parted["apart_m"] == pytest.approx(200.0, abs=20.0), parted
+    alarms = [a for a in report["alarms"] if a["kind"] == "convoy_parted"]
+    assert [a["active"] for a in alarms] == [True], alarms
+    assert f"ground vehicle {stood.sysid} parted from the convoy" in alarms[0]["message"]
+    assert report["planner"]["convoy_modes"] == [report["planner"]["convoy_modes"][0]]  # (lead's)
+    truth = result.truth
+    assert truth is not None
     assert truth.fraction >= 0.94, (truth, report["predicted_coverage"])
     assert truth.longest_gap_s <= 12.0, truth
     _assert_predicted(report, truth, 0.02)

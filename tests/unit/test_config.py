@@ -257,6 +257,17 @@ def test_the_route_may_be_the_lead_ground_vehicles_mission(tmp_path: Path) -> No
         parse_config({"mission": {"sensor_radius_m": 100.0}, "convoy": {"route": "mission"}})
 
 
+def test_the_part_distance_defaults_to_a_sensor_diameter_and_may_be_set_or_off() -> None:
+    mission = {"sensor_radius_m": 120.0}
+    assert parse_config({"mission": mission}).convoy_part_m == 240.0
+    for part in (350, 0):
+        cfg = parse_config({"mission": mission, "convoy": {"part_m": part}})
+        assert cfg.convoy_part_m == float(part)
+    for bad in (-1.0, "far", 1e9):
+        with pytest.raises(ConfigError, match=r"convoy\.part_m"):
+            parse_config({"mission": mission, "convoy": {"part_m": bad}})
+
+
 def test_a_bad_route_file_is_a_config_error(tmp_path: Path) -> None:
     from convoy_mav.app import ConvoyService
 

@@ -140,11 +140,16 @@ def test_velocity_follows_a_turn_within_one_window() -> None:
 
 @pytest.mark.parametrize(
     "kwargs",
-    [{"stale_after": 0.0}, {"window": math.nan}, {"window": 2.0, "min_span": 3.0}],
+    [
+        {"stale_after": 0.0},
+        {"window": math.nan},
+        {"window": 2.0, "min_span": 3.0},
+        {"part_m": math.inf},
+    ],
 )
 def test_bad_parameters_are_refused(kwargs: dict[str, float]) -> None:
     with pytest.raises(ValueError):
-        ConvoyTracker(**kwargs)
+        ConvoyTracker(**kwargs)  # type: ignore[arg-type]
 
 
 def _corner(

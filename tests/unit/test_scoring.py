@@ -65,3 +65,23 @@ def test_an_aircraft_on_the_ground_covers_nothing(tmp_path: Path) -> None:
     stats = score_truth(rows, ORIGIN, 100.0, start=0.0)
     assert stats.fraction == pytest.approx(0.5, abs=0.01)
     assert rows[0].lat == pytest.approx(p.lat)
+
+
+def test_the_truth_convoy_is_the_leads_group_a_parted_truck_left_out() -> None:
+    """The lead drives on north at 8 m/s, its follower stands at the start; a UAV over
+    the lead covers the convoy once the follower has parted (200 m off), and the
+    centroid of the two (no part distance) is seen by no one by then."""
+    rows = []
+    for k in range(61):
+        t = float(k)
+        rows += [fix(t, 7, "ground", 8.0 * t, 0.0), fix(t, 8, "ground", 0.0, 0.0)]
+        rows.append(fix(t, 1, "aircraft", 8.0 * t, 0.0))
+    parted = score_truth(rows, ORIGIN, 100.0, start=0.0, lead=7, part_m=200.0)
+    together = score_truth(rows, ORIGIN, 100.0, start=0.0)
+    # Together until 200 m apart (t = 25): the centroid 100 m behind the lead, just seen.
+    assert parted.fraction == pytest.approx(1.0)
+    assert together.covered_s == pytest.approx(25.0, abs=1.0)
+    # Led by the one that stands: the convoy is it, and the UAV over the other sees none.
+    led_by_stood = score_truth(rows, ORIGIN, 100.0, start=0.0, lead=8, part_m=200.0)
+    assert led_by_stood.covered_s == pytest.approx(25.0, abs=1.0)  # (the centroid, until
+    # it parts: then the stood truck alone, 200 m from the UAV)
