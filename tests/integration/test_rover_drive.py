@@ -183,7 +183,10 @@ async def test_a_follower_its_operator_holds_parts_and_the_lead_is_protected() -
     assert report["planner"]["convoy_modes"] == [report["planner"]["convoy_modes"][0]]  # (lead's)
     truth = result.truth
     assert truth is not None
-    assert truth.fraction >= 0.94, (truth, report["predicted_coverage"])
+    # (ten flights at 20x on 2026-12-01: 94.9-99.3 %, five of them on a quiet host 95.8-98.7
+    # %; longest gaps 0.9-8.2 s, most in the 40 s after it parted, the convoy's estimate
+    # 100 m on at once; predicted 0.3 under to 1.6 points over the truth)
+    assert truth.fraction >= 0.93, (truth, report["predicted_coverage"])
     assert truth.longest_gap_s <= 12.0, truth
     _assert_predicted(report, truth, 0.02)
 
