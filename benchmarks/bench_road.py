@@ -18,6 +18,7 @@ import math
 from pathlib import Path
 
 import numpy as np
+import pytest
 from pytest_benchmark.fixture import BenchmarkFixture
 
 from convoy_mav.convoy import ConvoyTracker
@@ -114,6 +115,22 @@ def test_convoy_fix_on_the_flight_loop(benchmark: BenchmarkFixture) -> None:
         tracker.update(state["t"], 8.0 * state["t"], 0.0, 5)
 
     benchmark(fix)
+
+
+@pytest.mark.parametrize("part_m", [0.0, 200.0])
+def test_convoy_fix_of_a_convoy_of_four(benchmark: BenchmarkFixture, part_m: float) -> None:
+    """One fix of four vehicles 20 m apart, each at 1 Hz: with ``part_m``, the lead's group
+    found again (``parting.convoy_group``) at each; 0, none ever parts."""
+    tracker = ConvoyTracker(window=4.0, part_m=part_m, lead=5)
+    state = {"t": 0.0, "k": 0}
+
+    def fix() -> None:
+        state["t"] += 0.25
+        k = state["k"] = (state["k"] + 1) % 4
+        tracker.update(state["t"], 8.0 * state["t"] - 20.0 * k, 0.0, 5 + k)
+
+    benchmark(fix)
+    assert tracker.sources == {5, 6, 7, 8}
 
 
 def test_convoy_fix_with_its_velocity_on_the_flight_loop(benchmark: BenchmarkFixture) -> None:

@@ -20,10 +20,10 @@ Design rules:
   the lead's group (``parting.convoy_group``: farther than ``part_m`` from every
   other), so one truck stopped while the rest drive on does not drag the convoy
   back between them.  The fixes are compared as they come (at 1 Hz, a second or
-  so apart: a few tens of metres at most against a part distance of hundreds).  Whenever the set of
-  sources changes, the centroid jumps (it is now the centre of other
-  vehicles): the sample history restarts and the last velocity is held until
-  the new history spans ``min_span`` seconds, so the jump never shows up as a
+  so apart: a few tens of metres at most against a part distance of hundreds).
+- Whenever the set of sources changes, the centroid jumps (it is now the centre
+  of other vehicles): the sample history restarts and the last velocity is held
+  until the new history spans ``min_span`` seconds, so the jump never shows up as a
   velocity.
 - Bad input never raises: NaN/inf fixes and fixes older than the source's
   latest are ignored and counted.  With no fresh fix at all the last good
