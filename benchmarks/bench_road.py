@@ -14,6 +14,7 @@ Where each runs in the service:
 
 from __future__ import annotations
 
+import itertools
 import math
 from pathlib import Path
 
@@ -122,12 +123,13 @@ def test_convoy_fix_of_a_convoy_of_four(benchmark: BenchmarkFixture, part_m: flo
     """One fix of four vehicles 20 m apart, each at 1 Hz: with ``part_m``, the lead's group
     found again (``parting.convoy_group``) at each; 0, none ever parts."""
     tracker = ConvoyTracker(window=4.0, part_m=part_m, lead=5)
-    state = {"t": 0.0, "k": 0}
+    clock = {"t": 0.0}
+    turn = itertools.cycle(range(4))
 
     def fix() -> None:
-        state["t"] += 0.25
-        k = state["k"] = (state["k"] + 1) % 4
-        tracker.update(state["t"], 8.0 * state["t"] - 20.0 * k, 0.0, 5 + k)
+        clock["t"] += 0.25
+        k = next(turn)
+        tracker.update(clock["t"], 8.0 * clock["t"] - 20.0 * k, 0.0, 5 + k)
 
     benchmark(fix)
     assert tracker.sources == {5, 6, 7, 8}
