@@ -40,7 +40,7 @@ from convoy_mav.mavlink.rally import ROVER_RALLY_DEFAULTS, rtl_destination
 from sitl_mock.clock import Speedup
 from sitl_mock.driveclock import DEFAULT_ACCEL
 from sitl_mock.flight import FlightController, Outcome
-from sitl_mock.ground import Polyline, Route, Stationary, StraightLine
+from sitl_mock.ground import Lagged, Polyline, Route, Stationary, StraightLine
 from sitl_mock.kinematics import Aircraft, AircraftState, AirframeParams
 from sitl_mock.messages import (
     TELEMETRY_BUILDERS,
@@ -430,7 +430,10 @@ class SimVehicle:
         fl, ground = self.flight, self._ground
         if ground is None:
             return []
-        texts = self._return_or_resume(now, ground) if self.follower is None else []
+        follower = self.follower
+        sent_home = fl.armed and fl.mode.behaviour is Behaviour.RTL
+        on_its_own = follower is None or (sent_home and follower.trail.started)
+        texts = self._return_or_resume(now, ground) if on_its_own else []
         auto = fl.mode.behaviour is Behaviour.MISSION
         home = fl.mode.behaviour is Behaviour.RTL and self._returning is not None
         driving = fl.armed and (auto or home)
@@ -443,7 +446,10 @@ class SimVehicle:
     def _return_or_resume(self, now: float, ground: RoverDrive) -> list[Message]:
         """Armed in RTL, the rover sets off home (``rtl.road_home``) and says when it is
         there; armed in AUTO again, it resumes the mission it left at the item it was
-        driving to, from where it stands. In any other mode it stands, still on its way."""
+        driving to, from where it stands. In any other mode it stands, still on its way.
+        A follower sent home leaves its leader's trail for good: from where it is on it,
+        at the speed it has, it drives home, and in AUTO its own mission (its leader's
+        road) from there; a vehicle behind it follows it still."""
         fl, back = self.flight, self._returning
         behaviour = fl.mode.behaviour
         if not fl.armed or behaviour not in (Behaviour.RTL, Behaviour.MISSION):
@@ -457,11 +463,13 @@ class SimVehicle:
         plan = ground.plan
         wp_radius = plan.wp_radius if isinstance(plan, Polyline) else 2.0
         if back is None:
+            self.follower = None  # (a follower: off its leader's trail, from where it is)
             self._returning = back = self._leave(now)
             back.goal = self._rtl_goal((n, e))
             speed = self._rtl_speed or self._wp_speed() or DEFAULT_WP_SPEED
             road, arc = road_home((n, e), (vn, ve), back.goal, speed, ground.clock.accel, wp_radius)
-            ground.drive_anew(now, road, arc=arc, wp_speed=self._wp_speed())
+            moving = math.hypot(vn, ve)
+            ground.drive_anew(now, road, arc=arc, wp_speed=self._wp_speed(), moving=moving)
             return []
         hn, he = back.goal or self.world.to_ned(fl.home)[:2]
         if back.reached or math.hypot(n - hn, e - he) > wp_radius:
@@ -491,6 +499,8 @@ class SimVehicle:
         mission = self.mission
         home_first = self.firmware.is_ardupilot
         route = self.spec.route
+        if isinstance(route, Lagged):  # (a follower's own: its leader's road, later)
+            route = route.inner
         if mission is None and route is not None:
             mission = RoverMission.of(route, self.world)
         if mission is None:

@@ -104,12 +104,15 @@ class DriveClock:
             raise ValueError("only a standing rover's drive time is set back")
         self._t0, self._tau0, self._rate0 = t, tau, 0.0
 
-    def retime(self, t: float, tau: float, speed_was: float, speed_now: float) -> None:
+    def retime(
+        self, t: float, tau: float, speed_was: float, speed_now: float, moving: float | None = None
+    ) -> None:
         """From sim time ``t``, drive time ``tau`` on the route retimed (a speed its
         operator told, or its mission's again): ``speed_was`` the old timetable's speed
-        then, ``speed_now`` the new one's there. The rover's own speed is kept, and the
+        then, ``speed_now`` the new one's there. The rover's own speed is kept (``moving``,
+        if it is not the old timetable's: a follower leaving its leader's trail), and the
         rate ramps from it at the accel, to driving or to standing as before."""
-        actual = self.rate(t) * speed_was
+        actual = self.rate(t) * speed_was if moving is None else moving
         self._t0, self._tau0 = t, tau
         if speed_now > 0.0 and math.isfinite(speed_now):
             self._rate0 = actual / speed_now

@@ -98,21 +98,25 @@ class RoverDrive:
         wait: bool = False,
         arc: float = 0.0,
         wp_speed: float | None = None,
+        moving: float | None = None,
     ) -> None:
         """From sim time ``t`` its plan is ``plan`` (a mission uploaded), from where the
         rover is: its start, or ``arc`` metres along its first leg (the rest of a mission
-        laid on); entered at the speed it has, changing at its accel. ``wait``: it stands
-        until AUTO is next entered (its mission over, in AUTO). ``wp_speed``: its WP_SPEED
-        from now on (None: the plan's speed; a return home keeps the one it had)."""
+        laid on); entered at the speed it has (``moving``; None: its route's), changing at
+        its accel. ``wait``: it stands until AUTO is next entered (its mission over, in
+        AUTO). ``wp_speed``: its WP_SPEED from now on (None: the plan's speed; a return
+        home keeps the one it had)."""
         self._await_auto = wait
         route, tau_was = self.route, self.at(t)
         speed_was = math.hypot(*route.velocity(tau_was))
-        moving = self.clock.rate(t) * speed_was
+        own = moving is not None  # (its speed is not its route's: it drove another's)
+        moving = self.clock.rate(t) * speed_was if moving is None else moving
         self.plan, self.lag = plan, 0.0
         self.wp_speed = float(plan.speed) if wp_speed is None else wp_speed
         tau0 = plan.time_at(arc)
         told, tau = plan.with_speed_from(tau0, plan.planned_speed(tau0), moving)
-        self.clock.retime(t, tau, speed_was, math.hypot(*told.velocity(tau)))
+        now_speed = math.hypot(*told.velocity(tau))
+        self.clock.retime(t, tau, speed_was, now_speed, moving if own else None)
         if wait:  # (its mission over, it stands: at once)
             self.clock.drive(t, False, 0.0)
         self.route = told

@@ -193,6 +193,55 @@ def test_the_convoy_behind_its_leader_follows_it_home() -> None:
     assert 9.0 <= gap <= 11.0 and here.speed == 0.0  # (its standstill distance behind)
 
 
+def test_a_follower_sent_home_leaves_its_leaders_trail_for_its_own_home() -> None:
+    """ArduRover's RTL is the vehicle's own: a follower told it (by its operator, not its
+    leader's) turns off the trail at the speed it has, drives to its own home and says
+    so, while its leader drives on; back in AUTO it drives its own mission (its leader's
+    road) from there, no longer behind it."""
+    lead = rover(Personality.ARDUPILOT, LAP)
+    spec = VehicleSpec(
+        sysid=12, kind="ground", personality=Personality.ARDUPILOT,
+        home=WORLD.to_geo(0.0, -30.0, 0.0), route=LAP,
+    )  # fmt: skip
+    behind = SimVehicle(spec, WORLD, 0.0)
+    assert lead.trail is not None
+    behind.follow(lead.trail, lag=5.0, standstill=10.0)
+    gcs, texts = Gcs(lead), list[str]()
+
+    def step_behind(now: float) -> None:
+        texts.extend(m.text for m in behind.step(now, 0.01) if m.get_type() == "STATUSTEXT")
+
+    gcs.run(160.0, telemetry=False, every=step_behind)  # (on the second leg, going east)
+    was = behind.truth(gcs.now)
+    assert was.north == pytest.approx(1000.0) and was.speed == pytest.approx(8.0, abs=0.1)
+    operator = Gcs(behind, now=gcs.now)
+
+    def tell(mode: int) -> None:
+        operator.now = gcs.now
+        flag = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
+        (ack,) = operator.send(mavlink.MAVLink_set_mode_message(12, flag, mode))
+        assert ack.result == mavlink.MAV_RESULT_ACCEPTED
+
+    tell(_RTL[Personality.ARDUPILOT])
+    speeds = []
+    for _ in range(20):  # (braking on its way at its accel from the speed it had: no jump)
+        gcs.run(0.5, telemetry=False, every=step_behind)
+        speeds.append(behind.truth(gcs.now).speed)
+    steps = [abs(b - a) for a, b in itertools.pairwise([was.speed, *speeds])]
+    assert max(steps) <= 0.5 * 1.0 + 1e-6 and min(speeds) < 3.0, speeds
+    gcs.run(200.0, telemetry=False, every=step_behind)
+    home, there = behind.truth(gcs.now), gcs.truth()
+    hn, he, _ = WORLD.to_ned(behind.flight.home)
+    assert math.hypot(home.north - hn, home.east - he) <= 2.0 and home.speed == 0.0, home
+    assert home.mode == "RTL" and texts == ["Reached destination"], texts
+    assert there.mode == "AUTO" and there.speed > 0.0  # (its leader drove on)
+    tell(10)  # (AUTO)
+    gcs.run(60.0, telemetry=False, every=step_behind)
+    off = behind.truth(gcs.now)
+    assert off.mode == "AUTO" and off.speed > 2.0, off
+    assert math.hypot(off.north - hn, off.east - he) > 100.0  # (on along its mission)
+
+
 @settings(max_examples=80, deadline=None)
 @given(
     st.floats(-2000.0, 2000.0),
