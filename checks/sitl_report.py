@@ -7,13 +7,15 @@ its simulated state within centimetres), airborne above 3 m over home; the convo
 the config's scripted route, set off at the report's ``route_start_s``, or (``[convoy]
 source = "mavlink"``: ``sitl-mock`` rovers driving a road) the centroid of its vehicles'
 own GLOBAL_POSITION_INT, which the mock reports without noise (of the lead's group, a
-vehicle parted from it left out, as the service does: ``parting``). Times are mission time,
+vehicle parted from it left out, as the service does: ``parting``; each rover's mode
+from its HEARTBEAT, dated at its last position before it). Times are mission time,
 rebuilt from ``time_boot_ms`` the way the service does (``MissionClock`` fed with the
 tlog's arrival stamps, the rovers' clocks mapped onto the aircraft's).
 """
 
 from __future__ import annotations
 
+import bisect
 import json
 import math
 import sys
@@ -24,8 +26,10 @@ from pymavlink import mavutil
 from convoy_mav.clock import MissionClock
 from convoy_mav.config import load_config
 from convoy_mav.geo import LocalFrame
+from convoy_mav.mavlink.rovermode import rover_mode
 from convoy_mav.planning.export import compass_to_planner
 from convoy_mav.scoring import TruthFix, score_truth
+from convoy_mav.types import ConvoyDrive
 
 _TICK = 0.1  # s of mission time between scored samples
 _AIRBORNE_M = 3.0
@@ -40,10 +44,16 @@ def main(config_path: str, report_path: str, tlog_path: str) -> int:
     wall = [0.0]
     clock = MissionClock(lambda: wall[0])
     fixes: dict[int, list[tuple[float, float, float, float]]] = defaultdict(list)
+    drives: dict[int, list[tuple[float, ConvoyDrive]]] = defaultdict(list)
     log = mavutil.mavlink_connection(tlog_path)
-    while (msg := log.recv_match(type="GLOBAL_POSITION_INT")) is not None:
+    while (msg := log.recv_match(type=["GLOBAL_POSITION_INT", "HEARTBEAT"])) is not None:
         sysid = msg.get_srcSystem()
         if sysid not in uavs | rovers:
+            continue
+        if msg.get_type() == "HEARTBEAT":
+            mode = rover_mode(msg) if sysid in rovers and fixes[sysid] else None
+            if mode is not None:
+                drives[sysid].append((fixes[sysid][-1][0], mode.drive))
             continue
         wall[0] = msg._timestamp
         clock.observe(msg.time_boot_ms, sysid)
@@ -94,7 +104,10 @@ def main(config_path: str, report_path: str, tlog_path: str) -> int:
                 continue
             _, lat, lon, alt = rows[i]
             if sysid in rovers:
-                truth.append(TruthFix(t, sysid, "ground", lat, lon))
+                said = drives.get(sysid, [])
+                k = bisect.bisect_right(said, t, key=lambda d: d[0])
+                drive = said[k - 1][1] if k else None
+                truth.append(TruthFix(t, sysid, "ground", lat, lon, drive=drive))
             else:
                 truth.append(TruthFix(t, sysid, "aircraft", lat, lon, True, alt > _AIRBORNE_M))
         t += _TICK

@@ -66,6 +66,7 @@ from convoy_mav.mission.choose import choose_planner
 from convoy_mav.mission.lag import ReplanLag
 from convoy_mav.mission.road import FAST_CONVOY_RATIO, RoadMission
 from convoy_mav.monitor import Alarm, Monitor, MonitorSnapshot, sees, why_not_counted
+from convoy_mav.parting import leaves
 from convoy_mav.planning.export import compass_to_planner
 from convoy_mav.planning.road import Road
 from convoy_mav.publish import topics
@@ -114,6 +115,8 @@ _LAUNCH_HEADROOM = 2.0  # ... or this many vertical minima above it, bound highe
 _SETTING_UP = frozenset({VehicleStatus.WAITING_FIX, VehicleStatus.SETTING_UP})
 _FINISH_WALL_S = 15.0  # wall s the end-of-mission commands are waited for at most
 _MODES_KEPT = 1000  # the lead ground vehicle's mode changes kept for the report
+_APART_AFTER_S = 3.0  # mission s a follower's mode says it left before it is parted (a
+# convoy held or sent on as a whole is heard one vehicle at a time, at 1 Hz each)
 _JOINABLE = frozenset({"pending", "protect"})
 """Phases a join starts from: a UAV without a slot, or one far off its slot (``_off_slot``)."""
 _OFF_SLOT_S = 5.0  # mission s a protecting UAV is farther than R off its slot before...
@@ -289,6 +292,20 @@ def _source_name(source: Source) -> str:
     return f"ground vehicle {source}" if isinstance(source, int) else f"convoy source {source!r}"
 
 
+def _left_by_mode(mode: RoverMode, lead: RoverMode | None) -> str | None:
+    """Why a follower in ``mode`` has left a convoy whose lead is in ``lead``
+    (``parting.leaves``), or None: it has not, or it cannot be told."""
+    if lead is None or not leaves(mode.drive, lead.drive):
+        return None
+    does = {
+        ConvoyDrive.HELD: "stands",
+        ConvoyDrive.HOME: "drives home",
+        ConvoyDrive.MISSION: "drives its mission",
+        ConvoyDrive.OTHER: "is driven otherwise",
+    }
+    return f"in {mode.name}: it {does[mode.drive]} while the lead {does[lead.drive]}"
+
+
 def _drained(queue: deque[_T]) -> list[_T]:
     """Every item in ``queue``, taken out in order (safe beside another thread's
     ``append``: each ``popleft`` is atomic, where a swap of the whole could drop one)."""
@@ -347,6 +364,11 @@ class ConvoyService:
             lead=config.convoy.vehicles[0].sysid if config.convoy.vehicles else None,
         )
         self._parted: frozenset[Source] = frozenset()  # (as last said)
+        # The followers' modes: one held or sent home while the lead does otherwise has
+        # left the convoy (``_left_by_mode``), from when, and why.
+        self._follower_modes: dict[int, RoverMode] = {}
+        self._apart_since: dict[int, float] = {}
+        self._apart_why: dict[int, str] = {}
         self.convoy_parted: list[dict[str, Any]] = []  # each part and rejoin, for the report
         self.fence = fence_from(config.safety, self.frame)
         self._fence_clamps: Counter[int] = Counter()  # setpoints moved inside the fence, per UAV
@@ -536,8 +558,12 @@ class ConvoyService:
             self._mission_sends(watch.handle(msg, time.monotonic()))
         if self._rally is not None and sysid == self._lead_id:
             self._rally_sends(self._rally.handle(msg, time.monotonic()))
-        if sysid == self._lead_id and msg.get_type() == "HEARTBEAT":
-            self._lead_heartbeat(sysid, msg)
+        if sysid in self._ground_ids and msg.get_type() == "HEARTBEAT":
+            if sysid == self._lead_id:
+                self._lead_heartbeat(sysid, msg)
+            elif (mode := rover_mode(msg)) is not None:
+                self._follower_modes[sysid] = mode
+            self._judge_apart()
         elif sysid == self._lead_id and msg.get_type() == "HOME_POSITION":
             self._lead_home_heard(msg)
         elif sysid in self._ground_ids and msg.get_type() == "PARAM_VALUE":
@@ -751,6 +777,24 @@ class ConvoyService:
             self._say_parted(t)
         return used
 
+    def _judge_apart(self) -> None:
+        """Keep apart from the convoy each follower whose mode has said for
+        ``_APART_AFTER_S`` that it left (``_left_by_mode``): parted at once, however
+        near, not only once 2 sensor radii off, the convoy dragged back towards it
+        meanwhile; and let it rejoin once its mode no longer says so."""
+        t, lead = self.clock.now(), self._lead_mode
+        for sysid, mode in self._follower_modes.items():
+            why = _left_by_mode(mode, lead)
+            if why is None:
+                self._apart_since.pop(sysid, None)
+                if self._apart_why.pop(sysid, None) is not None:
+                    self.tracker.keep_apart(sysid, False)
+                continue
+            since = self._apart_since.setdefault(sysid, t)
+            if t - since >= _APART_AFTER_S and self._apart_why.get(sysid) != why:
+                self._apart_why[sysid] = why
+                self.tracker.keep_apart(sysid, True)
+
     def _say_parted(self, t: float) -> None:
         """Alarm a vehicle parted from the convoy (no longer in the centroid the UAVs
         protect: stopped while the rest drive on, sent home, gone elsewhere), and clear
@@ -759,14 +803,17 @@ class ConvoyService:
         self._parted = now = tracker.parted
         for source in sorted(now - was, key=str):
             apart = tracker.apart(source)
-            far = "" if apart is None else f"{apart:.0f} m from the nearest of the rest, "
+            why = self._apart_why.get(source) if isinstance(source, int) else None
+            if why is None:
+                far = "" if apart is None else f"{apart:.0f} m from the nearest of the rest, "
+                why = f"{far}beyond {tracker.part_m:.0f} m"
             self._alarm(
                 Alarm(t, "convoy_parted", True, f"{_source_name(source)} parted from the "
-                      f"convoy ({far}beyond {tracker.part_m:.0f} m): the UAVs protect the "
-                      f"rest, not it")
+                      f"convoy ({why}): the UAVs protect the rest, not it")
             )  # fmt: skip
-            self.convoy_parted.append({"t": t, "source": source, "event": "parted",
-                                       "apart_m": apart})  # fmt: skip
+            self.convoy_parted.append(
+                {"t": t, "source": source, "event": "parted", "apart_m": apart, "why": why}
+            )
         for source in sorted(was - now, key=str):
             back = source in tracker.sources
             what = "rejoined the convoy" if back else "is no longer heard"

@@ -21,6 +21,8 @@ Design rules:
   other), so one truck stopped while the rest drive on does not drag the convoy
   back between them.  The fixes are compared as they come (at 1 Hz, a second or
   so apart: a few tens of metres at most against a part distance of hundreds).
+  A source the caller knows to have left (``keep_apart``: a follower its operator
+  held or sent home while the lead drives on) is parted at once, wherever it is.
 - Whenever the set of sources changes, the centroid jumps (it is now the centre
   of other vehicles): the sample history restarts and the last velocity is held
   until the new history spans ``min_span`` seconds, so the jump never shows up as a
@@ -123,6 +125,7 @@ class ConvoyTracker:
         self.part_m = part_m
         self.lead = lead
         self._parted: frozenset[Source] = frozenset()
+        self._apart: set[Source] = set()  # (kept apart by the caller's word)
         self.stale_after = stale_after
         self.window = window
         self.min_span = min_span
@@ -150,6 +153,15 @@ class ConvoyTracker:
     def parted(self) -> frozenset[Source]:
         """Heard sources left out of the centroid for having parted from the convoy."""
         return self._parted
+
+    def keep_apart(self, source: Source, apart: bool) -> None:
+        """Whether ``source`` has left the convoy by its own mode (the caller's word:
+        held, or sent home, while the lead drives on), whatever its distance: from its
+        next fix on it is parted, or, no longer, may rejoin within the rejoin distance."""
+        if apart:
+            self._apart.add(source)
+        else:
+            self._apart.discard(source)
 
     def apart(self, source: Source) -> float | None:
         """How far ``source``'s latest fix is from the nearest of the centroid's (None:
@@ -201,7 +213,13 @@ class ConvoyTracker:
         fresh = {
             s: (f.north, f.east) for s, f in self._fixes.items() if now - f.t <= self.stale_after
         }
-        active = convoy_group(fresh, lead=self.lead, part_m=self.part_m, parted=self._parted)
+        active = convoy_group(
+            fresh,
+            lead=self.lead,
+            part_m=self.part_m,
+            parted=self._parted,
+            apart=frozenset(self._apart),
+        )
         parted = frozenset(fresh) - active
         self.counters["source_parted"] += len(parted - self._parted)
         self.counters["source_rejoined"] += len(self._parted & active)

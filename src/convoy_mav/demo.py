@@ -37,6 +37,7 @@ from convoy_mav.config import (
 from convoy_mav.coverage import CoverageStats
 from convoy_mav.errors import PlanningError
 from convoy_mav.geo import GeoPoint, LocalFrame
+from convoy_mav.mavlink.rovermode import drive_of
 from convoy_mav.mavlink.signing import load_key
 from convoy_mav.mission.choose import road_fleet
 from convoy_mav.mission.road import RoadSettings
@@ -457,9 +458,12 @@ def score_fleet(
     if fleet.history is None:
         raise ValueError("the fleet keeps no truth history (record_truth=False)")
     fixes = (
-        TruthFix(r.t, r.sysid, r.kind, r.lat, r.lon, r.mode != "KILLED", r.airborne)
+        TruthFix(
+            r.t, r.sysid, r.kind, r.lat, r.lon, r.mode != "KILLED", r.airborne,
+            drive_of(r.mode, r.armed) if r.kind == "ground" else None,
+        )
         for r in fleet.history.rows
-    )
+    )  # fmt: skip
     lead = cfg.convoy.vehicles[0].sysid if cfg.convoy.vehicles else None
     return score_truth(
         fixes, cfg.origin, cfg.sensor_radius_m, start=start, end=end,

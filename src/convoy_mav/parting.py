@@ -18,6 +18,10 @@ Design rules:
       convoy's velocity fit.
     * The service's default ``part_m`` is twice the sensor radius: a vehicle farther
       than that from every other is never in one camera's disk with any of them.
+    * A vehicle's own mode may say it before its distance does (``leaves``): held or
+      sent home by its operator while the lead drives on, it has left, however near
+      (``apart``), and the convoy is not dragged back towards it for the tens of
+      seconds it takes to fall 2 sensor radii behind.
     * Pure: positions and the previous answer in, the group out.
 """
 
@@ -27,7 +31,9 @@ import math
 from collections.abc import Hashable, Mapping
 from typing import TypeVar
 
-__all__ = ["convoy_group", "default_part_m"]
+from convoy_mav.types import ConvoyDrive
+
+__all__ = ["convoy_group", "default_part_m", "leaves"]
 
 S = TypeVar("S", bound=Hashable)
 
@@ -41,6 +47,17 @@ def default_part_m(sensor_radius: float) -> float:
     return _PART_RADII * sensor_radius
 
 
+def leaves(follower: ConvoyDrive, lead: ConvoyDrive | None) -> bool:
+    """Whether a vehicle whose mode says ``follower`` has left a convoy whose lead's says
+    ``lead`` (None: not known): held, or sent home, while the lead does otherwise. A lead
+    driven otherwise (MANUAL, GUIDED) says nothing of where the convoy goes."""
+    return (
+        follower in (ConvoyDrive.HELD, ConvoyDrive.HOME)
+        and lead is not None
+        and lead not in (follower, ConvoyDrive.OTHER)
+    )
+
+
 def convoy_group(
     positions: Mapping[S, tuple[float, float]],
     *,
@@ -48,15 +65,19 @@ def convoy_group(
     part_m: float,
     parted: frozenset[S] = frozenset(),
     rejoin_m: float | None = None,
+    apart: frozenset[S] = frozenset(),
 ) -> frozenset[S]:
     """The vehicles of ``positions`` (each's ``(north, east)``, in the order first
     heard) that are the convoy; ``parted`` those that had parted before (they rejoin
-    within ``rejoin_m``, default half of ``part_m``). ``part_m`` 0 or infinite: all of
-    them, none ever parts."""
+    within ``rejoin_m``, default half of ``part_m``); ``apart`` those known to have left
+    (``leaves``: never the lead's group, unless they are all there is). ``part_m`` 0 or
+    infinite: all of them, none ever parts."""
     if not positions:
         return frozenset()
     if not (part_m > 0.0 and math.isfinite(part_m)):
         return frozenset(positions)
+    kept = {s: p for s, p in positions.items() if s not in apart or s == lead}
+    positions = kept or positions
     near = part_m * _REJOIN_FRACTION if rejoin_m is None else rejoin_m
     sources = list(positions)
     groups: list[list[S]] = []

@@ -4,7 +4,8 @@ The mock (or any simulator) writes every vehicle's true position at a fixed
 rate; this module replays those rows through the same coverage arithmetic the
 live monitor uses, with the convoy centroid taken from the ground vehicles'
 true positions: those of the lead's group, by the service's own rule
-(``parting.convoy_group``), when a part distance is given.  A service that is
+(``parting.convoy_group``: a follower 2 sensor radii off, or whose mode says it left
+the lead, at once), when a part distance is given.  A service that is
 wrong about where its UAVs or the convoy are is caught here.
 """
 
@@ -19,7 +20,9 @@ from dataclasses import dataclass
 
 from convoy_mav.coverage import CoverageStats, CoverageTracker
 from convoy_mav.geo import GeoPoint, LocalFrame
-from convoy_mav.parting import convoy_group
+from convoy_mav.mavlink.rovermode import drive_of
+from convoy_mav.parting import convoy_group, leaves
+from convoy_mav.types import ConvoyDrive
 
 __all__ = ["TruthFix", "read_truth_csv", "score_truth"]
 
@@ -35,6 +38,7 @@ class TruthFix:
     lon: float
     alive: bool = True
     airborne: bool = True
+    drive: ConvoyDrive | None = None  # a ground vehicle's, as its mode says (None: unknown)
 
 
 def read_truth_csv(path: str | os.PathLike[str]) -> Iterator[TruthFix]:
@@ -49,7 +53,16 @@ def read_truth_csv(path: str | os.PathLike[str]) -> Iterator[TruthFix]:
                 lon=float(row["lon"]),
                 alive=row.get("mode") != "KILLED",
                 airborne=row.get("airborne", "1") not in ("0", "False"),
+                drive=_drive(row),
             )
+
+
+def _drive(row: dict[str, str]) -> ConvoyDrive | None:
+    """A ground vehicle's drive from its truth row's mode and arming (None: no mode)."""
+    mode = row.get("mode")
+    if row.get("kind") != "ground" or not mode:
+        return None
+    return drive_of(mode, row.get("armed", "1") not in ("0", "False"))
 
 
 def score_truth(
@@ -67,8 +80,9 @@ def score_truth(
 
     Rows are grouped by time stamp; at each stamp the convoy is the centroid of
     the ground vehicles' true positions (with ``part_m``, those of ``lead``'s group:
-    one parted from it is not the convoy) and every live aircraft's true position
-    counts.  Killed vehicles and aircraft on the ground see nothing.
+    one parted from it, or whose mode says it left the lead's, is not the convoy) and
+    every live aircraft's true position counts.  Killed vehicles and aircraft on the
+    ground see nothing.
     """
     frame = LocalFrame(origin)
     by_t: dict[float, list[TruthFix]] = defaultdict(list)
@@ -79,6 +93,7 @@ def score_truth(
     parted: frozenset[int] = frozenset()
     for t in sorted(by_t):
         ground: dict[int, tuple[float, float]] = {}
+        drives: dict[int, ConvoyDrive] = {}
         aircraft: dict[int, tuple[float, float]] = {}
         for fix in by_t[t]:
             if not (math.isfinite(fix.lat) and math.isfinite(fix.lon)):
@@ -86,11 +101,15 @@ def score_truth(
             north, east, _ = frame.to_ned(GeoPoint(fix.lat, fix.lon))
             if fix.kind == "ground":
                 ground[fix.sysid] = (north, east)
+                if fix.drive is not None:
+                    drives[fix.sysid] = fix.drive
             elif fix.alive and fix.airborne:
                 aircraft[fix.sysid] = (north, east)
         if not ground:
             continue
-        group = convoy_group(ground, lead=lead, part_m=part_m, parted=parted)
+        ahead = None if lead is None else drives.get(lead)
+        left = frozenset(s for s, d in drives.items() if s != lead and leaves(d, ahead))
+        group = convoy_group(ground, lead=lead, part_m=part_m, parted=parted, apart=left)
         parted = frozenset(ground) - group
         members = [ground[s] for s in group]
         centre = (

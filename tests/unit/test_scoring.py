@@ -85,3 +85,32 @@ def test_the_truth_convoy_is_the_leads_group_a_parted_truck_left_out() -> None:
     led_by_stood = score_truth(rows, ORIGIN, 100.0, start=0.0, lead=8, part_m=200.0)
     assert led_by_stood.covered_s == pytest.approx(25.0, abs=1.0)  # (the centroid, until
     # it parts: then the stood truck alone, 200 m from the UAV)
+
+
+def test_a_truck_whose_mode_says_it_left_is_not_the_convoy_however_near(tmp_path: Path) -> None:
+    """Its operator's HOLD while the lead drives its mission: out of the convoy at once,
+    as the service parts it; the CSV's mode column says it too."""
+    from dataclasses import replace
+
+    from convoy_mav.types import ConvoyDrive
+
+    rows = []
+    for k in range(11):
+        t = float(k)
+        lead = replace(fix(t, 7, "ground", 0.0, 0.0), drive=ConvoyDrive.MISSION)
+        held = replace(fix(t, 8, "ground", -60.0, 0.0), drive=ConvoyDrive.HELD)
+        rows += [lead, held, fix(t, 1, "aircraft", 0.0, 50.0)]  # (the lead's 50 m off)
+    # A camera of 55 m: the lead, 50 m off, is seen; the centroid of the two, 58 m off, not.
+    assert score_truth(rows, ORIGIN, 55.0, start=0.0, lead=7, part_m=200.0).fraction == 1.0
+    undriven = [replace(r, drive=None) for r in rows]  # (modes not known: together)
+    assert score_truth(undriven, ORIGIN, 55.0, start=0.0, lead=7, part_m=200.0).covered_s == 0.0
+    head = "t,sysid,kind,lat,lon,alt,north,east,down,vn,ve,vd,yaw,speed,yaw_rate,armed,mode"
+    p = FRAME.to_geo(0.0, 0.0)
+    path = tmp_path / "truth.csv"
+    path.write_text(
+        f"{head}\n0.0,8,ground,{p.lat},{p.lon},488,0,0,0,0,0,0,0,0,0,1,HOLD\n"
+        f"0.0,9,ground,{p.lat},{p.lon},488,0,0,0,0,0,0,0,0,0,0,AUTO\n"
+        f"0.0,1,aircraft,{p.lat},{p.lon},588,0,0,-100,0,0,0,0,18,0,1,AUTO\n"
+    )
+    drives = [r.drive for r in read_truth_csv(path)]
+    assert drives == [ConvoyDrive.HELD, ConvoyDrive.HELD, None]

@@ -28,7 +28,7 @@ from convoy_mav.mavlink.autopilots.ardupilot import ROVER_MODES, ardupilot_mode_
 from convoy_mav.mavlink.autopilots.px4 import px4_mode_name
 from convoy_mav.types import ConvoyDrive
 
-__all__ = ["RoverMode", "rover_mode"]
+__all__ = ["RoverMode", "drive_of", "rover_mode"]
 
 _MISSION = frozenset({"AUTO", "AUTO.MISSION"})
 _STANDS = frozenset({"HOLD", "LOITER", "AUTO.LOITER"})
@@ -56,10 +56,15 @@ def rover_mode(heartbeat: Any) -> RoverMode | None:
         name = px4_mode_name(custom)
     else:
         return None
-    if not heartbeat.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED:
-        return RoverMode(ConvoyDrive.HELD, f"{name}, disarmed")
+    armed = bool(heartbeat.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
+    return RoverMode(drive_of(name, armed), name if armed else f"{name}, disarmed")
+
+
+def drive_of(name: str, armed: bool) -> ConvoyDrive:
+    """What drives a rover in the mode its firmware names ``name`` (ArduRover's "AUTO",
+    PX4's "AUTO.MISSION"), armed or not: disarmed, it stands."""
+    if not armed or name in _STANDS:
+        return ConvoyDrive.HELD
     if name in _MISSION:
-        return RoverMode(ConvoyDrive.MISSION, name)
-    if name in _HOME:
-        return RoverMode(ConvoyDrive.HOME, name)
-    return RoverMode(ConvoyDrive.HELD if name in _STANDS else ConvoyDrive.OTHER, name)
+        return ConvoyDrive.MISSION
+    return ConvoyDrive.HOME if name in _HOME else ConvoyDrive.OTHER

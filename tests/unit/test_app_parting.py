@@ -1,0 +1,100 @@
+"""The service parts a follower from the convoy when its mode, or its distance, says so."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+from pymavlink.dialects.v20 import common as mavlink
+
+from convoy_mav.app import ConvoyService
+from convoy_mav.config import parse_config
+from convoy_mav.mavlink.rovermode import drive_of
+from convoy_mav.parting import convoy_group, leaves
+from convoy_mav.types import ConvoyDrive
+from tests.unit.test_app_route import _road_doc
+
+LEAD, FOLLOWER = 60, 61
+_AUTO, _HOLD, _RTL, _MANUAL = 10, 4, 11, 0
+
+
+def test_a_follower_leaves_when_held_or_sent_home_while_the_lead_does_otherwise() -> None:
+    m, h, home, other = ConvoyDrive.MISSION, ConvoyDrive.HELD, ConvoyDrive.HOME, ConvoyDrive.OTHER
+    assert leaves(h, m) and leaves(home, m) and leaves(home, h) and leaves(h, home)
+    assert not leaves(h, h) and not leaves(home, home)  # (the whole convoy held, or home)
+    assert not leaves(m, h) and not leaves(other, m)  # (it drives on, or a driver has it)
+    assert not leaves(h, other) and not leaves(h, None)  # (the lead's way not known)
+    assert drive_of("AUTO", True) is m and drive_of("AUTO", False) is h
+    assert drive_of("AUTO.RTL", True) is home and drive_of("MANUAL", True) is other
+
+
+def test_one_known_to_have_left_is_apart_however_near_unless_it_is_all_there_is() -> None:
+    near = {1: (0.0, 0.0), 2: (20.0, 0.0), 3: (40.0, 0.0)}
+    assert convoy_group(near, lead=1, part_m=200.0, apart=frozenset({2})) == {1, 3}
+    assert convoy_group(near, lead=1, part_m=200.0, apart=frozenset({1})) == set(near)
+    assert convoy_group({2: (0.0, 0.0)}, lead=1, part_m=200.0, apart=frozenset({2})) == {2}
+    assert convoy_group(near, lead=1, part_m=0.0, apart=frozenset({2})) == set(near)
+
+
+def _heartbeat(sysid: int, custom: int) -> Any:
+    """An armed ArduRover's HEARTBEAT from ``sysid``, as it comes off its link."""
+    armed = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mavlink.MAV_MODE_FLAG_SAFETY_ARMED
+    msg = mavlink.MAVLink_heartbeat_message(
+        mavlink.MAV_TYPE_GROUND_ROVER, mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA, armed, custom, 4, 3
+    )
+    msg.pack(mavlink.MAVLink(None, srcSystem=sysid, srcComponent=1))
+    return msg
+
+
+def test_the_service_parts_a_follower_its_mode_says_left_and_takes_it_back() -> None:
+    """Held while the lead drives its mission: parted 3 s after its HEARTBEAT first said
+    so (not at once: a convoy held as a whole is heard one vehicle at a time), however
+    near, with the alarm saying why; the lead held too, it is back in the convoy."""
+    vehicles = [
+        {"connection": f"udpin:127.0.0.1:{14600 + k}", "sysid": s}
+        for k, s in enumerate((LEAD, FOLLOWER))
+    ]
+    doc = {**_road_doc(), "convoy": {"source": "mavlink", "vehicle": vehicles}}
+    service = ConvoyService(parse_config(doc))
+    now = [0.0]
+    clock = type(service.clock)
+    original = clock.now
+    clock.now = lambda self: now[0]  # type: ignore[method-assign]
+    try:
+
+        def heard(t: float, lead: int, follower: int) -> None:
+            now[0] = t
+            service._route(LEAD, _heartbeat(LEAD, lead))
+            service._route(FOLLOWER, _heartbeat(FOLLOWER, follower))
+            # (a fix each, 20 m apart: only a mode can part them)
+            service._convoy_fix(t, 8.0 * t, 0.0, LEAD, None)
+            service._convoy_fix(t, 8.0 * t - 20.0, 0.0, FOLLOWER, None)
+
+        heard(0.0, _AUTO, _AUTO)
+        heard(1.0, _AUTO, _HOLD)
+        heard(2.0, _AUTO, _HOLD)
+        assert service.tracker.sources == {LEAD, FOLLOWER}
+        heard(4.0, _AUTO, _HOLD)
+        assert service.tracker.sources == {LEAD} and service.tracker.parted == {FOLLOWER}
+        (alarm,) = service.alarms
+        assert alarm["kind"] == "convoy_parted" and alarm["active"]
+        why = "in HOLD: it stands while the lead drives its mission"
+        assert alarm["message"] == (
+            f"ground vehicle {FOLLOWER} parted from the convoy ({why}): the UAVs protect "
+            "the rest, not it"
+        )
+        # The lead held as well: the convoy stands as a whole, the follower back in it.
+        heard(5.0, _HOLD, _HOLD)
+        assert service.tracker.sources == {LEAD, FOLLOWER}
+        assert [a["active"] for a in service.alarms] == [True, False]
+        assert service.alarms[1]["message"] == f"ground vehicle {FOLLOWER} rejoined the convoy"
+        # A driver takes the lead (MANUAL): where it goes is not known, no one parts.
+        for t in (6.0, 7.0, 8.0, 9.0, 10.0):
+            heard(t, _MANUAL, _RTL)
+        assert service.tracker.sources == {LEAD, FOLLOWER}
+        parts = service._planner_report()["convoy_parted"]
+        assert [p["event"] for p in parts] == ["parted", "rejoined"]
+        # (from the follower's last fix, taken before the lead's 2 s on: 20 + 16 m)
+        assert parts[0]["why"] == why and parts[0]["apart_m"] == pytest.approx(36.0)
+    finally:
+        clock.now = original  # type: ignore[method-assign]
