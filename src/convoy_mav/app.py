@@ -2018,7 +2018,8 @@ class ConvoyService:
             return
         wall = time.time()
         snap = self.monitor.snapshot(t)
-        active = sorted(self.monitor.active | self._vehicle_alarms)
+        parted = {f"convoy_parted:{s}" for s in self._parted}  # (each parted vehicle)
+        active = sorted(self.monitor.active | self._vehicle_alarms | parted)
         self._publish(
             topics.STATUS,
             topics.status_payload(

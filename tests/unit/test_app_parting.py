@@ -78,6 +78,16 @@ def test_the_service_parts_a_follower_its_mode_says_left_and_takes_it_back() -> 
         assert service.tracker.sources == {LEAD} and service.tracker.parted == {FOLLOWER}
         (alarm,) = service.alarms
         assert alarm["kind"] == "convoy_parted" and alarm["active"]
+        published: list[tuple[str, Any]] = []
+
+        class _Publisher:
+            def publish(self, subtopic: str, payload: Any, retain: bool = False) -> None:
+                published.append((subtopic, payload))
+
+        service.publisher = _Publisher()
+        service._publish_state(4.0)
+        (status,) = [p for topic, p in published if topic == "status"]
+        assert f"convoy_parted:{FOLLOWER}" in status["alarms"]  # (in force, over MQTT)
         why = "in HOLD: it stands while the lead drives its mission"
         assert alarm["message"] == (
             f"ground vehicle {FOLLOWER} parted from the convoy ({why}): the UAVs protect "

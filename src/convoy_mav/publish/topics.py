@@ -42,7 +42,7 @@ topic: while the broker is away, older values are dropped, not queued.
 | `paused` | bool | an operator pause is in force (all UAVs loiter) |
 | `uptime_s` | number | wall seconds since the service started |
 | `uavs` | object | `total`, plus a count per vehicle `state` (see vehicle below) |
-| `alarms` | array of string | alarms in force (`gap`, `convoy_stale`, `uav_lost:<sysid>`...) |
+| `alarms` | array of string | in force (`gap`, `uav_lost:<sysid>`, `convoy_parted:<sysid>`...) |
 
 `<prefix>/vehicle/<sysid>`
 
