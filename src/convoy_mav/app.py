@@ -779,8 +779,8 @@ class ConvoyService:
 
     def _judge_apart(self) -> None:
         """Keep apart from the convoy each follower whose mode has said for
-        ``_APART_AFTER_S`` that it left (``_left_by_mode``): parted at once, however
-        near, not only once 2 sensor radii off, the convoy dragged back towards it
+        ``_APART_AFTER_S`` that it left (``_left_by_mode``): parted however near, rather
+        than only once 2 sensor radii off with the convoy dragged back towards it
         meanwhile; and let it rejoin once its mode no longer says so."""
         t, lead = self.clock.now(), self._lead_mode
         for sysid, mode in self._follower_modes.items():
