@@ -76,6 +76,13 @@ def _parser() -> argparse.ArgumentParser:
     f.add_argument("--latency", type=float, metavar="S", help="added sim seconds, both ways")
     f.add_argument("--kill", action="append", metavar="SYSID@T", help="kill at sim time T")
     f.add_argument("--reboot", action="append", metavar="SYSID@T", help="reboot at sim time T")
+    f.add_argument(
+        "--mode",
+        action="append",
+        metavar="SYSID:MODE@T",
+        help="its operator switches it to MODE (its firmware's name) at sim time T, e.g. a "
+        "convoy's truck held, 3:HOLD@300, or sent home, 3:RTL@300",
+    )
     f.add_argument("--seed", type=int, help="seed of the loss decisions")
     p.add_argument(
         "--log-level",
@@ -135,6 +142,7 @@ def _overrides(ns: argparse.Namespace) -> dict[str, Any]:
         "latency": ns.latency,
         "kill": ns.kill,
         "reboot": ns.reboot,
+        "mode": ns.mode,
         "seed": ns.seed,
     }
     out: dict[str, Any] = {k: v for k, v in top.items() if v is not None}

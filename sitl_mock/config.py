@@ -68,6 +68,9 @@ Schema (every key optional)::
     jitter = 0.0                      # up to this many sim s more latency: reordering
     kill = [{ sysid = 2, at = 30.0 }] # or ["2@30"]
     reboot = ["1@20"]
+    mode = ["8:HOLD@300"]             # or [{ sysid = 8, at = 300.0, mode = "HOLD" }]: its
+                                      #   operator switches it to that mode (its firmware's
+                                      #   name), e.g. a truck held, or sent home (RTL)
     sysids = []                       # loss/latency/duplicates/jitter only for these (empty: all)
     seed = 0
 """
@@ -86,7 +89,7 @@ from convoy_mav.geo import GeoPoint, LocalFrame
 from convoy_mav.mavlink.signing import key_from_text
 from convoy_mav.tracks import GeoTrack
 from sitl_mock.autopilot import Personality, VehicleSpec
-from sitl_mock.faults import FaultSpec, TimedFault
+from sitl_mock.faults import FaultSpec, TimedFault, TimedMode
 from sitl_mock.ground import (
     Lagged,
     Polyline,
@@ -98,6 +101,7 @@ from sitl_mock.ground import (
     track_from_geo,
 )
 from sitl_mock.kinematics import AirframeParams, Frame
+from sitl_mock.personality import firmware_for
 
 __all__ = [
     "DEFAULT_BASE_PORT",
@@ -174,6 +178,7 @@ _FAULT_KEYS = {
     "jitter",
     "kill",
     "reboot",
+    "mode",
     "sysids",
     "seed",
 }
@@ -322,6 +327,8 @@ def config_from_mapping(data: Mapping[str, Any], base_dir: str = ".") -> MockCon
     if truth is not None and not isinstance(truth, str | os.PathLike):
         raise ConfigError("truth", truth, "must be a file path")
     gcs_raw = top.get("gcs")
+    faults = _faults(_Table(top.table("faults"), "faults"))
+    _check_modes(faults.modes, vehicles)
     return MockConfig(
         vehicles=tuple(vehicles),
         origin=origin,
@@ -332,7 +339,7 @@ def config_from_mapping(data: Mapping[str, Any], base_dir: str = ".") -> MockCon
         truth_path=None if truth is None else _resolve(os.fspath(truth), base_dir),
         truth_rate=top.number("truth_rate", 10.0, lo=1e-6),
         physics_rate=top.number("physics_rate", 100.0, lo=1.0),
-        faults=_faults(_Table(top.table("faults"), "faults")),
+        faults=faults,
     )
 
 
@@ -702,6 +709,50 @@ def _timed(f: _Table, name: str) -> tuple[TimedFault, ...]:
     return tuple(out)
 
 
+def _timed_modes(f: _Table, name: str) -> tuple[TimedMode, ...]:
+    """``"SYSID:MODE@TIME"`` or ``{sysid, at, mode}`` entries."""
+    raw = f.get(name, [])
+    if not isinstance(raw, list):
+        raw = [raw]
+    out: list[TimedMode] = []
+    for i, item in enumerate(raw):
+        key = f"{f.key(name)}[{i}]"
+        try:
+            if isinstance(item, str):
+                head, sep, at_text = item.partition("@")
+                sysid_text, colon, mode = head.partition(":")
+                if not (sep and colon):
+                    raise ValueError("expected SYSID:MODE@TIME")
+                out.append(TimedMode(int(sysid_text), float(at_text), mode))
+            elif isinstance(item, Mapping) and set(item) == {"sysid", "at", "mode"}:
+                out.append(TimedMode(int(item["sysid"]), float(item["at"]), str(item["mode"])))
+            else:
+                raise ValueError("expected SYSID:MODE@TIME or {sysid, at, mode}")
+        except (TypeError, ValueError) as e:
+            raise ConfigError(key, item, str(e)) from None
+    return tuple(out)
+
+
+def _check_modes(modes: tuple[TimedMode, ...], vehicles: list[VehicleSpec]) -> None:
+    """Each mode change names a mode its vehicle's firmware has (a vehicle not in the
+    fleet is warned of when it comes due, as a kill is)."""
+    specs = {v.sysid: v for v in vehicles}
+    for i, change in enumerate(modes):
+        spec = specs.get(change.sysid)
+        if spec is None:
+            continue
+        kind = "rover" if spec.kind == "ground" else spec.airframe.frame
+        firmware = firmware_for(spec.personality, kind)
+        try:
+            firmware.mode(change.mode)
+        except KeyError:
+            names = ", ".join(m.name for m in firmware.modes)
+            raise ConfigError(
+                f"faults.mode[{i}]", change.mode, f"is no mode of sysid {change.sysid}'s "
+                f"{spec.personality.value} {kind}: {names}",
+            ) from None  # fmt: skip
+
+
 def _faults(f: _Table) -> FaultSpec:
     f.check_keys(_FAULT_KEYS)
     latency = f.number("latency", 0.0, lo=0.0)
@@ -723,6 +774,7 @@ def _faults(f: _Table) -> FaultSpec:
         jitter=f.number("jitter", 0.0, lo=0.0),
         kills=_timed(f, "kill"),
         reboots=_timed(f, "reboot"),
+        modes=_timed_modes(f, "mode"),
         sysids=frozenset(sysids),
         seed=f.integer("seed", 0, lo=0, hi=2**63 - 1),
     )

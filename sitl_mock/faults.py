@@ -7,7 +7,8 @@ Design rules:
     * Latency is a delay queue keyed by the sim time an item becomes due; the
       server drains it every physics step, so latency is quantised to 10 ms of
       sim time, which is finer than any autopilot stream.
-    * Scheduled events (kill, reboot) fire exactly once, in time order.
+    * Scheduled events (kill, reboot, an operator's mode change) fire exactly once, in
+      time order.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ import random
 from dataclasses import dataclass, field
 from typing import Generic, Literal, TypeVar
 
-__all__ = ["DelayQueue", "FaultEvent", "FaultInjector", "FaultSpec", "TimedFault"]
+__all__ = ["DelayQueue", "FaultEvent", "FaultInjector", "FaultSpec", "TimedFault", "TimedMode"]
 
 T = TypeVar("T")
 
@@ -39,6 +40,22 @@ class TimedFault:
 
 
 @dataclass(frozen=True, slots=True)
+class TimedMode:
+    """Vehicle ``sysid`` switched to ``mode`` (its firmware's name: "HOLD", "RTL",
+    "AUTO.LOITER") at sim time ``at`` by its own operator's ground station: a truck held
+    or sent home while the rest of the convoy drives on."""
+
+    sysid: int
+    at: float
+    mode: str
+
+    def __post_init__(self) -> None:
+        TimedFault(self.sysid, self.at)  # (the same checks)
+        if not self.mode or not isinstance(self.mode, str):
+            raise ValueError(f"mode must be a mode's name, got {self.mode!r}")
+
+
+@dataclass(frozen=True, slots=True)
 class FaultSpec:
     """What the link and the vehicles should suffer.
 
@@ -53,6 +70,7 @@ class FaultSpec:
             latency (either way), so datagrams overtake each other: reordering.
         kills: Vehicles that stop responding and sending entirely at a time.
         reboots: Vehicles that reboot (``time_boot_ms`` restarts) at a time.
+        modes: Vehicles switched to a mode by their own operator at a time.
         sysids: Vehicles that loss and latency apply to; empty means all.
         seed: Seed of the random generator deciding losses.
     """
@@ -65,6 +83,7 @@ class FaultSpec:
     jitter: float = 0.0
     kills: tuple[TimedFault, ...] = ()
     reboots: tuple[TimedFault, ...] = ()
+    modes: tuple[TimedMode, ...] = ()
     sysids: frozenset[int] = field(default_factory=frozenset)
     seed: int = 0
 
@@ -87,9 +106,10 @@ class FaultSpec:
 class FaultEvent:
     """A scheduled fault that has come due."""
 
-    kind: Literal["kill", "reboot"]
+    kind: Literal["kill", "reboot", "mode"]
     sysid: int
     at: float
+    mode: str = ""  # (a mode change's)
 
 
 class FaultInjector:
@@ -105,6 +125,7 @@ class FaultInjector:
         self._rng = rng
         pending = [FaultEvent("kill", f.sysid, f.at) for f in spec.kills]
         pending += [FaultEvent("reboot", f.sysid, f.at) for f in spec.reboots]
+        pending += [FaultEvent("mode", f.sysid, f.at, f.mode) for f in spec.modes]
         # Stable: a kill and a reboot at the same instant keep config order.
         self._pending = sorted(pending, key=lambda e: e.at)
 

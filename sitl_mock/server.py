@@ -86,6 +86,7 @@ VEHICLE_DROP_REASONS = (
 
 _MAX_PEERS = 16  # per vehicle; the oldest peer is forgotten beyond this
 _BURST_STEPS = 50  # physics steps between yields to the event loop when catching up
+_OPERATOR_SYSTEM = 250  # an operator's own ground station ([faults] mode), not the service
 
 
 @dataclass(frozen=True, slots=True)
@@ -516,6 +517,22 @@ class MockFleet:
         self._links[sysid].kill()
         log.warning("sysid %d: killed at t=%.2f s", sysid, self.now)
 
+    def set_mode(self, sysid: int, name: str) -> None:
+        """Switch vehicle ``sysid`` to its firmware's mode ``name`` as its own operator's
+        ground station does: a SET_MODE from system 250, taken as any other (refused as
+        the firmware would, e.g. RTL with no home); its texts go out, its ack to that
+        ground station, not to the links' peers."""
+        link = self._links[sysid]
+        vehicle = link.vehicle
+        mode = vehicle.firmware.mode(name)
+        msg = mavlink.MAVLink_set_mode_message(
+            sysid, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, mode.custom_mode
+        )
+        msg.pack(mavlink.MAVLink(None, srcSystem=_OPERATOR_SYSTEM, srcComponent=190))
+        replies = vehicle.handle(msg, self.now)
+        link.send([m for m in replies if m.get_type() == "STATUSTEXT"], self.now)
+        log.warning("sysid %d: its operator switched it to %s at t=%.2f s", sysid, name, self.now)
+
     def reboot(self, sysid: int, *, on_pad: bool = False) -> None:
         """Reboot vehicle ``sysid`` now (``time_boot_ms`` restarts from 0); ``on_pad``:
         at rest on its home pad (relaunched), not where it was."""
@@ -567,6 +584,8 @@ class MockFleet:
                 log.warning("fault %s for unknown sysid %d ignored", event.kind, event.sysid)
             elif event.kind == "kill":
                 self.kill(event.sysid)
+            elif event.kind == "mode":
+                self.set_mode(event.sysid, event.mode)
             else:
                 self.reboot(event.sysid)
         for link in self._links.values():

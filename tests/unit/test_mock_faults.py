@@ -8,7 +8,7 @@ from typing import Any
 
 import pytest
 
-from sitl_mock.faults import DelayQueue, FaultInjector, FaultSpec, TimedFault
+from sitl_mock.faults import DelayQueue, FaultInjector, FaultSpec, TimedFault, TimedMode
 
 
 def test_probability_zero_and_one_are_exact_and_draw_nothing() -> None:
@@ -66,14 +66,21 @@ def test_events_fire_once_in_time_order() -> None:
     spec = FaultSpec(
         kills=(TimedFault(2, 5.0),),
         reboots=(TimedFault(1, 3.0), TimedFault(3, 5.0)),
+        modes=(TimedMode(4, 4.5, "HOLD"),),
     )
     inj = FaultInjector(spec, random.Random(0))
     assert inj.due_events(2.99) == []
     assert [(e.kind, e.sysid) for e in inj.due_events(3.0)] == [("reboot", 1)]
     assert inj.due_events(4.0) == []
     late = inj.due_events(100.0)
-    assert [(e.kind, e.sysid, e.at) for e in late] == [("kill", 2, 5.0), ("reboot", 3, 5.0)]
+    assert [(e.kind, e.sysid, e.at, e.mode) for e in late] == [
+        ("mode", 4, 4.5, "HOLD"),
+        ("kill", 2, 5.0, ""),
+        ("reboot", 3, 5.0, ""),
+    ]
     assert inj.due_events(1e9) == []
+    with pytest.raises(ValueError, match="mode"):
+        TimedMode(4, 1.0, "")
 
 
 @pytest.mark.parametrize(

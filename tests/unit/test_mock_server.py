@@ -14,6 +14,7 @@ from typing import Any
 import pytest
 from pymavlink.dialects.v20 import common as mavlink
 
+from convoy_mav.errors import ConfigError
 from sitl_mock.clock import ManualTime, SimClock
 from sitl_mock.config import MockConfig
 from sitl_mock.server import Endpoint, MockFleet, VehicleLink
@@ -283,3 +284,25 @@ def test_link_ignores_sends_on_a_closing_transport() -> None:
     tx[1].closing = True
     run(fleet, 1.0)
     assert tx[1].sent == []
+
+
+def test_a_scheduled_mode_change_is_its_operators_and_the_firmware_takes_it() -> None:
+    """``[faults] mode``: the follower of a convoy held by its own operator at 5 s (a
+    SET_MODE from system 250, as any ground station's) brakes to a stand while its
+    leader drives on; a mode its firmware has not is refused when the config is read."""
+    road: dict[str, Any] = {"route": "line", "speed": 8.0, "spacing": 20.0}
+    ground = {f"ground_{k}": v for k, v in {**road, "personality": "ardupilot"}.items()}
+    fleet, _, tx = make(aircraft=0, ground=2, faults={"mode": ["2:HOLD@5"]}, **ground)
+    lead, follower = sorted(fleet.vehicles)
+    assert follower == 2
+    fleet.link(follower).datagram_received(hello(), PEER_A)
+    run(fleet, 15.0)
+    held, driving = fleet.truth(follower), fleet.truth(lead)
+    assert held.mode == "HOLD" and held.speed == 0.0, held
+    assert driving.mode == "AUTO" and driving.speed > 7.0, driving
+    acks = [m for m in tx[follower].to(PEER_A) if m.get_type() == "COMMAND_ACK"]
+    assert not acks  # (the ack went to the operator's station, not to the link's peers)
+    with pytest.raises(ConfigError, match=r"faults\.mode\[0\].*no mode of sysid 2"):
+        MockConfig.simple(0, ground=2, faults={"mode": ["2:LOITERING@5"]}, **ground)
+    with pytest.raises(ConfigError, match=r"faults\.mode\[0\].*SYSID:MODE@TIME"):
+        MockConfig.simple(0, ground=2, faults={"mode": ["2@5"]}, **ground)
