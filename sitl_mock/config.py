@@ -80,9 +80,9 @@ from __future__ import annotations
 import math
 import os
 import tomllib
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypeVar
 
 from convoy_mav.errors import ConfigError
 from convoy_mav.geo import GeoPoint, LocalFrame
@@ -168,6 +168,8 @@ _GROUND_KEYS = {
     "personality",
     "warmup",
 }
+_T = TypeVar("_T")
+
 _FAULT_KEYS = {
     "loss_to_vehicle",
     "loss_from_vehicle",
@@ -687,50 +689,44 @@ def _track_speed(route: Route) -> float:
     return 0.0
 
 
-def _timed(f: _Table, name: str) -> tuple[TimedFault, ...]:
+def _entries(f: _Table, name: str, parse: Callable[[object], _T]) -> tuple[_T, ...]:
+    """A fault list's entries (one alone is a list of one), each parsed by ``parse``; a
+    bad one is a ConfigError naming it."""
     raw = f.get(name, [])
     if not isinstance(raw, list):
         raw = [raw]
-    out: list[TimedFault] = []
+    out: list[_T] = []
     for i, item in enumerate(raw):
-        key = f"{f.key(name)}[{i}]"
         try:
-            if isinstance(item, str):
-                sysid_text, sep, at_text = item.partition("@")
-                if not sep:
-                    raise ValueError("expected SYSID@TIME")
-                out.append(TimedFault(int(sysid_text), float(at_text)))
-            elif isinstance(item, Mapping) and set(item) == {"sysid", "at"}:
-                out.append(TimedFault(int(item["sysid"]), float(item["at"])))
-            else:
-                raise ValueError("expected SYSID@TIME or {sysid, at}")
+            out.append(parse(item))
         except (TypeError, ValueError) as e:
-            raise ConfigError(key, item, str(e)) from None
+            raise ConfigError(f"{f.key(name)}[{i}]", item, str(e)) from None
     return tuple(out)
 
 
-def _timed_modes(f: _Table, name: str) -> tuple[TimedMode, ...]:
-    """``"SYSID:MODE@TIME"`` or ``{sysid, at, mode}`` entries."""
-    raw = f.get(name, [])
-    if not isinstance(raw, list):
-        raw = [raw]
-    out: list[TimedMode] = []
-    for i, item in enumerate(raw):
-        key = f"{f.key(name)}[{i}]"
-        try:
-            if isinstance(item, str):
-                head, sep, at_text = item.partition("@")
-                sysid_text, colon, mode = head.partition(":")
-                if not (sep and colon):
-                    raise ValueError("expected SYSID:MODE@TIME")
-                out.append(TimedMode(int(sysid_text), float(at_text), mode))
-            elif isinstance(item, Mapping) and set(item) == {"sysid", "at", "mode"}:
-                out.append(TimedMode(int(item["sysid"]), float(item["at"]), str(item["mode"])))
-            else:
-                raise ValueError("expected SYSID:MODE@TIME or {sysid, at, mode}")
-        except (TypeError, ValueError) as e:
-            raise ConfigError(key, item, str(e)) from None
-    return tuple(out)
+def _timed(item: object) -> TimedFault:
+    """``"SYSID@TIME"`` or ``{sysid, at}``."""
+    if isinstance(item, str):
+        sysid_text, sep, at_text = item.partition("@")
+        if not sep:
+            raise ValueError("expected SYSID@TIME")
+        return TimedFault(int(sysid_text), float(at_text))
+    if isinstance(item, Mapping) and set(item) == {"sysid", "at"}:
+        return TimedFault(int(item["sysid"]), float(item["at"]))
+    raise ValueError("expected SYSID@TIME or {sysid, at}")
+
+
+def _timed_mode(item: object) -> TimedMode:
+    """``"SYSID:MODE@TIME"`` or ``{sysid, at, mode}``."""
+    if isinstance(item, str):
+        head, sep, at_text = item.partition("@")
+        sysid_text, colon, mode = head.partition(":")
+        if not (sep and colon):
+            raise ValueError("expected SYSID:MODE@TIME")
+        return TimedMode(int(sysid_text), float(at_text), mode)
+    if isinstance(item, Mapping) and set(item) == {"sysid", "at", "mode"}:
+        return TimedMode(int(item["sysid"]), float(item["at"]), str(item["mode"]))
+    raise ValueError("expected SYSID:MODE@TIME or {sysid, at, mode}")
 
 
 def _check_modes(modes: tuple[TimedMode, ...], vehicles: list[VehicleSpec]) -> None:
@@ -772,9 +768,9 @@ def _faults(f: _Table) -> FaultSpec:
         latency_from_vehicle=f.number("latency_from_vehicle", latency, lo=0.0),
         duplicate=f.number("duplicate", 0.0, lo=0.0),
         jitter=f.number("jitter", 0.0, lo=0.0),
-        kills=_timed(f, "kill"),
-        reboots=_timed(f, "reboot"),
-        modes=_timed_modes(f, "mode"),
+        kills=_entries(f, "kill", _timed),
+        reboots=_entries(f, "reboot", _timed),
+        modes=_entries(f, "mode", _timed_mode),
         sysids=frozenset(sysids),
         seed=f.integer("seed", 0, lo=0, hi=2**63 - 1),
     )
