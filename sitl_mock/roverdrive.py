@@ -109,14 +109,13 @@ class RoverDrive:
         self._await_auto = wait
         route, tau_was = self.route, self.at(t)
         speed_was = math.hypot(*route.velocity(tau_was))
-        own = moving is not None  # (its speed is not its route's: it drove another's)
         moving = self.clock.rate(t) * speed_was if moving is None else moving
         self.plan, self.lag = plan, 0.0
         self.wp_speed = float(plan.speed) if wp_speed is None else wp_speed
         tau0 = plan.time_at(arc)
         told, tau = plan.with_speed_from(tau0, plan.planned_speed(tau0), moving)
         now_speed = math.hypot(*told.velocity(tau))
-        self.clock.retime(t, tau, speed_was, now_speed, moving if own else None)
+        self.clock.retime(t, tau, speed_was, now_speed, moving)
         if wait:  # (its mission over, it stands: at once)
             self.clock.drive(t, False, 0.0)
         self.route = told

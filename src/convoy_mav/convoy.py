@@ -125,7 +125,7 @@ class ConvoyTracker:
         self.part_m = part_m
         self.lead = lead
         self._parted: frozenset[Source] = frozenset()
-        self._apart: set[Source] = set()  # (kept apart by the caller's word)
+        self._apart: frozenset[Source] = frozenset()  # (kept apart by the caller's word)
         self.stale_after = stale_after
         self.window = window
         self.min_span = min_span
@@ -158,10 +158,7 @@ class ConvoyTracker:
         """Whether ``source`` has left the convoy by its own mode (the caller's word:
         held, or sent home, while the lead drives on), whatever its distance: from its
         next fix on it is parted, or, no longer, may rejoin within the rejoin distance."""
-        if apart:
-            self._apart.add(source)
-        else:
-            self._apart.discard(source)
+        self._apart = self._apart | {source} if apart else self._apart - {source}
 
     def apart(self, source: Source) -> float | None:
         """How far ``source``'s latest fix is from the nearest of the centroid's (None:
@@ -218,7 +215,7 @@ class ConvoyTracker:
             lead=self.lead,
             part_m=self.part_m,
             parted=self._parted,
-            apart=frozenset(self._apart),
+            apart=self._apart,
         )
         parted = frozenset(fresh) - active
         self.counters["source_parted"] += len(parted - self._parted)
