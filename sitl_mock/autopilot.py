@@ -449,7 +449,7 @@ class SimVehicle:
         driving to, from where it stands. In any other mode it stands, still on its way.
         A follower sent home leaves its leader's trail for good: from where it is on it,
         at the speed it has, it drives home, and in AUTO its own mission (its leader's
-        road) from there; a vehicle behind it follows it still."""
+        road) from there; the vehicles behind it follow its leader on (``Trail.hand_over``)."""
         fl, back = self.flight, self._returning
         behaviour = fl.mode.behaviour
         if not fl.armed or behaviour not in (Behaviour.RTL, Behaviour.MISSION):
@@ -463,7 +463,11 @@ class SimVehicle:
         plan = ground.plan
         wp_radius = plan.wp_radius if isinstance(plan, Polyline) else 2.0
         if back is None:
-            self.follower = None  # (a follower: off its leader's trail, from where it is)
+            # (a follower leaves its leader's trail from where it is, and hands the
+            # vehicles behind it on to that leader)
+            follower, self.follower = self.follower, None
+            if follower is not None and self.trail is not None:
+                self.trail.hand_over(follower.trail, follower.s, follower.lag)
             self._returning = back = self._leave(now)
             back.goal = self._rtl_goal((n, e))
             speed = self._rtl_speed or self._wp_speed() or DEFAULT_WP_SPEED

@@ -9,7 +9,10 @@ each follower (:class:`Follower`) drives that path as drivers keep their distanc
 the leader was ``lag`` seconds ago (a time gap: the two-second rule), but never nearer
 to it than a standstill distance, speeding up and braking within its accel. So on the
 leader's own road it drives exactly what the lagged road drove; where the leader stops,
-it stops behind it. Pure: the mock steps both.
+it stops behind it. A follower that leaves the convoy (sent home by its own operator)
+hands those behind it on to its own leader's path (:meth:`Trail.hand_over`): they keep
+their place in the column, as the drivers behind a truck that turns off follow the one
+ahead of it. Pure: the mock steps both.
 """
 
 from __future__ import annotations
@@ -18,11 +21,24 @@ import bisect
 import math
 from dataclasses import dataclass, field
 
-__all__ = ["Follower", "Trail"]
+__all__ = ["Follower", "Handover", "Trail"]
 
 _MOVED = 1e-3  # m: a sample nearer than this to the last adds nothing
 _KEEP_MARGIN_S = 30.0  # s of trail kept past the longest lag behind it
 _GAIN_SHARE = 0.9  # of the accel a follower's closing speed falls at, as it closes
+
+
+@dataclass(frozen=True, slots=True)
+class Handover:
+    """A follower left its leader's path where its own trail's arc was ``at`` and its arc
+    on its leader's ``onto`` was ``onto_at``, ``lag`` s behind it: the vehicles behind it
+    follow ``onto`` from there (an arc ``x`` of the trail left is ``x - at + onto_at``
+    of ``onto``: the same road up to there), ``lag`` s further behind."""
+
+    onto: Trail
+    at: float
+    onto_at: float
+    lag: float
 
 
 @dataclass(slots=True)
@@ -31,6 +47,7 @@ class Trail:
     sim time ``t``. A vehicle standing adds none: it was where it last moved to."""
 
     keep_s: float = 0.0  # s of path kept behind the newest sample (its followers' lags)
+    handed_over: Handover | None = None  # (its vehicle left the column: see hand_over)
     _t: list[float] = field(default_factory=list)
     _s: list[float] = field(default_factory=list)
     _n: list[float] = field(default_factory=list)
@@ -62,6 +79,13 @@ class Trail:
         cut = bisect.bisect_left(self._t, t - self.keep_s - _KEEP_MARGIN_S) - 1
         if cut > 1024:  # (pruned in batches: one list copy per thousand samples)
             del self._t[:cut], self._s[:cut], self._n[:cut], self._e[:cut]
+
+    def hand_over(self, onto: Trail, onto_at: float, lag: float) -> None:
+        """Its vehicle leaves the column where it last recorded, ``onto_at`` along its
+        leader's path ``onto`` then, ``lag`` s behind that leader: its followers follow
+        ``onto`` from now."""
+        self.handed_over = Handover(onto, self.s, onto_at, lag)
+        onto.keep_s = max(onto.keep_s, self.keep_s + lag)
 
     def s_at(self, t: float) -> float:
         """Arc length it had driven at sim time ``t`` (0 before its first sample)."""
@@ -121,6 +145,7 @@ class Follower:
     def step(self, t: float, dt: float, driving: bool) -> None:
         """On to sim time ``t``, ``dt`` s after its last step: it drives (armed in its
         mission mode) or brakes to a stand."""
+        self._rejoin(t - dt)
         trail = self.trail
         short = trail.s - self.standstill  # (the nearest it comes to the leader)
         lagged = trail.s_at(t - self.lag)
@@ -147,6 +172,15 @@ class Follower:
             s = max(target, self.s)
             v = (s - self.s) / dt
         self.s, self.v = s, v
+
+    def _rejoin(self, before: float) -> None:
+        """The vehicle it follows left the column: it follows that one's leader, where
+        it is on the same road, its lag the two lags (its place in the column kept), and
+        where that leader was its lag before its last step (``before``) its last target."""
+        while (h := self.trail.handed_over) is not None:
+            self.trail, self.lag = h.onto, self.lag + h.lag
+            self.s = max(self.s + h.onto_at - h.at, 0.0)
+            self._target = self.trail.s_at(before - self.lag)
 
     def state(self, ahead: float = 0.0) -> tuple[float, float, float, float]:
         """(north, east, vn, ve) where it is, or ``ahead`` s after its last step at its

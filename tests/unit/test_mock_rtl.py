@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 
@@ -197,19 +198,23 @@ def test_a_follower_sent_home_leaves_its_leaders_trail_for_its_own_home() -> Non
     """ArduRover's RTL is the vehicle's own: a follower told it (by its operator, not its
     leader's) turns off the trail at the speed it has, drives to its own home and says
     so, while its leader drives on; back in AUTO it drives its own mission (its leader's
-    road) from there, no longer behind it."""
+    road) from there, no longer behind it. The vehicle behind it drives on behind the
+    leader, in its place in the column."""
     lead = rover(Personality.ARDUPILOT, LAP)
     spec = VehicleSpec(
         sysid=12, kind="ground", personality=Personality.ARDUPILOT,
         home=WORLD.to_geo(0.0, -30.0, 0.0), route=LAP,
     )  # fmt: skip
     behind = SimVehicle(spec, WORLD, 0.0)
-    assert lead.trail is not None
+    last = SimVehicle(dataclasses.replace(spec, sysid=13), WORLD, 0.0)
+    assert lead.trail is not None and behind.trail is not None
     behind.follow(lead.trail, lag=5.0, standstill=10.0)
+    last.follow(behind.trail, lag=5.0, standstill=10.0)
     gcs, texts = Gcs(lead), list[str]()
 
     def step_behind(now: float) -> None:
         texts.extend(m.text for m in behind.step(now, 0.01) if m.get_type() == "STATUSTEXT")
+        last.step(now, 0.01)
 
     gcs.run(160.0, telemetry=False, every=step_behind)  # (on the second leg, going east)
     was = behind.truth(gcs.now)
@@ -235,6 +240,10 @@ def test_a_follower_sent_home_leaves_its_leaders_trail_for_its_own_home() -> Non
     assert math.hypot(home.north - hn, home.east - he) <= 2.0 and home.speed == 0.0, home
     assert home.mode == "RTL" and texts == ["Reached destination"], texts
     assert there.mode == "AUTO" and there.speed > 0.0  # (its leader drove on)
+    on = last.truth(gcs.now)  # (the one behind it: where the leader was 10 s before)
+    assert math.hypot(on.north - hn, on.east - he) > 500.0 and on.speed > 0.0, on
+    assert last.follower is not None and last.follower.trail is lead.trail
+    assert last.follower.s == pytest.approx(lead.trail.s_at(gcs.now - 10.0), abs=1.0)
     tell(10)  # (AUTO)
     gcs.run(60.0, telemetry=False, every=step_behind)
     off = behind.truth(gcs.now)

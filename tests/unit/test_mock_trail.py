@@ -130,6 +130,38 @@ def test_a_follower_stays_on_the_path_behind_its_leader_whatever_it_drives(
             assert math.isfinite(fn) and math.isfinite(fe)
 
 
+def test_the_vehicles_behind_one_that_leaves_drive_on_behind_its_leader() -> None:
+    """A column of three; the middle one leaves (sent home by its own operator) on a
+    straight road before the leader's corner: the last keeps its place behind the
+    leader, round the corner, with no jump in speed, and never follows the one gone."""
+    lead, middle = Trail(), Trail()
+    gone = Follower(lead, LAG, 5.0)
+    last = Follower(middle, LAG, 5.0)
+    speeds, t, left = [0.0], 0.0, None
+    for k in range(1, round(120.0 / DT)):
+        t = k * DT
+        n, e = (8.0 * t, 0.0) if t <= 60.0 else (480.0, 8.0 * (t - 60.0))
+        lead.record(t, n, e)
+        if left is None and t >= 40.0:  # (it leaves, from where it last was)
+            middle.hand_over(lead, gone.s, gone.lag)
+            left = gone.state()[:2]
+        if left is None:
+            gone.step(t, DT, True)
+            gn, ge, *_ = gone.state()
+        else:  # (on its own way, back west of the road)
+            gn, ge = left[0], left[1] - 8.0 * (t - 40.0)
+        middle.record(t, gn, ge)
+        last.step(t, DT, True)
+        speeds.append(last.v)
+    ln, le, vn, ve = last.state()
+    # (where the leader was its two lags ago: round the corner, east)
+    assert last.trail is lead and last.lag == pytest.approx(2 * LAG)
+    assert (ln, le) == pytest.approx((480.0, 8.0 * (t - 60.0 - 2 * LAG)), abs=1e-6)
+    assert (vn, ve) == pytest.approx((0.0, 8.0), abs=1e-6)
+    jumps = [abs(b - a) for a, b in itertools.pairwise(speeds[round(20.0 / DT) :])]
+    assert max(jumps) <= 1.0 * DT + 1e-9  # (past the column's start, at 8 m/s at once)
+
+
 def test_a_long_drive_keeps_only_the_trail_its_followers_need() -> None:
     trail = Trail()
     Follower(trail, 4.0)
