@@ -300,6 +300,7 @@ def _left_by_mode(mode: RoverMode, lead: RoverMode | None) -> str | None:
     does = {
         ConvoyDrive.HELD: "stands",
         ConvoyDrive.HOME: "drives home",
+        ConvoyDrive.RETRACE: "drives home back along its path",
         ConvoyDrive.MISSION: "drives its mission",
         ConvoyDrive.OTHER: "is driven otherwise",
     }
@@ -626,6 +627,7 @@ class ConvoyService:
             ConvoyDrive.HELD: "stands until its mode changes",
             ConvoyDrive.OTHER: "is driven otherwise: its mission's plan is set aside",
             ConvoyDrive.HOME: going,
+            ConvoyDrive.RETRACE: "drives home back along its path: its mission's plan is set aside",
         }[mode.drive]
         since = "" if was is None else f" (was {was.name})"
         self._note(f"ground vehicle {sysid} in {mode.name}{since}: it {what}")

@@ -19,7 +19,8 @@ Design rules:
     * The service's default ``part_m`` is twice the sensor radius: a vehicle farther
       than that from every other is never in one camera's disk with any of them.
     * A vehicle's own mode may say it before its distance does (``leaves``): held or
-      sent home by its operator while the lead drives on, it has left, however near
+      sent home (RTL, SMART_RTL) by its operator or its failsafe while the lead drives
+      on, it has left, however near
       (``apart``), and the convoy is not dragged back towards it for the tens of
       seconds it takes to fall 2 sensor radii behind.
     * Pure: positions and the previous answer in, the group out.
@@ -39,6 +40,8 @@ S = TypeVar("S", bound=Hashable)
 
 _PART_RADII = 2.0  # sensor radii: the default distance at which a vehicle has parted
 _REJOIN_FRACTION = 0.5  # of part_m: within this of a member, a parted vehicle rejoins
+# (home by either way, straight or back along its path, is home: both going, none parts)
+_HOMEWARD = {ConvoyDrive.RETRACE: ConvoyDrive.HOME}
 
 
 def default_part_m(sensor_radius: float) -> float:
@@ -49,12 +52,15 @@ def default_part_m(sensor_radius: float) -> float:
 
 def leaves(follower: ConvoyDrive, lead: ConvoyDrive | None) -> bool:
     """Whether a vehicle whose mode says ``follower`` has left a convoy whose lead's says
-    ``lead`` (None: not known): held, or sent home, while the lead does otherwise. A lead
-    driven otherwise (MANUAL, GUIDED) says nothing of where the convoy goes."""
-    return (
-        follower in (ConvoyDrive.HELD, ConvoyDrive.HOME)
-        and lead is not None
-        and lead not in (follower, ConvoyDrive.OTHER)
+    ``lead`` (None: not known): held, or sent home (either way home), while the lead
+    does otherwise. A lead driven otherwise (MANUAL, GUIDED) says nothing of where the
+    convoy goes."""
+    if lead is None:
+        return False
+    follower, lead = _HOMEWARD.get(follower, follower), _HOMEWARD.get(lead, lead)
+    return follower in (ConvoyDrive.HELD, ConvoyDrive.HOME) and lead not in (
+        follower,
+        ConvoyDrive.OTHER,
     )
 
 

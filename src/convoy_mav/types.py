@@ -98,6 +98,7 @@ class ConvoyDrive(StrEnum):
     HELD = "held"  # it stands until told otherwise (HOLD, disarmed)
     OTHER = "other"  # a driver or another command (MANUAL, GUIDED): no plan holds
     HOME = "home"  # its way home (RTL): straight there, where it stands; no plan holds
+    RETRACE = "retrace"  # its way home back along the path it drove (SMART_RTL): no plan holds
 
 
 @dataclass(frozen=True, slots=True)

@@ -15,7 +15,7 @@ from convoy_mav.types import ConvoyDrive
 from tests.unit.test_app_route import _road_doc
 
 LEAD, FOLLOWER = 60, 61
-_AUTO, _HOLD, _RTL, _MANUAL = 10, 4, 11, 0
+_AUTO, _HOLD, _RTL, _SMART_RTL, _MANUAL = 10, 4, 11, 12, 0
 
 
 def test_a_follower_leaves_when_held_or_sent_home_while_the_lead_does_otherwise() -> None:
@@ -26,6 +26,11 @@ def test_a_follower_leaves_when_held_or_sent_home_while_the_lead_does_otherwise(
     assert not leaves(h, other) and not leaves(h, None)  # (the lead's way not known)
     assert drive_of("AUTO", True) is m and drive_of("AUTO", False) is h
     assert drive_of("AUTO.RTL", True) is home and drive_of("MANUAL", True) is other
+    # Back along its path (SMART_RTL, a failsafe's action) is home as well for a follower;
+    # for a lead, a drive of its own that leaves a held follower behind.
+    back = drive_of("SMART_RTL", True)
+    assert back is ConvoyDrive.RETRACE and leaves(back, m) and leaves(h, back)
+    assert not leaves(back, home) and not leaves(home, back) and not leaves(back, back)
 
 
 def test_one_known_to_have_left_is_apart_however_near_unless_it_is_all_there_is() -> None:
@@ -102,8 +107,17 @@ def test_the_service_parts_a_follower_its_mode_says_left_and_takes_it_back() -> 
         for t in (6.0, 7.0, 8.0, 9.0, 10.0):
             heard(t, _MANUAL, _RTL)
         assert service.tracker.sources == {LEAD, FOLLOWER}
+        # Its failsafe sends it home back along its path while the lead drives on.
+        for t in (11.0, 12.0, 13.0, 14.0, 15.0):
+            heard(t, _AUTO, _SMART_RTL)
+        assert service.tracker.sources == {LEAD} and service.tracker.parted == {FOLLOWER}
+        back = "in SMART_RTL: it drives home back along its path while the lead drives its mission"
+        assert service.alarms[-1]["message"] == (
+            f"ground vehicle {FOLLOWER} parted from the convoy ({back}): the UAVs protect "
+            "the rest, not it"
+        )
         parts = service._planner_report()["convoy_parted"]
-        assert [p["event"] for p in parts] == ["parted", "rejoined"]
+        assert [p["event"] for p in parts] == ["parted", "rejoined", "parted"]
         # (from the follower's last fix, taken before the lead's 2 s on: 20 + 16 m)
         assert parts[0]["why"] == why and parts[0]["apart_m"] == pytest.approx(36.0)
     finally:

@@ -412,16 +412,20 @@ def test_told_to_stand_at_a_planned_hold_it_stands_on_and_back_in_auto_the_hold_
     assert np.all(np.abs(arc[:60]) < 1e-6) and arc[65] > 0.5
 
 
-def test_driven_otherwise_its_plan_is_set_aside_and_its_speed_not_learnt() -> None:
+@pytest.mark.parametrize("drive", [ConvoyDrive.OTHER, ConvoyDrive.RETRACE])
+def test_driven_otherwise_its_plan_is_set_aside_and_its_speed_not_learnt(
+    drive: ConvoyDrive,
+) -> None:
+    """A driver (MANUAL), or its way home back along its path (SMART_RTL)."""
     dt = np.arange(0.0, 120.0, 1.0)
     planned = _driven([(10.0, 5.0)], paces=[(0.0, 10.0)])
     plain = _driven([(10.0, 5.0)])
     assert _ahead(planned, dt)[60] > _ahead(plain, dt)[60] + 100.0  # (to its 10 m/s)
-    planned.set_drive(ConvoyDrive.OTHER)  # MANUAL: a driver
+    planned.set_drive(drive)
     assert _ahead(planned, dt) == pytest.approx(_ahead(plain, dt))
     keeps = ConvoyModel(STRAIGHT)
     keeps.set_route(STRAIGHT, keeps_speed=True)
-    keeps.set_drive(ConvoyDrive.OTHER)
+    keeps.set_drive(drive)
     for t in range(200):
         keeps.observe(ConvoyEstimate(float(t), 0.0, 6.0 * t, 0.0, 6.0))
     assert not keeps._driven  # (a driver's speeds are not the rover's)

@@ -32,7 +32,7 @@ def _heartbeat(
         (_AP, 0, ConvoyDrive.OTHER, "MANUAL"),
         (_AP, 15, ConvoyDrive.OTHER, "GUIDED"),
         (_AP, 11, ConvoyDrive.HOME, "RTL"),
-        (_AP, 12, ConvoyDrive.OTHER, "SMART_RTL"),
+        (_AP, 12, ConvoyDrive.RETRACE, "SMART_RTL"),
         (_AP, 99, ConvoyDrive.OTHER, "MODE(99)"),
         (_PX4, _px4(4, 4), ConvoyDrive.MISSION, "AUTO.MISSION"),
         (_PX4, _px4(4, 3), ConvoyDrive.HELD, "AUTO.LOITER"),

@@ -5,13 +5,16 @@ which the service reads as the convoy's (``[convoy] route = "mission"``). Switch
 HOLD, or disarmed, it stands until its operator switches it back, and does not pull
 away at the end of a planned hold; back in AUTO it pulls away at once, seconds before
 its fixes can show it. In RTL it drives straight home and stands there (ArduRover's
-``ModeRTL``), off its route. In MANUAL, GUIDED or SMART_RTL something other than the
-mission drives it, at speeds the plan does not say. So the lead vehicle's mode tells
-the road model which forecast holds (``ConvoyModel.set_drive``). Modes by firmware:
+``ModeRTL``), off its route; in SMART_RTL home back along the path it drove
+(``ModeSmartRTL``, an action of ArduRover's failsafes, ``FS_ACTION`` 3 and 4): for
+the lead, as in MANUAL or GUIDED, something other than the mission drives it, at
+speeds the plan does not say; for a follower, as in RTL, it leaves the convoy. So the
+lead vehicle's mode tells the road model which forecast holds
+(``ConvoyModel.set_drive``). Modes by firmware:
 
 - ArduRover (``Rover/mode.h``): AUTO 10 drives the mission, HOLD 4 stands (it cuts
   the throttle: ``ModeHold::update``); LOITER 5 holds a point, a stand for a car; RTL
-  11 goes home (SMART_RTL 12 retraces its path: something else).
+  11 goes home, SMART_RTL 12 retraces its path home.
 - PX4's rovers: AUTO.MISSION drives the mission, AUTO.LOITER is their hold, AUTO.RTL
   their return.
 - Other autopilots (a phone, a tracker sending positions): nothing is said (None).
@@ -33,6 +36,7 @@ __all__ = ["RoverMode", "drive_of", "rover_mode"]
 _MISSION = frozenset({"AUTO", "AUTO.MISSION"})
 _STANDS = frozenset({"HOLD", "LOITER", "AUTO.LOITER"})
 _HOME = frozenset({"RTL", "AUTO.RTL"})
+_RETRACE = frozenset({"SMART_RTL"})
 _GROUND = frozenset({mavlink.MAV_TYPE_GROUND_ROVER, mavlink.MAV_TYPE_SURFACE_BOAT})
 
 
@@ -67,4 +71,6 @@ def drive_of(name: str, armed: bool) -> ConvoyDrive:
         return ConvoyDrive.HELD
     if name in _MISSION:
         return ConvoyDrive.MISSION
-    return ConvoyDrive.HOME if name in _HOME else ConvoyDrive.OTHER
+    if name in _HOME:
+        return ConvoyDrive.HOME
+    return ConvoyDrive.RETRACE if name in _RETRACE else ConvoyDrive.OTHER

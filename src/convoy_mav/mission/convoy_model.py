@@ -384,7 +384,7 @@ class ConvoyModel:
     def _plan_holds(self) -> bool:
         """The convoy keeps its plan: it drives its mission, or stands where it was told
         to (it will drive its mission on from there), or nobody said otherwise."""
-        return self._drive not in (ConvoyDrive.OTHER, ConvoyDrive.HOME)
+        return self._drive not in (ConvoyDrive.OTHER, ConvoyDrive.HOME, ConvoyDrive.RETRACE)
 
     def observe(self, est: ConvoyEstimate) -> None:
         """Fold in a fresh estimate (stale ones say nothing new: skip them)."""
