@@ -80,7 +80,7 @@ def _ned(msg: Any) -> tuple[float, float]:
     return north, east
 
 
-def _mission(target: tuple[int, int]) -> list[Any]:
+def mission(target: tuple[int, int]) -> list[Any]:
     rel, wp = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, mavlink.MAV_CMD_NAV_WAYPOINT
     speed = (mavlink.MAV_FRAME_MISSION, mavlink.MAV_CMD_DO_CHANGE_SPEED, 1.0, SPEED, 0, 0)
     rows = [(mavlink.MAV_FRAME_GLOBAL, wp, 0.0, 0.0, *_geo(0.0, 0.0))]  # (item 0: home)
@@ -95,7 +95,7 @@ def _mission(target: tuple[int, int]) -> list[Any]:
     ]
 
 
-class _Drive:
+class Drive:
     """What the rover said and did, message by message."""
 
     def __init__(self, link: Any) -> None:
@@ -139,7 +139,7 @@ def _bearing(frm: tuple[float, float], to: tuple[float, float]) -> float:
     return math.atan2(to[1] - frm[1], to[0] - frm[0])
 
 
-def _check(ok: bool, what: str) -> bool:
+def check(ok: bool, what: str) -> bool:
     print(f"{'ok ' if ok else 'BAD'} {what}", flush=True)
     return ok
 
@@ -151,14 +151,14 @@ def run(connection: str) -> int:
         print(f"no rover's HEARTBEAT on {connection}")
         return 2
     link.mav.param_set_send(*target, b"RTL_SPEED", SPEED, mavlink.MAV_PARAM_TYPE_REAL32)
-    answer, armed = send_off(link, target, _mission(target))
+    answer, armed = send_off(link, target, mission(target))
     if not armed:
         print(f"the rover was not sent off: upload {answer}, not armed in AUTO")
         return 2
     for stream in (mavlink.MAV_DATA_STREAM_POSITION, mavlink.MAV_DATA_STREAM_EXTENDED_STATUS):
         link.mav.request_data_stream_send(*target, stream, 4, 1)
     flag = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
-    drive = _Drive(link)
+    drive = Drive(link)
     corner = CORNERS[2]
     if not drive.wait(lambda d: d.at[0] > RTL_AT_NORTH and d.at[1] > LEG_M - 20.0):
         return 2
@@ -171,7 +171,7 @@ def run(connection: str) -> int:
     told_at, told_t = drive.at, drive.t
     turn = {"on": 0.0, "slowest": math.inf}  # (how far on its way it went, how slow)
 
-    def home_reached(d: _Drive) -> bool:
+    def home_reached(d: Drive) -> bool:
         seqs.add(d.seq)
         if d.t - told_t <= 20.0:
             turn["on"] = max(turn["on"], d.at[0] - told_at[0])
@@ -181,14 +181,14 @@ def run(connection: str) -> int:
         return "Reached destination" in d.texts
 
     if not drive.wait(home_reached):
-        return _check(False, "never said 'Reached destination'") and 1
+        return check(False, "never said 'Reached destination'") and 1
     off = math.hypot(*drive.at)
-    ok &= _check(off <= WP_RADIUS + 1.0, f"'Reached destination' {off:.1f} m from home")
+    ok &= check(off <= WP_RADIUS + 1.0, f"'Reached destination' {off:.1f} m from home")
     spread = max(bearings) - min(bearings) if bearings else math.inf
-    ok &= _check(spread < STEADY_RAD, f"straight home: bearing spread {spread:.4f} rad")
-    ok &= _check(seqs == {driving_to}, f"MISSION_CURRENT while home-bound {sorted(seqs)}")
+    ok &= check(spread < STEADY_RAD, f"straight home: bearing spread {spread:.4f} rad")
+    ok &= check(seqs == {driving_to}, f"MISSION_CURRENT while home-bound {sorted(seqs)}")
     on, slowest = turn["on"], turn["slowest"]
-    ok &= _check(
+    ok &= check(
         TURN_ON_M[0] <= on <= TURN_ON_M[1] and slowest >= TURN_SLOWEST_MPS,
         f"turns round braking on its way: {on:.1f} m on, slowest {slowest:.2f} m/s",
     )
@@ -197,28 +197,28 @@ def run(connection: str) -> int:
     stood_at, t0 = drive.at, drive.t
     drive.wait(lambda d: d.t > t0 + 10.0)
     moved, off = math.dist(drive.at, stood_at), math.hypot(*drive.at)
-    ok &= _check(moved < 1.0 and drive.speed < 0.2, f"stands: {moved:.1f} m in 10 s")
-    ok &= _check(off <= 2.0 * WP_RADIUS, f"stands {off:.1f} m from home")
+    ok &= check(moved < 1.0 and drive.speed < 0.2, f"stands: {moved:.1f} m in 10 s")
+    ok &= check(off <= 2.0 * WP_RADIUS, f"stands {off:.1f} m from home")
     link.mav.set_mode_send(target[0], flag, ROVER_AUTO)
     print("AUTO", flush=True)
     start, way = drive.at, _bearing(drive.at, corner)
     off_way: list[float] = []
 
-    def at_corner(d: _Drive) -> bool:
+    def at_corner(d: Drive) -> bool:
         if math.dist(d.at, start) > 50.0 and math.dist(d.at, corner) > 50.0:
             off_way.append(abs(math.remainder(_bearing(start, d.at) - way, math.tau)))
         return math.dist(d.at, corner) < 10.0
 
     if not drive.wait(at_corner):
-        return _check(False, "never came to the item it had left") and 1
+        return check(False, "never came to the item it had left") and 1
     worst = max(off_way) if off_way else math.inf
-    ok &= _check(worst < 0.05, f"straight to item {driving_to}: off its bearing {worst:.3f} rad")
+    ok &= check(worst < 0.05, f"straight to item {driving_to}: off its bearing {worst:.3f} rad")
     drive.wait(lambda d: d.seq > driving_to or math.dist(d.at, corner) > 60.0)
-    ok &= _check(drive.seq == driving_to + 1, f"then on to item {drive.seq}")
+    ok &= check(drive.seq == driving_to + 1, f"then on to item {drive.seq}")
     return 0 if _to_rally(link, target, drive) and ok else 1
 
 
-def _to_rally(link: Any, target: tuple[int, int], drive: _Drive) -> bool:
+def _to_rally(link: Any, target: tuple[int, int], drive: Drive) -> bool:
     """Rally points uploaded, read back as the service reads them (``RallyRead``), and
     RTL: the rover must drive to the one ``rtl_destination`` picks from where it is."""
     rally = mavlink.MAV_MISSION_TYPE_RALLY
@@ -232,7 +232,7 @@ def _to_rally(link: Any, target: tuple[int, int], drive: _Drive) -> bool:
             )
         )
     answer = upload(link, target, points, rally)
-    ok = _check(answer == "MAV_MISSION_ACCEPTED", f"rally points uploaded: {answer}")
+    ok = check(answer == "MAV_MISSION_ACCEPTED", f"rally points uploaded: {answer}")
     read = RallyRead(*target, own=250)
     for out in read.start(time.monotonic()):
         link.mav.send(out)
@@ -244,7 +244,7 @@ def _to_rally(link: Any, target: tuple[int, int], drive: _Drive) -> bool:
         for out in outs:
             link.mav.send(out)
     got = [_ned(SimpleNamespace(lat=lat * 1e7, lon=lon * 1e7)) for lat, lon in read.points]
-    ok &= _check(
+    ok &= check(
         read.done and read.error is None and len(got) == len(RALLY_POINTS),
         f"read back: {len(got)} points, RALLY_LIMIT_KM {read.limit_km:g}, "
         f"RALLY_INCL_HOME {read.incl_home:d} ({read.error or 'ok'})",
@@ -262,7 +262,7 @@ def _to_rally(link: Any, target: tuple[int, int], drive: _Drive) -> bool:
 def _rtl_to(
     link: Any,
     target: tuple[int, int],
-    drive: _Drive,
+    drive: Drive,
     rallies: list[tuple[float, float]],
     limit_km: float,
     incl_home: bool,
@@ -276,9 +276,9 @@ def _rtl_to(
     drive.texts.clear()
     link.mav.set_mode_send(target[0], mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, ROVER_RTL)
     if not drive.wait(lambda d: "Reached destination" in d.texts):
-        return _check(False, "never said 'Reached destination'")
+        return check(False, "never said 'Reached destination'")
     off = math.dist(drive.at, goal)
-    return _check(off <= WP_RADIUS + 1.0, f"at {what}: {off:.1f} m off")
+    return check(off <= WP_RADIUS + 1.0, f"at {what}: {off:.1f} m off")
 
 
 def main() -> int:

@@ -55,6 +55,7 @@ from sitl_mock.params import Knob, ParamTable
 from sitl_mock.personality import Behaviour, Firmware, FlightMode, Personality, firmware_for
 from sitl_mock.roverdrive import RoverDrive
 from sitl_mock.rtl import Return, road_home
+from sitl_mock.smartrtl import SmartPath
 from sitl_mock.streams import AIRCRAFT_DEFAULT_INTERVALS, GROUND_DEFAULT_INTERVALS, StreamScheduler
 from sitl_mock.trail import Follower, Trail
 from sitl_mock.uploaded import DEFAULT_WP_SPEED, UploadedMission, upload_result
@@ -96,6 +97,7 @@ SENSORS = (  # SYS_STATUS sensors a healthy mock reports present and healthy
 position OK and the vehicle armable; both turn healthy at the end of warm-up."""
 _ROVER_SPEED_MIN = 0.05  # m/s: the least a rover is told (ArduRover's AR_WPNAV_SPEED_MIN)
 _RTL_SPEED_MAX = 100.0  # m/s: ArduRover's RTL_SPEED range
+_SRTL_ACCURACY_MAX = 10.0  # m: SRTL_ACCURACY's range
 _TRAIL_DT = 0.1  # s between samples of a ground vehicle's path, and its followers' steps
 _ONLY_GCS = 1  # MAV_OPTIONS bit 0: hear only MAV_GCS_SYSID (and its own system)
 _RADIO = ("RADIO", "RADIO_STATUS")  # (heard from any system: a telemetry radio's)
@@ -259,6 +261,11 @@ class SimVehicle:
         # In RTL it drives home; back in AUTO it resumes the mission it left (``rtl``).
         self._returning: Return | None = None
         self._rtl_speed = 0.0  # (ArduRover's RTL_SPEED: 0, its WP_SPEED)
+        # ArduRover's SmartRTL path (SMART_RTL: home back along it), from its position
+        # first good (``_smart_saved``), and anew at each arming (``_smart_armed``: armed
+        # at the last step).
+        self._smart = SmartPath() if ground and self.firmware.is_ardupilot else None
+        self._smart_saved = self._smart_armed = False
         # Its rally points (MISSION_ITEM_INT, NAV_RALLY_POINT; ArduPilot rovers'), and the
         # rule RTL picks one or home by (``rally.rtl_destination``; Rover's defaults).
         self.rally: list[Message] = []
@@ -414,6 +421,7 @@ class SimVehicle:
             if now - self._trail_t >= _TRAIL_DT - 1e-9:
                 self._record_trail(now, now - self._trail_t)
                 self._trail_t = now
+                events += self._keep_smart_path(now)
         events += self.flight.step(now, dt)
         if self._home_news:
             self._home_news = False
@@ -423,10 +431,11 @@ class SimVehicle:
         return events
 
     def _drive_or_stand(self, now: float) -> list[Message]:
-        """A rover drives its route while armed in its mission mode (AUTO), home in RTL,
-        else stands; held during a waypoint's hold, it stands the whole hold again once
-        back in AUTO (``AP_Mission::resume`` restarts the waypoint, whose hold starts on
-        arrival). Its texts ("Reached destination")."""
+        """A rover drives its route while armed in its mission mode (AUTO), home in RTL
+        (straight) or SMART_RTL (back along its path), else stands; held during a
+        waypoint's hold, it stands the whole hold again once back in AUTO
+        (``AP_Mission::resume`` restarts the waypoint, whose hold starts on arrival). Its
+        texts ("Reached destination")."""
         fl, ground = self.flight, self._ground
         if ground is None:
             return []
@@ -460,18 +469,22 @@ class SimVehicle:
                 self._resume(now, back)
             return []
         (n, e, _, vn, ve, _), *_ = self._kinematics(now)
-        plan = ground.plan
-        wp_radius = plan.wp_radius if isinstance(plan, Polyline) else 2.0
-        if back is None:
-            # (a follower leaves its leader's trail from where it is, and hands the
-            # vehicles behind it on to that leader)
-            follower, self.follower = self.follower, None
-            if follower is not None and self.trail is not None:
-                self.trail.hand_over(follower.trail, follower.s, follower.lag)
-            self._returning = back = self._leave(now)
-            back.goal = self._rtl_goal((n, e))
+        wp_radius = self._wp_radius()
+        smart = fl.mode.name == "SMART_RTL" and self._smart is not None
+        if back is None or back.smart != smart:
+            if back is None:
+                # (a follower leaves its leader's trail from where it is, and hands the
+                # vehicles behind it on to that leader)
+                follower, self.follower = self.follower, None
+                if follower is not None and self.trail is not None:
+                    self.trail.hand_over(follower.trail, follower.s, follower.lag)
+                self._returning = back = self._leave(now)
+            way = self._smart.way_home() if smart and self._smart is not None else []
+            back.smart, back.reached = smart, False
+            back.goal = way.pop() if way else self._rtl_goal((n, e))
             speed = self._rtl_speed or self._wp_speed() or DEFAULT_WP_SPEED
-            road, arc = road_home((n, e), (vn, ve), back.goal, speed, ground.clock.accel, wp_radius)
+            accel = ground.clock.accel
+            road, arc = road_home((n, e), (vn, ve), back.goal, speed, accel, wp_radius, way)
             moving = math.hypot(vn, ve)
             ground.drive_anew(now, road, arc=arc, wp_speed=self._wp_speed(), moving=moving)
             return []
@@ -548,6 +561,32 @@ class SimVehicle:
         if self.trail is not None:
             (n, e, *_), *_ = self._kinematics(now)
             self.trail.record(now, n, e)
+
+    def _keep_smart_path(self, now: float) -> list[Message]:
+        """ArduRover's SmartRTL path (``AP_SmartRTL::update``, called at 3 Hz or more):
+        started where it is once its position is good, and again as it arms
+        (``AP_SmartRTL::set_home``); saved to out of SMART_RTL, and on its way back, the
+        points it reaches taken off; what it says."""
+        smart, fl = self._smart, self.flight
+        if smart is None:
+            return []
+        (n, e, *_), *_ = self._kinematics(now)
+        arming = fl.armed and not self._smart_armed
+        if fl.home_set and (arming or not self._smart_saved):
+            smart.set_home(now, n, e)
+            self._smart_saved = True
+        self._smart_armed = fl.armed
+        if fl.mode.name == "SMART_RTL":
+            smart.reached(n, e, self._wp_radius())
+            return []
+        texts = smart.update(now, n, e)
+        severity = {True: _R.MAV_SEVERITY_WARNING, False: _R.MAV_SEVERITY_INFO}
+        return [statustext(severity["deactivated" in t], t) for t in texts]
+
+    def _wp_radius(self) -> float:
+        """A rover's WP_RADIUS: its road's (2 m, ArduRover's default, without one)."""
+        plan = self._ground.plan if self._ground is not None else None
+        return plan.wp_radius if isinstance(plan, Polyline) else 2.0
 
     def _go_on(self, mission: UploadedMission, ground: RoverDrive, now: float) -> None:
         """An uploaded mission's next waypoints laid before the rover gets to the last of
@@ -1011,6 +1050,8 @@ class SimVehicle:
             Knob.RALLY_LIMIT_KM: self._rally_limit_km,
             Knob.RALLY_INCL_HOME: self._rally_incl_home,
             Knob.RALLY_TOTAL: float(len(self.rally)),
+            Knob.SRTL_ACCURACY: self._smart.accuracy if self._smart is not None else 0.0,
+            Knob.SRTL_POINTS: float(self._smart.points_max) if self._smart is not None else 0.0,
         }
         return values[knob]
 
@@ -1076,6 +1117,10 @@ class SimVehicle:
             if not value >= 0.0:
                 raise ValueError(f"must be 0 km or more, got {value:g}")
             self._rally_limit_km = value
+        elif knob is Knob.SRTL_ACCURACY:
+            if not 0.0 <= value <= _SRTL_ACCURACY_MAX or self._smart is None:
+                raise ValueError(f"must be 0..{_SRTL_ACCURACY_MAX:g} m, got {value:g}")
+            self._smart.accuracy = value
         elif knob is Knob.RALLY_INCL_HOME:
             if value not in (0.0, 1.0):
                 raise ValueError(f"must be 0 or 1, got {value:g}")
@@ -1158,6 +1203,11 @@ class SimVehicle:
         home (``ModeRTL::_enter``)."""
         fw = self.firmware
         rtl = mode is not None and mode.behaviour is Behaviour.RTL and mode != self.flight.mode
+        smart = self._smart
+        no_path = smart is not None and not smart.active  # (``ModeSmartRTL::_enter``)
+        if rtl and mode is not None and mode.name == "SMART_RTL" and no_path:
+            failed = statustext(_R.MAV_SEVERITY_WARNING, "Flight mode change failed")
+            return _R.MAV_RESULT_FAILED, [failed]
         if rtl and self.flight.aircraft is None and not self.flight.home_set:
             assert mode is not None
             if fw.is_ardupilot:

@@ -52,6 +52,8 @@ class Knob(StrEnum):
     RALLY_LIMIT_KM = "rally_limit_km"  # km: RTL to a rally point only this near (0: any)
     RALLY_INCL_HOME = "rally_incl_home"  # 1: RTL to a rally point only if nearer than home
     RALLY_TOTAL = "rally_total"  # read-only: the rally points it holds
+    SRTL_ACCURACY = "srtl_accuracy"  # m: SmartRTL's path points this far apart, at least
+    SRTL_POINTS = "srtl_points"  # read-only: the most points SmartRTL's path holds
 
 
 KnobGetter = Callable[[Knob], float]

@@ -360,6 +360,7 @@ def _ardurover_modes() -> tuple[FlightMode, ...]:
         FlightMode("LOITER", 5, b.HOLD, g, False),
         FlightMode("AUTO", 10, b.MISSION, g, False),
         FlightMode("RTL", 11, b.RTL, g, False),
+        FlightMode("SMART_RTL", 12, b.RTL, g, False),
         FlightMode("GUIDED", 15, b.EXTERNAL, g, False),
     )
 
@@ -411,6 +412,8 @@ def _params(personality: Personality, vehicle_class: VehicleClass) -> tuple[Para
             ParamDef("RALLY_LIMIT_KM", Knob.RALLY_LIMIT_KM),
             ParamDef("RALLY_INCL_HOME", Knob.RALLY_INCL_HOME),
             ParamDef("RALLY_TOTAL", Knob.RALLY_TOTAL, read_only=True),
+            ParamDef("SRTL_ACCURACY", Knob.SRTL_ACCURACY),
+            ParamDef("SRTL_POINTS", Knob.SRTL_POINTS, read_only=True),
             *common[1:],
         )
     if vehicle_class == "rover":

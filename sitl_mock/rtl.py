@@ -7,6 +7,9 @@ and stands there (a boat loiters); refused while home is not set. Back in AUTO,
 stands: straight to that waypoint, then on along the mission. PX4's rovers are
 modelled the same way (AUTO.RTL home, AUTO.MISSION resumed at its current item).
 
+SMART_RTL (ArduRover's ``ModeSmartRTL``) drives the same way back along the path the
+rover drove (``smartrtl.SmartPath``) to its first point.
+
 The turn onto the road home is a corner of the drive's rules (``drive.corner_speed``):
 a rover heading away from home brakes along its way to a stand and turns round, as
 one with a turn radius must slow for it; one heading home keeps its speed.
@@ -15,6 +18,7 @@ one with a turn radius must slow for it; one heading home keeps its speed.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -37,6 +41,7 @@ class Return:
     seq: int
     reached: bool = False
     goal: tuple[float, float] | None = None  # (north, east): home, or a rally point
+    smart: bool = False  # SMART_RTL's way: back along its path (``sitl_mock.smartrtl``)
 
 
 def road_home(
@@ -46,24 +51,28 @@ def road_home(
     speed: float,
     accel: float,
     wp_radius: float,
+    via: Sequence[tuple[float, float]] = (),
 ) -> tuple[Polyline, float]:
-    """The road from ``here`` (world north, east), moving at ``velocity``, to ``home``,
-    driven at ``speed`` with the rover's ``accel`` and ``wp_radius``: straight home, after
-    the stretch along its way that it brakes over to its speed through the turn; and
-    how far along it ``here`` is (a moving rover's road starts a metre behind it, on
-    its way, so that it is entered at the speed it has, not from a stand)."""
+    """The road from ``here`` (world north, east), moving at ``velocity``, to ``home``
+    (through ``via`` first: SmartRTL's path back), driven at ``speed`` with the rover's
+    ``accel`` and ``wp_radius``: straight there, after the stretch along its way that it
+    brakes over to its speed through the turn; and how far along it ``here`` is (a
+    moving rover's road starts a metre behind it, on its way, so that it is entered at
+    the speed it has, not from a stand)."""
     moving = math.hypot(*velocity)
+    first = next((p for p in (*via, home) if math.dist(p, here) > 1e-6), home)
     if moving < 1e-6 or not accel > 0.0:
-        return Polyline((here, home), speed=speed, accel=accel, wp_radius=wp_radius), 0.0
+        still = (here, *via, home)
+        return Polyline(still, speed=speed, accel=accel, wp_radius=wp_radius), 0.0
     way = (velocity[0] / moving, velocity[1] / moving)
     behind = (here[0] - way[0] * _BEHIND_M, here[1] - way[1] * _BEHIND_M)
     points = [behind, here]
-    away = (home[0] - here[0], home[1] - here[1])
+    away = (first[0] - here[0], first[1] - here[1])
     if math.hypot(*away) > 1e-6:
         turn = math.remainder(math.atan2(away[1], away[0]) - math.atan2(way[1], way[0]), math.tau)
         ramps = Ramps(accel, accel)
         brake = ramps.distance(moving, min(corner_speed(turn, ramps, wp_radius), moving))
         if brake >= wp_radius:  # (a turn to brake for: straight on first)
             points.append((here[0] + way[0] * brake, here[1] + way[1] * brake))
-    points.append(home)
+    points += [*via, home]
     return Polyline(tuple(points), speed=speed, accel=accel, wp_radius=wp_radius), _BEHIND_M

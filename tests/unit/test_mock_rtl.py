@@ -110,6 +110,35 @@ def test_back_in_auto_it_drives_to_the_item_it_left_then_on_along_its_mission(
     assert _seqs(gcs) != driving_to  # (on to the next items)
 
 
+def test_an_ardurover_in_smart_rtl_drives_home_back_along_the_path_it_drove() -> None:
+    """ArduRover's SMART_RTL (``ModeSmartRTL``): refused before its path has begun (its
+    position not yet good); then it turns round and retraces the road it drove, round
+    its corner, not straight home, says "Reached destination" at the path's first point
+    and stands; MISSION_CURRENT keeps the item it was driving to."""
+    gcs = Gcs(rover(AP, LAP))
+    flag = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
+    ack, *texts = gcs.send(mavlink.MAVLink_set_mode_message(11, flag, 12))
+    assert ack.result == mavlink.MAV_RESULT_FAILED
+    assert [t.text for t in texts] == ["Flight mode change failed"]
+    gcs.run(160.0, telemetry=False)  # (on the second leg, east of the corner at (1000, 0))
+    was, driving_to = gcs.truth(), _seqs(gcs)
+    ack, *_ = gcs.send(mavlink.MAVLink_set_mode_message(11, flag, 12))
+    assert ack.result == mavlink.MAV_RESULT_ACCEPTED and gcs.vehicle.mode == "SMART_RTL"
+    path, texts = _drive(gcs, 300.0)
+    speeds = [was.speed] + [s for *_, s in path]
+    assert all(abs(b - a) <= 1.0 + 1e-6 for a, b in itertools.pairwise(speeds))
+    for n, e, _ in path:  # (on the legs it drove, and 40 m on along its way to turn round)
+        on_second = abs(n - 1000.0) if -5.0 <= e <= was.east + 50.0 else math.inf
+        on_first = abs(e) if -5.0 <= n <= 1005.0 else math.inf
+        assert min(on_second, on_first) < 3.0, (n, e)
+    assert min(math.hypot(n - 1000.0, e) for n, e, _ in path) < 3.0  # (round its corner)
+    hn, he = _home(gcs)
+    n, e, speed = path[-1]
+    assert math.hypot(n - hn, e - he) <= 2.0 and speed == 0.0
+    assert texts == ["Reached destination"]
+    assert _seqs(gcs) == driving_to
+
+
 def test_a_rover_is_refused_rtl_before_it_has_a_home_and_takes_the_command() -> None:
     gcs = Gcs(rover(Personality.ARDUPILOT, LAP))
     flag = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
