@@ -419,9 +419,9 @@ class SimVehicle:
         if self.flight.aircraft is None:
             events = self._drive_or_stand(now)
             if now - self._trail_t >= _TRAIL_DT - 1e-9:
-                self._record_trail(now, now - self._trail_t)
+                here = self._record_trail(now, now - self._trail_t)
                 self._trail_t = now
-                events += self._keep_smart_path(now)
+                events += self._keep_smart_path(now, here)
         events += self.flight.step(now, dt)
         if self._home_news:
             self._home_news = False
@@ -552,17 +552,19 @@ class SimVehicle:
         accel = self._ground.clock.accel if self._ground is not None else DEFAULT_ACCEL
         self.follower = Follower(leader, lag, standstill, accel)
 
-    def _record_trail(self, now: float, dt: float) -> None:
+    def _record_trail(self, now: float, dt: float) -> tuple[float, float]:
         """A follower moves on behind its leader (armed in its mission mode, or it
-        brakes to a stand); every ground vehicle's path is recorded for those behind."""
+        brakes to a stand); every ground vehicle's path is recorded for those behind.
+        Where (north, east) it is now."""
         fl, follower = self.flight, self.follower
         if follower is not None:
             follower.step(now, dt, fl.armed and fl.mode.behaviour is Behaviour.MISSION)
+        (n, e, *_), *_ = self._kinematics(now)
         if self.trail is not None:
-            (n, e, *_), *_ = self._kinematics(now)
             self.trail.record(now, n, e)
+        return n, e
 
-    def _keep_smart_path(self, now: float) -> list[Message]:
+    def _keep_smart_path(self, now: float, here: tuple[float, float]) -> list[Message]:
         """ArduRover's SmartRTL path (``AP_SmartRTL::update``, called at 3 Hz or more):
         started where it is once its position is good, and again as it arms
         (``AP_SmartRTL::set_home``); saved to out of SMART_RTL, and on its way back, the
@@ -570,7 +572,7 @@ class SimVehicle:
         smart, fl = self._smart, self.flight
         if smart is None:
             return []
-        (n, e, *_), *_ = self._kinematics(now)
+        n, e = here
         arming = fl.armed and not self._smart_armed
         if fl.home_set and (arming or not self._smart_saved):
             smart.set_home(now, n, e)
@@ -579,9 +581,10 @@ class SimVehicle:
         if fl.mode.name == "SMART_RTL":
             smart.reached(n, e, self._wp_radius())
             return []
-        texts = smart.update(now, n, e)
-        severity = {True: _R.MAV_SEVERITY_WARNING, False: _R.MAV_SEVERITY_INFO}
-        return [statustext(severity["deactivated" in t], t) for t in texts]
+        return [
+            statustext(_R.MAV_SEVERITY_WARNING if "deactivated" in t else _R.MAV_SEVERITY_INFO, t)
+            for t in smart.update(now, n, e)
+        ]
 
     def _wp_radius(self) -> float:
         """A rover's WP_RADIUS: its road's (2 m, ArduRover's default, without one)."""
