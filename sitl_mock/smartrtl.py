@@ -47,6 +47,7 @@ class SmartPath:
     active: bool = False
     points: list[Point] = field(default_factory=list)
     _simplified: int = 0  # points at the start already simplified
+    _pruned: int = -1  # how many points it held when last searched for loops
     _saved_t: float = 0.0  # when a point was last saved (or found needless)
     _low_t: float = -math.inf  # when it last said it runs low on space
 
@@ -75,9 +76,10 @@ class SmartPath:
         low = self.points_max - len(self.points) <= _CLEANUP_MARGIN
         if new >= _CLEANUP_TRIGGER or (low and new >= _CLEANUP_MIN):
             self._simplify()
-        elif low:
+        elif low and self._pruned != len(self.points):  # (new points since: search again)
             self.points = prune_loops(self.points, _PRUNE_DELTA * self.accuracy)
             self._simplified = min(self._simplified, len(self.points))
+            self._pruned = len(self.points)
         if len(self.points) >= self.points_max - 9 and t - self._low_t > _LOW_NOTICE_S:
             self._low_t = t
             texts.append("SmartRTL Low on space!")

@@ -12,6 +12,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from sitl_mock import smartrtl
 from sitl_mock.smartrtl import SmartPath, prune_loops, simplify
 
 
@@ -79,6 +80,28 @@ def test_a_path_it_cannot_keep_runs_low_then_is_deactivated_for_good() -> None:
         texts += path.update(t, 3.0 * (k % 2), 200.0 + 4.0 * k)
     assert texts.count("SmartRTL deactivated: buffer full") == 1 and not path.active
     assert path.update(t + 1.0, 0.0, 0.0) == []
+
+
+def test_a_full_path_is_searched_for_loops_only_when_it_has_new_points(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Low on space with nothing to cut, it does not search the whole path again at
+    every step (ArduPilot restarts its loop search only on newly simplified points)."""
+    searched = []
+    real = smartrtl.prune_loops
+
+    def counted(points: list[tuple[float, float]], delta: float) -> list[tuple[float, float]]:
+        searched.append(len(points))
+        return real(points, delta)
+
+    monkeypatch.setattr(smartrtl, "prune_loops", counted)
+    path = SmartPath(points_max=20)
+    _drive(path, [(3.0 * (k % 2), 4.0 * k) for k in range(26)], step=0.5)
+    before = len(searched)
+    assert before > 0  # (once for each point saved while low)
+    for k in range(100):  # (standing: nothing new to save, nothing new to search)
+        path.update(30.0 + 0.1 * k, 3.0, 100.0)
+    assert len(searched) == before
 
 
 def test_on_its_way_back_the_points_it_reaches_are_taken_off() -> None:
