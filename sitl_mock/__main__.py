@@ -83,6 +83,13 @@ def _parser() -> argparse.ArgumentParser:
         help="its operator switches it to MODE (its firmware's name) at sim time T, e.g. a "
         "convoy's truck held, 3:HOLD@300, or sent home, 3:RTL@300",
     )
+    f.add_argument(
+        "--stall",
+        action="append",
+        metavar="SYSID@T",
+        help="a ground vehicle stops at sim time T and moves no more, its autopilot driving "
+        "on (a breakdown; ArduRover's FS_CRASH_CHECK then sends it to HOLD)",
+    )
     f.add_argument("--seed", type=int, help="seed of the loss decisions")
     p.add_argument(
         "--log-level",
@@ -143,6 +150,7 @@ def _overrides(ns: argparse.Namespace) -> dict[str, Any]:
         "kill": ns.kill,
         "reboot": ns.reboot,
         "mode": ns.mode,
+        "stall": ns.stall,
         "seed": ns.seed,
     }
     out: dict[str, Any] = {k: v for k, v in top.items() if v is not None}

@@ -98,6 +98,8 @@ position OK and the vehicle armable; both turn healthy at the end of warm-up."""
 _ROVER_SPEED_MIN = 0.05  # m/s: the least a rover is told (ArduRover's AR_WPNAV_SPEED_MIN)
 _RTL_SPEED_MAX = 100.0  # m/s: ArduRover's RTL_SPEED range
 _SRTL_ACCURACY_MAX = 10.0  # m: SRTL_ACCURACY's range
+_CRASH_CHECK_S = 2.0  # s standing with its throttle up: crashed (CRASH_CHECK_TRIGGER_SEC)
+_FS_CRASH_HOLD_AND_DISARM = 2  # FS_CRASH_CHECK: 0 off, 1 HOLD, 2 HOLD and disarm
 _TRAIL_DT = 0.1  # s between samples of a ground vehicle's path, and its followers' steps
 _ONLY_GCS = 1  # MAV_OPTIONS bit 0: hear only MAV_GCS_SYSID (and its own system)
 _RADIO = ("RADIO", "RADIO_STATUS")  # (heard from any system: a telemetry radio's)
@@ -266,6 +268,12 @@ class SimVehicle:
         # at the last step).
         self._smart = SmartPath() if ground and self.firmware.is_ardupilot else None
         self._smart_saved = self._smart_armed = False
+        # Stalled (a breakdown, a blocked road: ``stall``), it moves no more while its
+        # autopilot drives on; ArduRover's crash check (FS_CRASH_CHECK: 0 off, its
+        # default; 1 HOLD; 2 HOLD and disarm) counts the seconds it stands so.
+        self._stalled = False
+        self._fs_crash_check = 0
+        self._crash_s = 0.0
         # Its rally points (MISSION_ITEM_INT, NAV_RALLY_POINT; ArduPilot rovers'), and the
         # rule RTL picks one or home by (``rally.rtl_destination``; Rover's defaults).
         self.rally: list[Message] = []
@@ -419,9 +427,11 @@ class SimVehicle:
         if self.flight.aircraft is None:
             events = self._drive_or_stand(now)
             if now - self._trail_t >= _TRAIL_DT - 1e-9:
-                here = self._record_trail(now, now - self._trail_t)
+                dt_trail = now - self._trail_t
+                n, e, speed = self._record_trail(now, dt_trail)
                 self._trail_t = now
-                events += self._keep_smart_path(now, here)
+                events += self._keep_smart_path(now, (n, e))
+                events += self._crash_check(now, dt_trail, speed)
         events += self.flight.step(now, dt)
         if self._home_news:
             self._home_news = False
@@ -445,7 +455,7 @@ class SimVehicle:
         texts = self._return_or_resume(now, ground) if on_its_own else []
         auto = fl.mode.behaviour is Behaviour.MISSION
         home = fl.mode.behaviour is Behaviour.RTL and self._returning is not None
-        driving = fl.armed and (auto or home)
+        driving = fl.armed and (auto or home) and not self._stalled
         ground.follow(now, driving, reset_speed=self.firmware.is_ardupilot and auto)
         mission = self.mission
         if isinstance(mission, UploadedMission) and mission.more and self._returning is None:
@@ -552,17 +562,44 @@ class SimVehicle:
         accel = self._ground.clock.accel if self._ground is not None else DEFAULT_ACCEL
         self.follower = Follower(leader, lag, standstill, accel)
 
-    def _record_trail(self, now: float, dt: float) -> tuple[float, float]:
-        """A follower moves on behind its leader (armed in its mission mode, or it
-        brakes to a stand); every ground vehicle's path is recorded for those behind.
-        Where (north, east) it is now."""
+    def _record_trail(self, now: float, dt: float) -> tuple[float, float, float]:
+        """A follower moves on behind its leader (armed in its mission mode and not
+        stalled, or it brakes to a stand); every ground vehicle's path is recorded for
+        those behind. Where (north, east) it is now, and its speed."""
         fl, follower = self.flight, self.follower
         if follower is not None:
-            follower.step(now, dt, fl.armed and fl.mode.behaviour is Behaviour.MISSION)
-        (n, e, *_), *_ = self._kinematics(now)
+            driving = fl.armed and fl.mode.behaviour is Behaviour.MISSION and not self._stalled
+            follower.step(now, dt, driving)
+        (n, e, _, vn, ve, _), *_ = self._kinematics(now)
         if self.trail is not None:
             self.trail.record(now, n, e)
-        return n, e
+        return n, e, math.hypot(vn, ve)
+
+    def stall(self) -> None:
+        """A ground vehicle stops (braking at its accel) and moves no more, whatever it
+        is told, while its autopilot drives on: a breakdown, or a road blocked. The
+        firmware does not know it; ArduRover's crash check may (``_crash_check``)."""
+        self._stalled = True
+
+    def _crash_check(self, now: float, dt: float, speed: float) -> list[Message]:
+        """ArduRover's ``Rover::crash_check`` (10 Hz): armed in a mode that drives it
+        (AUTO, RTL, SMART_RTL), under 0.08 m/s with its throttle up for 2 s, with
+        FS_CRASH_CHECK set: "Crash: Going to HOLD", HOLD (and disarmed, with 2). Its
+        throttle is up while it is stalled (not modelled otherwise: a stall at a planned
+        hold counts as well, where the firmware waits for the hold's end)."""
+        fl = self.flight
+        drives = fl.mode.behaviour in (Behaviour.MISSION, Behaviour.RTL)
+        if not (self._fs_crash_check and fl.armed and drives and self._stalled and speed < 0.08):
+            self._crash_s = 0.0
+            return []
+        self._crash_s += dt
+        if self._crash_s < _CRASH_CHECK_S - 1e-9:
+            return []
+        self._crash_s = 0.0
+        fl.request_mode(self.firmware.mode("HOLD"), now)
+        if self._fs_crash_check == _FS_CRASH_HOLD_AND_DISARM:
+            fl.armed = False
+        return [statustext(_R.MAV_SEVERITY_EMERGENCY, "Crash: Going to HOLD")]
 
     def _keep_smart_path(self, now: float, here: tuple[float, float]) -> list[Message]:
         """ArduRover's SmartRTL path (``AP_SmartRTL::update``, called at 3 Hz or more):
@@ -1055,6 +1092,7 @@ class SimVehicle:
             Knob.RALLY_TOTAL: float(len(self.rally)),
             Knob.SRTL_ACCURACY: self._smart.accuracy if self._smart is not None else 0.0,
             Knob.SRTL_POINTS: float(self._smart.points_max) if self._smart is not None else 0.0,
+            Knob.FS_CRASH_CHECK: float(self._fs_crash_check),
         }
         return values[knob]
 
@@ -1120,6 +1158,10 @@ class SimVehicle:
             if not value >= 0.0:
                 raise ValueError(f"must be 0 km or more, got {value:g}")
             self._rally_limit_km = value
+        elif knob is Knob.FS_CRASH_CHECK:
+            if value not in (0.0, 1.0, 2.0):
+                raise ValueError(f"must be 0 (off), 1 (HOLD) or 2 (HOLD and disarm), got {value:g}")
+            self._fs_crash_check = int(value)
         elif knob is Knob.SRTL_ACCURACY:
             if not 0.0 <= value <= _SRTL_ACCURACY_MAX or self._smart is None:
                 raise ValueError(f"must be 0..{_SRTL_ACCURACY_MAX:g} m, got {value:g}")

@@ -181,6 +181,7 @@ _FAULT_KEYS = {
     "kill",
     "reboot",
     "mode",
+    "stall",
     "sysids",
     "seed",
 }
@@ -331,6 +332,7 @@ def config_from_mapping(data: Mapping[str, Any], base_dir: str = ".") -> MockCon
     gcs_raw = top.get("gcs")
     faults = _faults(_Table(top.table("faults"), "faults"))
     _check_modes(faults.modes, vehicles)
+    _check_stalls(faults.stalls, vehicles)
     return MockConfig(
         vehicles=tuple(vehicles),
         origin=origin,
@@ -749,6 +751,17 @@ def _check_modes(modes: tuple[TimedMode, ...], vehicles: list[VehicleSpec]) -> N
             ) from None  # fmt: skip
 
 
+def _check_stalls(stalls: tuple[TimedFault, ...], vehicles: list[VehicleSpec]) -> None:
+    """Each stall names a ground vehicle (one not in the fleet is warned of when it
+    comes due): an aircraft does not stall on a road."""
+    kinds = {v.sysid: v.kind for v in vehicles}
+    for i, stall in enumerate(stalls):
+        if kinds.get(stall.sysid, "ground") != "ground":
+            raise ConfigError(
+                f"faults.stall[{i}]", stall.sysid, "is no ground vehicle: only one stalls"
+            )
+
+
 def _faults(f: _Table) -> FaultSpec:
     f.check_keys(_FAULT_KEYS)
     latency = f.number("latency", 0.0, lo=0.0)
@@ -771,6 +784,7 @@ def _faults(f: _Table) -> FaultSpec:
         kills=_entries(f, "kill", _timed),
         reboots=_entries(f, "reboot", _timed),
         modes=_entries(f, "mode", _timed_mode),
+        stalls=_entries(f, "stall", _timed),
         sysids=frozenset(sysids),
         seed=f.integer("seed", 0, lo=0, hi=2**63 - 1),
     )

@@ -7,8 +7,8 @@ Design rules:
     * Latency is a delay queue keyed by the sim time an item becomes due; the
       server drains it every physics step, so latency is quantised to 10 ms of
       sim time, which is finer than any autopilot stream.
-    * Scheduled events (kill, reboot, an operator's mode change) fire exactly once, in
-      time order.
+    * Scheduled events (kill, reboot, an operator's mode change, a ground vehicle
+      stalled) fire exactly once, in time order.
 """
 
 from __future__ import annotations
@@ -71,6 +71,8 @@ class FaultSpec:
         kills: Vehicles that stop responding and sending entirely at a time.
         reboots: Vehicles that reboot (``time_boot_ms`` restarts) at a time.
         modes: Vehicles switched to a mode by their own operator at a time.
+        stalls: Ground vehicles that stop at a time and move no more, their autopilot
+            driving on (a breakdown, a blocked road): ``SimVehicle.stall``.
         sysids: Vehicles that loss and latency apply to; empty means all.
         seed: Seed of the random generator deciding losses.
     """
@@ -84,6 +86,7 @@ class FaultSpec:
     kills: tuple[TimedFault, ...] = ()
     reboots: tuple[TimedFault, ...] = ()
     modes: tuple[TimedMode, ...] = ()
+    stalls: tuple[TimedFault, ...] = ()
     sysids: frozenset[int] = field(default_factory=frozenset)
     seed: int = 0
 
@@ -106,7 +109,7 @@ class FaultSpec:
 class FaultEvent:
     """A scheduled fault that has come due."""
 
-    kind: Literal["kill", "reboot", "mode"]
+    kind: Literal["kill", "reboot", "mode", "stall"]
     sysid: int
     at: float
     mode: str = ""  # (a mode change's)
@@ -126,6 +129,7 @@ class FaultInjector:
         pending = [FaultEvent("kill", f.sysid, f.at) for f in spec.kills]
         pending += [FaultEvent("reboot", f.sysid, f.at) for f in spec.reboots]
         pending += [FaultEvent("mode", f.sysid, f.at, f.mode) for f in spec.modes]
+        pending += [FaultEvent("stall", f.sysid, f.at) for f in spec.stalls]
         # Stable: a kill and a reboot at the same instant keep config order.
         self._pending = sorted(pending, key=lambda e: e.at)
 

@@ -54,6 +54,7 @@ class Knob(StrEnum):
     RALLY_TOTAL = "rally_total"  # read-only: the rally points it holds
     SRTL_ACCURACY = "srtl_accuracy"  # m: SmartRTL's path points this far apart, at least
     SRTL_POINTS = "srtl_points"  # read-only: the most points SmartRTL's path holds
+    FS_CRASH_CHECK = "fs_crash_check"  # a rover standing with its throttle up: 1 HOLD
 
 
 KnobGetter = Callable[[Knob], float]

@@ -414,6 +414,7 @@ def _params(personality: Personality, vehicle_class: VehicleClass) -> tuple[Para
             ParamDef("RALLY_TOTAL", Knob.RALLY_TOTAL, read_only=True),
             ParamDef("SRTL_ACCURACY", Knob.SRTL_ACCURACY),
             ParamDef("SRTL_POINTS", Knob.SRTL_POINTS, read_only=True),
+            ParamDef("FS_CRASH_CHECK", Knob.FS_CRASH_CHECK),
             *common[1:],
         )
     if vehicle_class == "rover":

@@ -533,6 +533,12 @@ class MockFleet:
         link.send([m for m in replies if m.get_type() == "STATUSTEXT"], self.now)
         log.warning("sysid %d: its operator switched it to %s at t=%.2f s", sysid, name, self.now)
 
+    def stall(self, sysid: int) -> None:
+        """Vehicle ``sysid`` (a ground one) stops now and moves no more, its autopilot
+        driving on (``SimVehicle.stall``)."""
+        self._links[sysid].vehicle.stall()
+        log.warning("sysid %d: stalled at t=%.2f s", sysid, self.now)
+
     def reboot(self, sysid: int, *, on_pad: bool = False) -> None:
         """Reboot vehicle ``sysid`` now (``time_boot_ms`` restarts from 0); ``on_pad``:
         at rest on its home pad (relaunched), not where it was."""
@@ -586,6 +592,8 @@ class MockFleet:
                 self.kill(event.sysid)
             elif event.kind == "mode":
                 self.set_mode(event.sysid, event.mode)
+            elif event.kind == "stall":
+                self.stall(event.sysid)
             else:
                 self.reboot(event.sysid)
         for link in self._links.values():

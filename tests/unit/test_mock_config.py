@@ -199,6 +199,8 @@ def test_cli_flags_override_the_file(tmp_path: Path) -> None:
             "2@40",
             "--mode",
             "1:AUTO.RTL@50",
+            "--stall",
+            "9@60",
             "--truth",
             str(tmp_path / "t.csv"),
             "--origin",
@@ -210,6 +212,7 @@ def test_cli_flags_override_the_file(tmp_path: Path) -> None:
     assert all(v.airframe.min_turn_radius == 60.0 for v in cfg.vehicles if v.kind == "aircraft")
     assert [(k.sysid, k.at) for k in cfg.faults.kills] == [(2, 40.0)]
     assert [(m.sysid, m.mode, m.at) for m in cfg.faults.modes] == [(1, "AUTO.RTL", 50.0)]
+    assert [(f.sysid, f.at) for f in cfg.faults.stalls] == [(9, 60.0)]  # (warned of when due)
     assert cfg.truth_path == str(tmp_path / "t.csv")
     assert (cfg.origin.lat, cfg.origin.lon, cfg.origin.alt) == (10.0, 20.0, 30.0)
 

@@ -139,6 +139,34 @@ def test_an_ardurover_in_smart_rtl_drives_home_back_along_the_path_it_drove() ->
     assert _seqs(gcs) == driving_to
 
 
+def test_a_stalled_ardurover_its_crash_check_holds_each_time_it_is_sent_on() -> None:
+    """FS_CRASH_CHECK (ArduRover's; 0 to 2, nothing else): stalled on its road, with 1
+    it holds 2 s after it stands; sent on in AUTO, or home, it stands and holds again;
+    with 2 it is disarmed as well. A PX4 rover has no such parameter."""
+    gcs = Gcs(rover(AP, LAP))
+    (refused, *_) = gcs.send(mavlink.MAVLink_param_set_message(11, 1, b"FS_CRASH_CHECK", 3.0, 9))
+    assert refused.param_value == 0.0  # (Rover's default: off)
+    gcs.send(mavlink.MAVLink_param_set_message(11, 1, b"FS_CRASH_CHECK", 1.0, 9))
+    gcs.run(60.0, telemetry=False)
+    gcs.vehicle.stall()
+    path, texts = _drive(gcs, 12.0)
+    stood = next(k for k, (*_, v) in enumerate(path) if v == 0.0)  # (braked at 1 m/s^2)
+    assert 6 <= stood <= 9 and texts == ["Crash: Going to HOLD"], (path, texts)
+    assert gcs.truth().mode == "HOLD" and gcs.truth().armed
+    for sent in (10, 11):  # (AUTO, RTL: it cannot move, and holds again)
+        flag = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
+        gcs.send(mavlink.MAVLink_set_mode_message(11, flag, sent))
+        _, texts = _drive(gcs, 4.0)
+        assert texts == ["Crash: Going to HOLD"] and gcs.truth().mode == "HOLD", texts
+    gcs.send(mavlink.MAVLink_param_set_message(11, 1, b"FS_CRASH_CHECK", 2.0, 9))
+    gcs.send(mavlink.MAVLink_set_mode_message(11, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 10))
+    _drive(gcs, 4.0)
+    assert gcs.truth().mode == "HOLD" and not gcs.truth().armed
+    px4 = Gcs(rover(Personality.PX4, LAP))
+    asked = mavlink.MAVLink_param_request_read_message(11, 1, b"FS_CRASH_CHECK", -1)
+    assert px4.send(asked) == []  # (no such parameter: no answer)
+
+
 def test_a_rover_is_refused_rtl_before_it_has_a_home_and_takes_the_command() -> None:
     gcs = Gcs(rover(Personality.ARDUPILOT, LAP))
     flag = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED

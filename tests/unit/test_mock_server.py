@@ -306,3 +306,33 @@ def test_a_scheduled_mode_change_is_its_operators_and_the_firmware_takes_it() ->
         MockConfig.simple(0, ground=2, faults={"mode": ["2:LOITERING@5"]}, **ground)
     with pytest.raises(ConfigError, match=r"faults\.mode\[0\].*SYSID:MODE@TIME"):
         MockConfig.simple(0, ground=2, faults={"mode": ["2@5"]}, **ground)
+
+
+@pytest.mark.parametrize(("check", "mode", "armed"), [(0, "AUTO", True), (1, "HOLD", True)])
+def test_a_stalled_truck_stands_and_its_crash_check_sends_it_to_hold(
+    check: int, mode: str, armed: bool
+) -> None:
+    """``[faults] stall``: the follower stalls at 5 s (a breakdown) and brakes to a stand
+    while its leader drives on. Its firmware drives on in AUTO (FS_CRASH_CHECK 0, Rover's
+    default), or, with FS_CRASH_CHECK 1, says "Crash: Going to HOLD" 2 s after it stands
+    and holds. Only a ground vehicle stalls."""
+    road: dict[str, Any] = {"route": "line", "speed": 8.0, "spacing": 20.0}
+    ground = {f"ground_{k}": v for k, v in {**road, "personality": "ardupilot"}.items()}
+    fleet, _, tx = make(aircraft=0, ground=2, faults={"stall": ["2@5"]}, **ground)
+    lead, follower = sorted(fleet.vehicles)
+    fleet.link(follower).datagram_received(hello(), PEER_A)
+    fleet.vehicles[follower].handle(
+        mavlink.MAVLink_param_set_message(follower, 1, b"FS_CRASH_CHECK", float(check), 9), 0.0
+    )
+    run(fleet, 5.0)
+    assert fleet.truth(follower).speed > 7.0
+    run(fleet, 20.0)
+    stood, driving = fleet.truth(follower), fleet.truth(lead)
+    assert stood.mode == mode and stood.armed is armed and stood.speed == 0.0, stood
+    assert driving.mode == "AUTO" and driving.speed > 7.0, driving
+    texts = [m.text for m in tx[follower].to(PEER_A) if m.get_type() == "STATUSTEXT"]
+    assert texts.count("Crash: Going to HOLD") == check, texts
+    run(fleet, 10.0)
+    assert (fleet.truth(follower).north, fleet.truth(follower).east) == (stood.north, stood.east)
+    with pytest.raises(ConfigError, match=r"faults\.stall\[0\].*no ground vehicle"):
+        MockConfig.simple(1, ground=1, faults={"stall": ["1@5"]}, **ground)
