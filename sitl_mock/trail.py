@@ -47,6 +47,9 @@ class Trail:
     sim time ``t``. A vehicle standing adds none: it was where it last moved to."""
 
     keep_s: float = 0.0  # s of path kept behind the newest sample (its followers' lags)
+    # Its followers: none of the path behind the rearmost of them is dropped (one held
+    # or stalled falls ever further behind, and stays where it is on it).
+    readers: list[Follower] = field(default_factory=list)
     handed_over: Handover | None = None  # (its vehicle left the column: see hand_over)
     _t: list[float] = field(default_factory=list)
     _s: list[float] = field(default_factory=list)
@@ -77,6 +80,9 @@ class Trail:
         self._n.append(north)
         self._e.append(east)
         cut = bisect.bisect_left(self._t, t - self.keep_s - _KEEP_MARGIN_S) - 1
+        if self.readers:
+            rearmost = min(r.s for r in self.readers)
+            cut = min(cut, bisect.bisect_right(self._s, rearmost) - 2)
         if cut > 1024:  # (pruned in batches: one list copy per thousand samples)
             del self._t[:cut], self._s[:cut], self._n[:cut], self._e[:cut]
 
@@ -141,6 +147,7 @@ class Follower:
         if not (math.isfinite(self.lag) and self.lag > 0.0):
             raise ValueError(f"lag must be finite and > 0, got {self.lag!r}")
         self.trail.keep_s = max(self.trail.keep_s, self.lag)
+        self.trail.readers.append(self)
 
     def step(self, t: float, dt: float, driving: bool) -> None:
         """On to sim time ``t``, ``dt`` s after its last step: it drives (armed in its
@@ -178,7 +185,9 @@ class Follower:
         it is on the same road, its lag the two lags (its place in the column kept), and
         where that leader was its lag before its last step (``before``) its last target."""
         while (h := self.trail.handed_over) is not None:
+            self.trail.readers.remove(self)
             self.trail, self.lag = h.onto, self.lag + h.lag
+            self.trail.readers.append(self)
             self.s = max(self.s + h.onto_at - h.at, 0.0)
             self._target = self.trail.s_at(before - self.lag)
 

@@ -164,8 +164,24 @@ def test_the_vehicles_behind_one_that_leaves_drive_on_behind_its_leader() -> Non
 
 def test_a_long_drive_keeps_only_the_trail_its_followers_need() -> None:
     trail = Trail()
-    Follower(trail, 4.0)
+    follower = Follower(trail, 4.0)
     for k in range(100_000):
         trail.record(0.1 * k, 0.8 * k, 0.0)
+        if k:
+            follower.step(0.1 * k, 0.1, True)
     assert len(trail._s) < 1500  # (pruned: 4 s lag and 30 s kept, at 10 samples a second)
     assert trail.s_at(0.1 * 99_999 - 4.0) == pytest.approx(0.8 * 99_999 - 32.0)
+
+
+def test_a_follower_held_for_long_stays_where_it_stood() -> None:
+    """Held (or stalled) while its leader drives on for an hour: the path behind it is
+    kept, so it stands where it stood, not moved on to where the trail was cut."""
+    trail = Trail()
+    follower = Follower(trail, 4.0)
+    for k in range(1, 36_000):
+        t = 0.1 * k
+        trail.record(t, 0.8 * k, 0.0)
+        follower.step(t, 0.1, t < 60.0)
+        if k == 700:
+            stood = follower.state()
+    assert follower.state() == stood and follower.v == 0.0
