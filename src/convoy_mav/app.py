@@ -66,7 +66,7 @@ from convoy_mav.mission.choose import choose_planner
 from convoy_mav.mission.lag import ReplanLag
 from convoy_mav.mission.road import FAST_CONVOY_RATIO, RoadMission
 from convoy_mav.monitor import Alarm, Monitor, MonitorSnapshot, sees, why_not_counted
-from convoy_mav.parting import leaves
+from convoy_mav.parting import STAND_S, leaves
 from convoy_mav.planning.export import compass_to_planner
 from convoy_mav.planning.road import Road
 from convoy_mav.publish import topics
@@ -806,6 +806,8 @@ class ConvoyService:
         for source in sorted(now - was, key=str):
             apart = tracker.apart(source)
             why = self._apart_why.get(source) if isinstance(source, int) else None
+            if why is None and source in tracker.standing:
+                why = f"it has stood {STAND_S:.0f} s while the lead drove on"
             if why is None:
                 far = "" if apart is None else f"{apart:.0f} m from the nearest of the rest, "
                 why = f"{far}beyond {tracker.part_m:.0f} m"

@@ -22,7 +22,9 @@ Design rules:
   back between them.  The fixes are compared as they come (at 1 Hz, a second or
   so apart: a few tens of metres at most against a part distance of hundreds).
   A source the caller knows to have left (``keep_apart``: a follower its operator
-  held or sent home while the lead drives on) is parted at once, wherever it is.
+  held or sent home while the lead drives on) is parted at once, wherever it is; so
+  is one that has stood ``parting.STAND_S`` while the lead drove on, as the speeds
+  they report say (``standing``: a breakdown, its autopilot still in its mission).
 - Whenever the set of sources changes, the centroid jumps (it is now the centre
   of other vehicles): the sample history restarts and the last velocity is held
   until the new history spans ``min_span`` seconds, so the jump never shows up as a
@@ -41,7 +43,7 @@ import statistics
 from collections import Counter, deque
 from dataclasses import dataclass, replace
 
-from convoy_mav.parting import convoy_group
+from convoy_mav.parting import StandWatch, convoy_group
 from convoy_mav.plausible import JumpGate
 from convoy_mav.types import ConvoyEstimate
 
@@ -126,6 +128,8 @@ class ConvoyTracker:
         self.lead = lead
         self._parted: frozenset[Source] = frozenset()
         self._apart: frozenset[Source] = frozenset()  # (kept apart by the caller's word)
+        self._stands: StandWatch[Source] = StandWatch()
+        self._standing: frozenset[Source] = frozenset()
         self.stale_after = stale_after
         self.window = window
         self.min_span = min_span
@@ -153,6 +157,11 @@ class ConvoyTracker:
     def parted(self) -> frozenset[Source]:
         """Heard sources left out of the centroid for having parted from the convoy."""
         return self._parted
+
+    @property
+    def standing(self) -> frozenset[Source]:
+        """Heard sources that have stood ``parting.STAND_S`` while the lead drove on."""
+        return self._standing
 
     def keep_apart(self, source: Source, apart: bool) -> None:
         """Whether ``source`` has left the convoy by its own mode (the caller's word:
@@ -210,12 +219,15 @@ class ConvoyTracker:
         fresh = {
             s: (f.north, f.east) for s, f in self._fixes.items() if now - f.t <= self.stale_after
         }
+        if self.part_m > 0.0:
+            self._stands.add(source, t, None if velocity is None else math.hypot(*velocity))
+            self._standing = self._stands.judge(self.lead, now) & frozenset(fresh)
         active = convoy_group(
             fresh,
             lead=self.lead,
             part_m=self.part_m,
             parted=self._parted,
-            apart=self._apart,
+            apart=self._apart | self._standing,
         )
         parted = frozenset(fresh) - active
         self.counters["source_parted"] += len(parted - self._parted)

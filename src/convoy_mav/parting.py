@@ -18,6 +18,9 @@ Design rules:
       convoy's velocity fit.
     * The service's default ``part_m`` is twice the sensor radius: a vehicle farther
       than that from every other is never in one camera's disk with any of them.
+    * A vehicle that has stood ``STAND_S`` while the lead drove on has parted however
+      near (``StandWatch``, from the speeds they report): a breakdown or a blocked road
+      leaves its autopilot in its mission, so its mode says nothing.
     * A vehicle's own mode may say it before its distance does (``leaves``): held or
       sent home (RTL, SMART_RTL) by its operator or its failsafe while the lead drives
       on, it has left, however near
@@ -29,17 +32,24 @@ Design rules:
 from __future__ import annotations
 
 import math
-from collections.abc import Hashable, Mapping
-from typing import TypeVar
+from collections import deque
+from collections.abc import Callable, Hashable, Mapping
+from typing import Generic, TypeVar
 
 from convoy_mav.types import ConvoyDrive
 
-__all__ = ["convoy_group", "default_part_m", "leaves"]
+__all__ = ["STAND_S", "StandWatch", "convoy_group", "default_part_m", "leaves"]
 
 S = TypeVar("S", bound=Hashable)
 
 _PART_RADII = 2.0  # sensor radii: the default distance at which a vehicle has parted
 _REJOIN_FRACTION = 0.5  # of part_m: within this of a member, a parted vehicle rejoins
+STAND_S = 15.0  # s a vehicle stands while the lead drives on before it has parted
+_STAND_MPS = 0.3  # m/s: a vehicle reporting less stands (an autopilot's still estimate)
+_LEAD_MPS = 1.0  # m/s: the lead reporting this or more all the window drives on (its corners too)
+_MOVES_MPS = 1.0  # m/s: one judged standing that reports this drives again
+_SLACK_S = 1.5  # s: reports about 1 Hz apart reach a window's ends within this
+_RECHECK_S = 0.5  # s between judgements (each vehicle reports about once a second)
 # (home by either way, straight or back along its path, is home: both going, none parts)
 _HOMEWARD = {ConvoyDrive.RETRACE: ConvoyDrive.HOME}
 
@@ -62,6 +72,80 @@ def leaves(follower: ConvoyDrive, lead: ConvoyDrive | None) -> bool:
         follower,
         ConvoyDrive.OTHER,
     )
+
+
+class StandWatch(Generic[S]):
+    """Which vehicles have stood ``STAND_S`` while the lead drove on, from the speeds
+    they report: a breakdown, or a road blocked, with the autopilot still in its
+    mission.
+
+    Standing: every speed reported over the window under ``_STAND_MPS``; driving on:
+    the lead's every one over it ``_LEAD_MPS`` or more. So a column pulling away after a
+    stop parts no one: each vehicle sets off seconds after the one ahead, before the
+    lead has driven a whole window. Once standing, a vehicle stays so until it reports
+    ``_MOVES_MPS`` or the lead reports a stand (no flapping about the thresholds). A
+    vehicle that reports no speed (a feed of positions alone, whose 3-m noise
+    differenced is no speed) is never judged: it parts by its distance alone. Pure:
+    times are passed in."""
+
+    def __init__(self) -> None:
+        self._speeds: dict[S, deque[tuple[float, float]]] = {}
+        self._standing: frozenset[S] = frozenset()
+        self._judged = -math.inf
+
+    @property
+    def standing(self) -> frozenset[S]:
+        """As last judged (``judge``)."""
+        return self._standing
+
+    def add(self, source: S, t: float, speed: float | None) -> None:
+        """The speed ``source`` reports at ``t`` (None: none, which ends its window)."""
+        speeds = self._speeds.setdefault(source, deque())
+        if speed is None or not math.isfinite(speed):
+            speeds.clear()
+            return
+        speeds.append((t, speed))
+        while speeds[0][0] < t - STAND_S - _SLACK_S:
+            speeds.popleft()
+
+    def judge(self, lead: S | None, now: float) -> frozenset[S]:
+        """The vehicles (never the lead) standing while ``lead`` drives on, at ``now``
+        (judged again at most every ``_RECHECK_S``)."""
+        if now - self._judged < _RECHECK_S:
+            return self._standing
+        self._judged = now
+        lead_speeds = self._speeds.get(lead) if lead is not None else None
+        if lead_speeds is None or not _heard(lead_speeds, now) or lead_speeds[-1][1] < _STAND_MPS:
+            # (the lead stands, or is not heard)
+            self._standing = frozenset()
+            return self._standing
+        drives = _throughout(lead_speeds, now, lambda v: v >= _LEAD_MPS)
+        standing = set()
+        for source, speeds in self._speeds.items():
+            if source == lead or not _heard(speeds, now):
+                continue
+            if source in self._standing:  # (until it drives again)
+                stood = speeds[-1][1] < _MOVES_MPS
+            else:
+                stood = drives and _throughout(speeds, now, lambda v: v < _STAND_MPS)
+            if stood:
+                standing.add(source)
+        self._standing = frozenset(standing)
+        return self._standing
+
+
+def _heard(speeds: deque[tuple[float, float]], now: float) -> bool:
+    return bool(speeds) and speeds[-1][0] >= now - _SLACK_S
+
+
+def _throughout(
+    speeds: deque[tuple[float, float]], now: float, holds: Callable[[float], bool]
+) -> bool:
+    """Whether the reports reach back over the whole window to ``now`` and each in it
+    ``holds``."""
+    if not speeds or speeds[0][0] > now - STAND_S + _SLACK_S:
+        return False
+    return all(holds(v) for t, v in speeds if t >= now - STAND_S)
 
 
 def convoy_group(

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 from convoy_mav.coverage import CoverageStats, CoverageTracker
 from convoy_mav.geo import GeoPoint, LocalFrame
 from convoy_mav.mavlink.rovermode import drive_of
-from convoy_mav.parting import convoy_group, leaves
+from convoy_mav.parting import StandWatch, convoy_group, leaves
 from convoy_mav.types import ConvoyDrive
 
 __all__ = ["TruthFix", "read_truth_csv", "score_truth"]
@@ -80,7 +80,8 @@ def score_truth(
 
     Rows are grouped by time stamp; at each stamp the convoy is the centroid of
     the ground vehicles' true positions (with ``part_m``, those of ``lead``'s group:
-    one parted from it, or whose mode says it left the lead's, is not the convoy) and
+    one parted from it, whose mode says it left the lead's, or that has stood while the
+    lead drove on, is not the convoy) and
     every live aircraft's true position counts.  Killed vehicles and aircraft on the
     ground see nothing.
     """
@@ -91,6 +92,8 @@ def score_truth(
             by_t[fix.t].append(fix)
     tracker = CoverageTracker(sensor_radius, max_hold)
     parted: frozenset[int] = frozenset()
+    stands: StandWatch[int] = StandWatch()
+    last: dict[int, tuple[float, float, float]] = {}  # (t, north, east) of each's last row
     for t in sorted(by_t):
         ground: dict[int, tuple[float, float]] = {}
         drives: dict[int, ConvoyDrive] = {}
@@ -107,8 +110,14 @@ def score_truth(
                 aircraft[fix.sysid] = (north, east)
         if not ground:
             continue
+        for sysid, (north, east) in ground.items():  # (its speed since its last row)
+            was = last.get(sysid)
+            gone = None if was is None or t <= was[0] else math.dist(was[1:], (north, east))
+            stands.add(sysid, t, None if gone is None else gone / (t - was[0]))  # type: ignore[index]
+            last[sysid] = (t, north, east)
         ahead = None if lead is None else drives.get(lead)
         left = frozenset(s for s, d in drives.items() if s != lead and leaves(d, ahead))
+        left |= stands.judge(lead, t)
         group = convoy_group(ground, lead=lead, part_m=part_m, parted=parted, apart=left)
         parted = frozenset(ground) - group
         members = [ground[s] for s in group]

@@ -10,7 +10,7 @@ from pymavlink.dialects.v20 import common as mavlink
 from convoy_mav.app import ConvoyService
 from convoy_mav.config import parse_config
 from convoy_mav.mavlink.rovermode import drive_of
-from convoy_mav.parting import convoy_group, leaves
+from convoy_mav.parting import STAND_S, convoy_group, leaves
 from convoy_mav.types import ConvoyDrive
 from tests.unit.test_app_route import _road_doc
 
@@ -120,5 +120,38 @@ def test_the_service_parts_a_follower_its_mode_says_left_and_takes_it_back() -> 
         assert [p["event"] for p in parts] == ["parted", "rejoined", "parted"]
         # (from the follower's last fix, taken before the lead's 2 s on: 20 + 16 m)
         assert parts[0]["why"] == why and parts[0]["apart_m"] == pytest.approx(36.0)
+    finally:
+        clock.now = original  # type: ignore[method-assign]
+
+
+def test_a_follower_that_stands_while_the_lead_drives_on_in_auto_parts_and_is_said_why() -> None:
+    """A breakdown: both in AUTO (their modes say nothing), the follower's reported
+    speed 0 from 10 s while the lead's is 8 m/s: parted a window later, 20 m + 8 m/s
+    of it behind, with the alarm saying why."""
+    vehicles = [
+        {"connection": f"udpin:127.0.0.1:{14600 + k}", "sysid": s}
+        for k, s in enumerate((LEAD, FOLLOWER))
+    ]
+    doc = {**_road_doc(), "convoy": {"source": "mavlink", "vehicle": vehicles}}
+    service = ConvoyService(parse_config(doc))
+    now = [0.0]
+    clock = type(service.clock)
+    original = clock.now
+    clock.now = lambda self: now[0]  # type: ignore[method-assign]
+    try:
+        for k in range(40):
+            t = now[0] = float(k)
+            service._route(LEAD, _heartbeat(LEAD, _AUTO))
+            service._route(FOLLOWER, _heartbeat(FOLLOWER, _AUTO))
+            service._convoy_fix(t, 8.0 * t, 0.0, LEAD, (8.0, 0.0))
+            stood = t >= 10.0
+            north = 8.0 * min(t, 10.0) - 20.0
+            service._convoy_fix(t, north, 0.0, FOLLOWER, (0.0 if stood else 8.0, 0.0))
+        (parted,) = service._planner_report()["convoy_parted"]
+        assert 10.0 + STAND_S <= parted["t"] <= 11.0 + STAND_S, parted
+        why = f"it has stood {STAND_S:.0f} s while the lead drove on"
+        assert parted["why"] == why and parted["apart_m"] < 200.0, parted
+        (alarm,) = service.alarms
+        assert f"ground vehicle {FOLLOWER} parted from the convoy ({why})" in alarm["message"]
     finally:
         clock.now = original  # type: ignore[method-assign]

@@ -3,13 +3,15 @@
 from __future__ import annotations
 
 import math
+import random
+from collections.abc import Callable
 
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from convoy_mav.convoy import ConvoyTracker
-from convoy_mav.parting import convoy_group, default_part_m
+from convoy_mav.parting import STAND_S, StandWatch, convoy_group, default_part_m
 
 
 def test_a_column_strung_out_along_a_road_is_one_convoy_however_long() -> None:
@@ -114,3 +116,93 @@ def test_a_tracker_without_a_part_distance_keeps_every_truck() -> None:
     assert tracker.sources == {1, 2} and tracker.parted == frozenset()
     with pytest.raises(ValueError, match="part_m"):
         ConvoyTracker(part_m=-1.0)
+
+
+def _watched(
+    speeds: dict[int, Callable[[float], float]], seconds: float, *, seed: int = 0
+) -> list[tuple[float, frozenset[int]]]:
+    """Each vehicle reporting its speed at time t (``speeds[sysid](t)``, with an
+    autopilot's few cm/s of noise) at 1 Hz; the watch's answer each second, the lead 1."""
+    rng = random.Random(seed)
+    watch: StandWatch[int] = StandWatch()
+    out = []
+    for k in range(round(seconds) + 1):
+        t = float(k)
+        for sysid, speed in speeds.items():
+            watch.add(sysid, t, abs(speed(t) + rng.gauss(0.0, 0.05)))
+        out.append((t, watch.judge(1, t)))
+    return out
+
+
+def _brakes(at: float, top: float = 8.0) -> Callable[[float], float]:
+    """At ``top`` m/s, braking at 1 m/s^2 to a stand from ``at``."""
+    return lambda t: top if t <= at else max(top - (t - at), 0.0)
+
+
+def _sets_off(at: float, top: float = 8.0) -> Callable[[float], float]:
+    """Standing, then off at 1 m/s^2 to ``top`` m/s from ``at``."""
+    return lambda t: min(max(t - at, 0.0), top)
+
+
+def test_a_truck_that_stands_while_the_lead_drives_on_has_parted_fifteen_seconds_on() -> None:
+    """A breakdown: the follower brakes to a stand from 30 s (at 38 s), the lead drives
+    on; once it has reported a stand for the whole window it has parted, and stays so
+    while it stands, and creeps."""
+    creeps = _brakes(30.0)
+    answers = _watched({1: lambda t: 8.0, 2: lambda t: creeps(t) if t < 80.0 else 0.6}, 120.0)
+    first = next(t for t, standing in answers if 2 in standing)
+    assert 37.7 + STAND_S <= first <= 38.0 + STAND_S + 1.0, first
+    assert all(standing == {2} for t, standing in answers if t >= first)
+
+
+def test_it_drives_again_or_the_lead_stops_and_it_stands_apart_no_more() -> None:
+    def stalled(t: float) -> float:
+        return _brakes(30.0)(t) if t < 80.0 else _sets_off(80.0)(t)
+
+    answers = dict(_watched({1: lambda t: 8.0, 2: stalled}, 120.0))
+    assert 2 in answers[80.0] and answers[82.0] == frozenset()  # (1 m/s reported at 81 s)
+    waits = dict(_watched({1: _brakes(70.0), 2: _brakes(30.0)}, 120.0))
+    assert 2 in waits[70.0] and waits[79.0] == frozenset()  # (the lead stands as well)
+
+
+def test_a_column_pulling_away_from_a_stop_or_stopped_as_one_parts_no_one() -> None:
+    """Stopped as one for a minute (the lead too: no one drives on), then off again at
+    1 m/s^2, each vehicle 3 s after the one ahead, the sixth 15 s after the lead."""
+
+    def member(k: int) -> Callable[[float], float]:
+        return lambda t: _brakes(50.0)(t) if t < 120.0 else _sets_off(120.0 + 3.0 * k)(t)
+
+    column = {k + 1: member(k) for k in range(6)}
+    assert all(not standing for _, standing in _watched(column, 300.0))
+
+
+def test_without_the_lead_heard_or_a_speed_reported_no_one_stands_apart() -> None:
+    watch: StandWatch[int] = StandWatch()
+    for k in range(30):
+        watch.add(2, float(k), 0.0)
+        watch.add(3, float(k), 8.0)
+        watch.add(4, float(k), None)  # (a feed of positions alone)
+    assert watch.judge(1, 29.0) == frozenset() and watch.judge(None, 31.0) == frozenset()
+    for k in range(30, 50):
+        watch.add(1, float(k), 8.0)
+        watch.add(4, float(k), None)
+    assert watch.judge(1, 49.0) == frozenset()  # (2 reports nothing since 29 s)
+
+
+def test_the_tracker_parts_a_stalled_truck_near_the_rest() -> None:
+    """Stalled 20 m behind the lead (both reporting their velocity), it has parted a
+    window after it stood, 140 m back, long before 200 m (some 25 s sooner)."""
+    tracker = ConvoyTracker(window=4.0, part_m=200.0, lead=1)
+    parted_at = None
+    for k in range(60):
+        t = float(k)
+        tracker.update(t, 8.0 * t, 0.0, source=1, velocity=(8.0, 0.0))
+        stood = t >= 30.0
+        tracker.update(
+            t, min(8.0 * t - 20.0, 220.0), 0.0, source=2, velocity=(0.0 if stood else 8.0, 0.0)
+        )
+        if parted_at is None and tracker.parted == {2}:
+            parted_at = t
+    assert parted_at is not None and 30.0 + STAND_S <= parted_at <= 31.0 + STAND_S, parted_at
+    assert tracker.standing == {2} and tracker.sources == {1}
+    assert tracker.counters["source_parted"] == 1
