@@ -120,8 +120,10 @@ def test_convoy_fix_on_the_flight_loop(benchmark: BenchmarkFixture) -> None:
 
 @pytest.mark.parametrize("part_m", [0.0, 200.0])
 def test_convoy_fix_of_a_convoy_of_four(benchmark: BenchmarkFixture, part_m: float) -> None:
-    """One fix of four vehicles 20 m apart, each at 1 Hz: with ``part_m``, the lead's group
-    found again (``parting.convoy_group``) at each; 0, none ever parts."""
+    """One fix of four vehicles 20 m apart, each at 1 Hz with the velocity it reports:
+    with ``part_m``, the lead's group found again (``parting.convoy_group``) and the
+    vehicles standing while the lead drives on judged (``parting.StandWatch``) at each;
+    0, none ever parts."""
     tracker = ConvoyTracker(window=4.0, part_m=part_m, lead=5)
     clock = {"t": 0.0}
     turn = itertools.cycle(range(4))
@@ -129,7 +131,7 @@ def test_convoy_fix_of_a_convoy_of_four(benchmark: BenchmarkFixture, part_m: flo
     def fix() -> None:
         clock["t"] += 0.25
         k = next(turn)
-        tracker.update(clock["t"], 8.0 * clock["t"] - 20.0 * k, 0.0, 5 + k)
+        tracker.update(clock["t"], 8.0 * clock["t"] - 20.0 * k, 0.0, 5 + k, (8.0, 0.0))
 
     benchmark(fix)
     assert tracker.sources == {5, 6, 7, 8}

@@ -32,8 +32,7 @@ Design rules:
 from __future__ import annotations
 
 import math
-from collections import deque
-from collections.abc import Callable, Hashable, Mapping
+from collections.abc import Hashable, Mapping
 from typing import Generic, TypeVar
 
 from convoy_mav.types import ConvoyDrive
@@ -48,7 +47,7 @@ STAND_S = 15.0  # s a vehicle stands while the lead drives on before it has part
 _STAND_MPS = 0.3  # m/s: a vehicle reporting less stands (an autopilot's still estimate)
 _LEAD_MPS = 1.0  # m/s: the lead reporting this or more all the window drives on (its corners too)
 _MOVES_MPS = 1.0  # m/s: one judged standing that reports this drives again
-_SLACK_S = 1.5  # s: reports about 1 Hz apart reach a window's ends within this
+_SLACK_S = 1.5  # s: a vehicle reporting about once a second, last heard within this, is heard
 _RECHECK_S = 0.5  # s between judgements (each vehicle reports about once a second)
 # (home by either way, straight or back along its path, is home: both going, none parts)
 _HOMEWARD = {ConvoyDrive.RETRACE: ConvoyDrive.HOME}
@@ -89,7 +88,11 @@ class StandWatch(Generic[S]):
     times are passed in."""
 
     def __init__(self) -> None:
-        self._speeds: dict[S, deque[tuple[float, float]]] = {}
+        # each vehicle's last report (t, speed), and since when its reports have been
+        # under _STAND_MPS, and _LEAD_MPS or more, without a break (None: not now)
+        self._last: dict[S, tuple[float, float]] = {}
+        self._still_since: dict[S, float | None] = {}
+        self._going_since: dict[S, float | None] = {}
         self._standing: frozenset[S] = frozenset()
         self._judged = -math.inf
 
@@ -99,14 +102,15 @@ class StandWatch(Generic[S]):
         return self._standing
 
     def add(self, source: S, t: float, speed: float | None) -> None:
-        """The speed ``source`` reports at ``t`` (None: none, which ends its window)."""
-        speeds = self._speeds.setdefault(source, deque())
+        """The speed ``source`` reports at ``t`` (None: none, which breaks its runs)."""
         if speed is None or not math.isfinite(speed):
-            speeds.clear()
+            self._last.pop(source, None)
+            self._still_since[source] = self._going_since[source] = None
             return
-        speeds.append((t, speed))
-        while speeds[0][0] < t - STAND_S - _SLACK_S:
-            speeds.popleft()
+        self._last[source] = (t, speed)
+        still, going = self._still_since.get(source), self._going_since.get(source)
+        self._still_since[source] = (t if still is None else still) if speed < _STAND_MPS else None
+        self._going_since[source] = (t if going is None else going) if speed >= _LEAD_MPS else None
 
     def judge(self, lead: S | None, now: float) -> frozenset[S]:
         """The vehicles (never the lead) standing while ``lead`` drives on, at ``now``
@@ -114,38 +118,26 @@ class StandWatch(Generic[S]):
         if now - self._judged < _RECHECK_S:
             return self._standing
         self._judged = now
-        lead_speeds = self._speeds.get(lead) if lead is not None else None
-        if lead_speeds is None or not _heard(lead_speeds, now) or lead_speeds[-1][1] < _STAND_MPS:
-            # (the lead stands, or is not heard)
+        heard = {s: v for s, (t, v) in self._last.items() if t >= now - _SLACK_S}
+        if lead not in heard or heard[lead] < _STAND_MPS:  # (the lead stands, or is silent)
             self._standing = frozenset()
             return self._standing
-        drives = _throughout(lead_speeds, now, lambda v: v >= _LEAD_MPS)
+        since = now - STAND_S  # (a run begun by then spans the window)
+        going = self._going_since.get(lead)
+        drives = going is not None and going <= since
         standing = set()
-        for source, speeds in self._speeds.items():
-            if source == lead or not _heard(speeds, now):
+        for source, speed in heard.items():
+            if source == lead:
                 continue
             if source in self._standing:  # (until it drives again)
-                stood = speeds[-1][1] < _MOVES_MPS
+                stood = speed < _MOVES_MPS
             else:
-                stood = drives and _throughout(speeds, now, lambda v: v < _STAND_MPS)
+                still = self._still_since.get(source)
+                stood = drives and still is not None and still <= since
             if stood:
                 standing.add(source)
         self._standing = frozenset(standing)
         return self._standing
-
-
-def _heard(speeds: deque[tuple[float, float]], now: float) -> bool:
-    return bool(speeds) and speeds[-1][0] >= now - _SLACK_S
-
-
-def _throughout(
-    speeds: deque[tuple[float, float]], now: float, holds: Callable[[float], bool]
-) -> bool:
-    """Whether the reports reach back over the whole window to ``now`` and each in it
-    ``holds``."""
-    if not speeds or speeds[0][0] > now - STAND_S + _SLACK_S:
-        return False
-    return all(holds(v) for t, v in speeds if t >= now - STAND_S)
 
 
 def convoy_group(
