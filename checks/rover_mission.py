@@ -237,6 +237,18 @@ def hail(link: Any) -> tuple[int, int] | None:
     return None
 
 
+def reach(connection: str) -> tuple[Any, tuple[int, int]] | None:
+    """A link to the rover at ``connection`` as its operator's station (system 250), and
+    its (system, component) once it has answered (``hail``); None, said, if it never
+    did."""
+    link = mavutil.mavlink_connection(connection, source_system=250, source_component=190)
+    target = hail(link)
+    if target is None:
+        print(f"no rover's HEARTBEAT on {connection}")
+        return None
+    return link, target
+
+
 def send_off(link: Any, target: tuple[int, int], items: list[Any]) -> tuple[str, bool]:
     """Wait until the rover has a home (its position estimate is good: then it can be
     sent off), upload ``items``, switch to AUTO and arm, retried until the firmware

@@ -37,13 +37,12 @@ import time
 from types import SimpleNamespace
 from typing import Any
 
-from pymavlink import mavutil
 from pymavlink.dialects.v20 import common as mavlink
 from rover_mission import (  # (checks/, beside this one)
     ROVER_AUTO,
     ROVER_RTL,
     check_main,
-    hail,
+    reach,
     send_off,
     upload,
 )
@@ -144,21 +143,29 @@ def check(ok: bool, what: str) -> bool:
     return ok
 
 
-def run(connection: str) -> int:
-    link = mavutil.mavlink_connection(connection, source_system=250, source_component=190)
-    target = hail(link)
-    if target is None:
-        print(f"no rover's HEARTBEAT on {connection}")
-        return 2
+def set_off(connection: str) -> tuple[Any, tuple[int, int], Drive] | None:
+    """The rover at ``connection`` reached, RTL_SPEED set, sent off along the L in AUTO,
+    and read (``Drive``); None, said, if it could not be."""
+    reached = reach(connection)
+    if reached is None:
+        return None
+    link, target = reached
     link.mav.param_set_send(*target, b"RTL_SPEED", SPEED, mavlink.MAV_PARAM_TYPE_REAL32)
     answer, armed = send_off(link, target, mission(target))
     if not armed:
         print(f"the rover was not sent off: upload {answer}, not armed in AUTO")
-        return 2
+        return None
     for stream in (mavlink.MAV_DATA_STREAM_POSITION, mavlink.MAV_DATA_STREAM_EXTENDED_STATUS):
         link.mav.request_data_stream_send(*target, stream, 4, 1)
+    return link, target, Drive(link)
+
+
+def run(connection: str) -> int:
+    started = set_off(connection)
+    if started is None:
+        return 2
+    link, target, drive = started
     flag = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
-    drive = Drive(link)
     corner = CORNERS[2]
     if not drive.wait(lambda d: d.at[0] > RTL_AT_NORTH and d.at[1] > LEG_M - 20.0):
         return 2

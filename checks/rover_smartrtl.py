@@ -25,10 +25,9 @@ import itertools
 import math
 import sys
 
-from pymavlink import mavutil
 from pymavlink.dialects.v20 import common as mavlink
-from rover_mission import check_main, hail, send_off  # (checks/, beside this one)
-from rover_rtl import CORNERS, HOME, LEG_M, RTL_AT_NORTH, SPEED, WP_RADIUS, Drive, check, mission
+from rover_mission import check_main  # (checks/, beside this one)
+from rover_rtl import CORNERS, HOME, LEG_M, RTL_AT_NORTH, WP_RADIUS, Drive, check, set_off
 
 ROVER_SMART_RTL = 12  # ArduRover's custom mode
 OFF_ROAD_M = 5.0  # m: the most it may stray from the road it drove, corners cut included
@@ -46,19 +45,10 @@ def _off_road(at: tuple[float, float]) -> float:
 
 
 def run(connection: str) -> int:
-    link = mavutil.mavlink_connection(connection, source_system=250, source_component=190)
-    target = hail(link)
-    if target is None:
-        print(f"no rover's HEARTBEAT on {connection}")
+    started = set_off(connection)
+    if started is None:
         return 2
-    link.mav.param_set_send(*target, b"RTL_SPEED", SPEED, mavlink.MAV_PARAM_TYPE_REAL32)
-    answer, armed = send_off(link, target, mission(target))
-    if not armed:
-        print(f"the rover was not sent off: upload {answer}, not armed in AUTO")
-        return 2
-    for stream in (mavlink.MAV_DATA_STREAM_POSITION, mavlink.MAV_DATA_STREAM_EXTENDED_STATUS):
-        link.mav.request_data_stream_send(*target, stream, 4, 1)
-    drive = Drive(link)
+    link, target, drive = started
     if not drive.wait(lambda d: math.hypot(*d.at) > 1.0):
         return 2
     start = drive.at  # (its path began where it armed: about here)

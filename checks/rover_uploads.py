@@ -32,13 +32,12 @@ import sys
 import time
 from typing import Any
 
-from pymavlink import mavutil
 from pymavlink.dialects.v20 import common as mavlink
 from rover_mission import (  # (checks/, beside this one)
     ROVER_AUTO,
     ROVER_HOLD,
     check_main,
-    hail,
+    reach,
     upload,
 )
 
@@ -179,11 +178,10 @@ class _Drive:
 
 
 def run(connection: str) -> int:
-    link = mavutil.mavlink_connection(connection, source_system=250, source_component=190)
-    target = hail(link)
-    if target is None:
-        print(f"no rover's HEARTBEAT on {connection}")
+    reached = reach(connection)
+    if reached is None:
         return 2
+    link, target = reached
     home = mavlink.MAVLINK_MSG_ID_HOME_POSITION
     for _ in range(60):  # (a home, as an operator waits for one)
         link.mav.command_long_send(*target, _REQUEST, 0, home, 0, 0, 0, 0, 0, 0)
