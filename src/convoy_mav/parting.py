@@ -96,11 +96,6 @@ class StandWatch(Generic[S]):
         self._standing: frozenset[S] = frozenset()
         self._judged = -math.inf
 
-    @property
-    def standing(self) -> frozenset[S]:
-        """As last judged (``judge``)."""
-        return self._standing
-
     def add(self, source: S, t: float, speed: float | None) -> None:
         """The speed ``source`` reports at ``t`` (None: none, which breaks its runs)."""
         if speed is None or not math.isfinite(speed):

@@ -112,8 +112,10 @@ def score_truth(
             continue
         for sysid, (north, east) in ground.items():  # (its speed since its last row)
             was = last.get(sysid)
-            gone = None if was is None or t <= was[0] else math.dist(was[1:], (north, east))
-            stands.add(sysid, t, None if gone is None else gone / (t - was[0]))  # type: ignore[index]
+            speed = None
+            if was is not None and t > was[0]:
+                speed = math.dist(was[1:], (north, east)) / (t - was[0])
+            stands.add(sysid, t, speed)
             last[sysid] = (t, north, east)
         ahead = None if lead is None else drives.get(lead)
         left = frozenset(s for s, d in drives.items() if s != lead and leaves(d, ahead))
