@@ -98,6 +98,7 @@ position OK and the vehicle armable; both turn healthy at the end of warm-up."""
 _ROVER_SPEED_MIN = 0.05  # m/s: the least a rover is told (ArduRover's AR_WPNAV_SPEED_MIN)
 _RTL_SPEED_MAX = 100.0  # m/s: ArduRover's RTL_SPEED range
 _SRTL_ACCURACY_MAX = 10.0  # m: SRTL_ACCURACY's range
+_SMART_RTL = "SMART_RTL"  # ArduRover's mode home back along its path (``smartrtl``)
 _CRASH_CHECK_S = 2.0  # s standing with its throttle up: crashed (CRASH_CHECK_TRIGGER_SEC)
 _FS_CRASH_HOLD_AND_DISARM = 2  # FS_CRASH_CHECK: 0 off, 1 HOLD, 2 HOLD and disarm
 _TRAIL_DT = 0.1  # s between samples of a ground vehicle's path, and its followers' steps
@@ -480,16 +481,17 @@ class SimVehicle:
             return []
         (n, e, _, vn, ve, _), *_ = self._kinematics(now)
         wp_radius = self._wp_radius()
-        smart = fl.mode.name == "SMART_RTL" and self._smart is not None
+        path = self._smart if fl.mode.name == _SMART_RTL else None  # (back along it)
+        smart = path is not None
         if back is None or back.smart != smart:
             if back is None:
                 # (a follower leaves its leader's trail from where it is, and hands the
                 # vehicles behind it on to that leader)
                 follower, self.follower = self.follower, None
-                if follower is not None and self.trail is not None:
-                    self.trail.hand_over(follower.trail, follower.s, follower.lag)
+                if follower is not None:
+                    follower.leave(self.trail)
                 self._returning = back = self._leave(now)
-            way = self._smart.way_home() if smart and self._smart is not None else []
+            way = path.way_home() if path is not None else []
             back.smart, back.reached = smart, False
             back.goal = way.pop() if way else self._rtl_goal((n, e))
             speed = self._rtl_speed or self._wp_speed() or DEFAULT_WP_SPEED
@@ -560,6 +562,8 @@ class SimVehicle:
         ``standstill`` metres, speeding up and braking as its own drive does (its road's
         accel)."""
         accel = self._ground.clock.accel if self._ground is not None else DEFAULT_ACCEL
+        if self.follower is not None:
+            self.follower.leave(None)
         self.follower = Follower(leader, lag, standstill, accel)
 
     def _record_trail(self, now: float, dt: float) -> tuple[float, float, float]:
@@ -615,7 +619,7 @@ class SimVehicle:
             smart.set_home(now, n, e)
             self._smart_saved = True
         self._smart_armed = fl.armed
-        if fl.mode.name == "SMART_RTL":
+        if fl.mode.name == _SMART_RTL:
             smart.reached(n, e, self._wp_radius())
             return []
         return [
@@ -1250,7 +1254,7 @@ class SimVehicle:
         rtl = mode is not None and mode.behaviour is Behaviour.RTL and mode != self.flight.mode
         smart = self._smart
         no_path = smart is not None and not smart.active  # (``ModeSmartRTL::_enter``)
-        if rtl and mode is not None and mode.name == "SMART_RTL" and no_path:
+        if rtl and mode is not None and mode.name == _SMART_RTL and no_path:
             failed = statustext(_R.MAV_SEVERITY_WARNING, "Flight mode change failed")
             return _R.MAV_RESULT_FAILED, [failed]
         if rtl and self.flight.aircraft is None and not self.flight.home_set:

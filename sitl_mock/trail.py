@@ -180,6 +180,14 @@ class Follower:
             v = (s - self.s) / dt
         self.s, self.v = s, v
 
+    def leave(self, own: Trail | None) -> None:
+        """Its vehicle leaves the column where it is: it holds its leader's path back no
+        more, and the vehicles behind it (on ``own``, its vehicle's path) follow its
+        leader on (``Trail.hand_over``)."""
+        self.trail.readers.remove(self)
+        if own is not None:
+            own.hand_over(self.trail, self.s, self.lag)
+
     def _rejoin(self, before: float) -> None:
         """The vehicle it follows left the column: it follows that one's leader, where
         it is on the same road, its lag the two lags (its place in the column kept), and

@@ -143,7 +143,7 @@ def test_the_vehicles_behind_one_that_leaves_drive_on_behind_its_leader() -> Non
         n, e = (8.0 * t, 0.0) if t <= 60.0 else (480.0, 8.0 * (t - 60.0))
         lead.record(t, n, e)
         if left is None and t >= 40.0:  # (it leaves, from where it last was)
-            middle.hand_over(lead, gone.s, gone.lag)
+            gone.leave(middle)
             left = gone.state()[:2]
         if left is None:
             gone.step(t, DT, True)
@@ -156,6 +156,7 @@ def test_the_vehicles_behind_one_that_leaves_drive_on_behind_its_leader() -> Non
     ln, le, vn, ve = last.state()
     # (where the leader was its two lags ago: round the corner, east)
     assert last.trail is lead and last.lag == pytest.approx(2 * LAG)
+    assert lead.readers == [last]  # (the one gone holds the leader's path back no more)
     assert (ln, le) == pytest.approx((480.0, 8.0 * (t - 60.0 - 2 * LAG)), abs=1e-6)
     assert (vn, ve) == pytest.approx((0.0, 8.0), abs=1e-6)
     jumps = [abs(b - a) for a, b in itertools.pairwise(speeds[round(20.0 / DT) :])]
