@@ -32,7 +32,7 @@ from convoy_mav.planning.dubins import Pose, Segment, Turn
 from convoy_mav.planning.plan import Trajectory
 from convoy_mav.planning.road import Road
 from convoy_mav.tracks import load_track
-from convoy_mav.types import ConvoyEstimate
+from convoy_mav.types import ConvoyDrive, ConvoyEstimate
 
 TRACKS = Path(__file__).resolve().parents[2] / "shared" / "tracks"
 FAST = PlanRequest(200.0, 120.0, 28.0)  # configs/rehearse_fast_planes.toml
@@ -250,4 +250,36 @@ def test_forecast_along_the_route_at_its_own_speed(benchmark: BenchmarkFixture) 
     model, grid = _forecaster(holds=True, keeps_speed=True)
     model.corner_habit.samples.extend([2.5, 2.5])
     assert model.cruise == 8.0 and model.corner_speed == 2.5
+    benchmark(model.positions, grid)
+
+
+def _driven_home() -> tuple[ConvoyModel, np.ndarray]:
+    """A convoy seen driving the recorded drive's 25 km with no route (an estimate a
+    second, the path kept as its SmartRTL keeps its own) and its corners at 2.5 m/s;
+    a re-plan's forecast grid."""
+    t, north, east = _drive()
+    model = ConvoyModel()
+    model.corner_habit.samples.extend([2.5, 2.5])
+    step = max(1, len(t) // 3000)
+    for k in range(step, len(t), step):
+        dt = float(t[k] - t[k - step]) or 1.0
+        vn, ve = (north[k] - north[k - step]) / dt, (east[k] - east[k - step]) / dt
+        model.observe(ConvoyEstimate(float(t[k]), float(north[k]), float(east[k]), vn, ve))
+    return model, float(t[-1]) + np.arange(0.0, 200.0, 0.5)
+
+
+def test_way_back_along_the_path_it_drove(benchmark: BenchmarkFixture) -> None:
+    """SMART_RTL heard: the path it was seen to drive simplified, its loops cut and made
+    the road back (``ConvoyModel._way_back``): worker thread, once per mode change."""
+    model, _ = _driven_home()
+    way = benchmark(model._way_back)
+    assert way is not None and way.length > 1000.0
+
+
+def test_forecast_back_along_the_path_it_drove(benchmark: BenchmarkFixture) -> None:
+    """The forecast for one re-plan of a convoy on its way back along that path
+    (SMART_RTL), slowing for its corners: worker thread, once per mission step."""
+    model, grid = _driven_home()
+    model.set_drive(ConvoyDrive.RETRACE)
+    assert model._retrace is not None
     benchmark(model.positions, grid)

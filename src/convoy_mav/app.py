@@ -608,8 +608,10 @@ class ConvoyService:
         if mode == self._lead_mode:
             return
         was, self._lead_mode = self._lead_mode, mode
-        back = (
-            mode.drive is ConvoyDrive.MISSION and was is not None and was.drive is ConvoyDrive.HOME
+        back = (  # (AUTO after SMART_RTL resumes its mission as after RTL)
+            mode.drive is ConvoyDrive.MISSION
+            and was is not None
+            and was.drive in (ConvoyDrive.HOME, ConvoyDrive.RETRACE)
         )
         where = self._lead_destination() if homeward else (self._resumed_at() if back else None)
         self._new_drives.append((mode.drive, where))
@@ -627,7 +629,10 @@ class ConvoyService:
             ConvoyDrive.HELD: "stands until its mode changes",
             ConvoyDrive.OTHER: "is driven otherwise: its mission's plan is set aside",
             ConvoyDrive.HOME: going,
-            ConvoyDrive.RETRACE: "drives home back along its path: its mission's plan is set aside",
+            ConvoyDrive.RETRACE: (
+                "drives home back along its path: forecast back along the path it was seen "
+                "to drive, where it stands at its start; its mission's plan is set aside"
+            ),
         }[mode.drive]
         since = "" if was is None else f" (was {was.name})"
         self._note(f"ground vehicle {sysid} in {mode.name}{since}: it {what}")

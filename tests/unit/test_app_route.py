@@ -425,3 +425,27 @@ def test_a_lead_ardurover_sent_home_is_forecast_to_the_rally_point_its_firmware_
     assert any("rally points not read" in e for e in service.events), service.events
     service._mission_step(7.0, None, [], [], {}, set(), (0.0, 0.0))
     assert mission.model._going == (0.0, 0.0)
+
+
+def test_a_lead_rover_back_in_auto_after_smart_rtl_resumes_its_mission_as_after_rtl(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """AUTO after SMART_RTL restarts the item it was driving to, as after RTL
+    (``AP_Mission::resume``): the road mission is told the waypoint it drives back to;
+    after a driver's mode (MANUAL), none is."""
+    from convoy_mav.types import ConvoyDrive
+
+    service, _, _ = _lead_service()
+    monkeypatch.setattr(service, "_resumed_at", lambda: (250.0, -30.0))
+    for custom in (10, 12, 10, 0, 10):  # AUTO, SMART_RTL, AUTO, MANUAL, AUTO
+        service._lead_heartbeat(60, _rover_heartbeat(custom))
+    told = [(drive, where) for drive, where in service._new_drives]
+    assert told == [
+        (ConvoyDrive.MISSION, None),
+        (ConvoyDrive.RETRACE, None),
+        (ConvoyDrive.MISSION, (250.0, -30.0)),
+        (ConvoyDrive.OTHER, None),
+        (ConvoyDrive.MISSION, None),
+    ]
+    said = [e for e in service.events if "ground vehicle 60 in SMART_RTL" in e]
+    assert said and "forecast back along the path it was seen to drive" in said[0], said

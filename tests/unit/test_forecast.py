@@ -416,12 +416,14 @@ def test_told_to_stand_at_a_planned_hold_it_stands_on_and_back_in_auto_the_hold_
 def test_driven_otherwise_its_plan_is_set_aside_and_its_speed_not_learnt(
     drive: ConvoyDrive,
 ) -> None:
-    """A driver (MANUAL), or its way home back along its path (SMART_RTL)."""
+    """A driver (MANUAL), or its way home back along its path (SMART_RTL): forecast as
+    if no speed were planned (from its own velocity, or back along its path)."""
     dt = np.arange(0.0, 120.0, 1.0)
     planned = _driven([(10.0, 5.0)], paces=[(0.0, 10.0)])
     plain = _driven([(10.0, 5.0)])
     assert _ahead(planned, dt)[60] > _ahead(plain, dt)[60] + 100.0  # (to its 10 m/s)
     planned.set_drive(drive)
+    plain.set_drive(drive)
     assert _ahead(planned, dt) == pytest.approx(_ahead(plain, dt))
     keeps = ConvoyModel(STRAIGHT)
     keeps.set_route(STRAIGHT, keeps_speed=True)
@@ -529,6 +531,120 @@ def test_sent_home_but_driving_elsewhere_it_is_forecast_from_its_own_velocity() 
     assert not model.astray
     x, y = model.positions(t + 2.0 + np.array([0.0, 10.0]))
     assert (x[1], y[1]) == pytest.approx((east, north + gone))
+
+
+# East 400 m, then north 300 m, at 8 m/s: the path the lead is seen to drive.
+_L = [(0.0, 0.0), (400.0, 0.0), (400.0, 300.0)]
+
+
+def _off_l(x: npt.NDArray[np.float64], y: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    """How far each (x, y) is from ``_L`` and its straight run on north."""
+    first = np.hypot(np.clip(x, 0.0, 400.0) - x, y)
+    second = np.hypot(x - 400.0, np.clip(y, 0.0, 400.0) - y)
+    return np.asarray(np.minimum(first, second))
+
+
+def _drove_l() -> tuple[ConvoyModel, float]:
+    """A convoy with no route seen driving ``_L``, an estimate a second: the model, and
+    the time of its last estimate."""
+    model = ConvoyModel(None)
+    t = 0.0
+    for a, b in itertools.pairwise(_L):
+        legs = round(math.dist(a, b) / 8.0)
+        vx, vy = (b[0] - a[0]) / legs, (b[1] - a[1]) / legs
+        for k in range(legs):
+            model.observe(ConvoyEstimate(t, a[1] + vy * k, a[0] + vx * k, vy, vx))
+            t += 1.0
+    model.observe(ConvoyEstimate(t, 300.0, 400.0, 8.0, 0.0))
+    return model, t
+
+
+def test_sent_home_back_along_its_path_it_is_forecast_round_its_corners_to_its_start() -> None:
+    """SMART_RTL: it brakes on its way and turns round (as to go home), then drives back
+    along the path it was seen to drive at its speed, round its corner, to where it was
+    first seen, and stands there."""
+    model, t = _drove_l()
+    model.set_drive(ConvoyDrive.RETRACE)
+    assert model.motion is not None and model.motion.on_route is None
+    dt = np.arange(0.0, 150.0, 0.5)
+    x, y = model.positions(t + dt)
+    assert np.all(_off_l(x, y) < 6.0)  # (its corner rounded by the 15-m smoothing)
+    assert y.max() == pytest.approx(300.0 + 30.0, abs=3.0)  # (8 -> 2 m/s at 1 m/s^2: 30 m)
+    assert np.hypot(x - 400.0, y).min() < 10.0  # (round its corner)
+    home = np.hypot(x, y) < 1.0
+    assert home[-1] and np.all(home[np.argmax(home) :])  # (there, and standing)
+    # 30 m braking, 730 m back from 2 m/s up to 8 at 1 m/s^2: home 6 + 3 + 95 s on.
+    assert dt[np.argmax(home)] == pytest.approx(6.0 + 3.0 + (730.0 - 15.0) / 8.0, abs=3.0)
+
+
+def test_a_rover_seen_to_take_its_corners_slowly_takes_those_of_its_way_back_so() -> None:
+    """Its firmware slows for a sharp corner whatever mode drives it: seen to take its
+    route's at 2.4 m/s (``CornerHabit``), it is forecast through the corner of its way
+    back at about that, and home some 6 s later than at its speed."""
+    fast, t = _drove_l()
+    slow, _ = _drove_l()
+    slow.corner_habit.samples.extend([2.4, 2.4])
+    dt = np.arange(0.0, 150.0, 0.25)
+    homes = []
+    for model in (fast, slow):
+        model.set_drive(ConvoyDrive.RETRACE)
+        x, y = model.positions(t + dt)
+        home = np.hypot(x, y) < 1.0
+        homes.append(float(dt[np.argmax(home)]))
+        corner = np.hypot(x - 400.0, y) < 10.0
+        speed = np.hypot(np.diff(x), np.diff(y)) / 0.25
+        assert np.all(_off_l(x, y) < 6.0)
+        if model is slow:
+            assert speed[corner[1:]].min() < 3.0
+        else:
+            assert speed[corner[1:]].min() > 7.9
+    assert 4.0 < homes[1] - homes[0] < 10.0, homes
+
+
+def test_on_its_way_back_it_is_forecast_on_from_where_it_is_or_from_its_velocity_astray() -> None:
+    """Driving back down its second leg it is forecast on along its path from there (not
+    turned round again); 5 s heading elsewhere, from its own velocity; told otherwise,
+    the way back is dropped."""
+    model, t = _drove_l()
+    model.set_drive(ConvoyDrive.RETRACE)
+    for north in np.arange(296.0, 100.0, -8.0):  # (turned round: south at 8 m/s)
+        t += 1.0
+        model.observe(ConvoyEstimate(t, float(north), 400.0, -8.0, 0.0))
+    est = model.estimate
+    assert est is not None
+    x, y = model.positions(est.t + np.array([10.0, 30.0]))
+    assert (x[0], y[0]) == pytest.approx((400.0, est.north - 80.0), abs=2.0)
+    assert y[1] == pytest.approx(0.0, abs=6.0) and x[1] < 400.0 - 100.0  # (round the corner)
+    for k in range(6):  # (then east, off its path: astray after 5 s)
+        t += 1.0
+        model.observe(ConvoyEstimate(t, est.north, 400.0 + 8.0 * (k + 1), 0.0, 8.0))
+    assert model.astray
+    x, y = model.positions(t + np.array([10.0]))
+    assert (x[0], y[0]) == pytest.approx((448.0 + 80.0, est.north))
+    model.set_drive(ConvoyDrive.OTHER)  # (a driver takes it)
+    assert model._retrace is None and not model.astray
+
+
+def test_sent_home_again_it_drives_back_what_it_had_not_yet_and_what_it_drove_since() -> None:
+    """Out of SMART_RTL halfway back down its second leg, then east 100 m, then SMART_RTL
+    again: back west the 100 m, then on to the next point of its path it had not reached
+    and home from there, not up to where it first turned round (the points it reached
+    are off its path; the rover's own, which takes off each point as it sets off for it,
+    goes back to the one after)."""
+    model, t = _drove_l()
+    model.set_drive(ConvoyDrive.RETRACE)
+    for north in np.arange(296.0, 150.0, -8.0):
+        t += 1.0
+        model.observe(ConvoyEstimate(t, float(north), 400.0, -8.0, 0.0))
+    model.set_drive(ConvoyDrive.OTHER)
+    for east in np.arange(408.0, 501.0, 8.0):  # (a driver takes it east)
+        t += 1.0
+        model.observe(ConvoyEstimate(t, 152.0, float(east), 0.0, 8.0))
+    model.set_drive(ConvoyDrive.RETRACE)
+    x, y = model.positions(t + np.arange(0.0, 120.0, 0.5))
+    assert y.max() < 152.0 + 8.0  # (never back up to 300 m)
+    assert np.all(x < 496.0 + 31.0) and np.hypot(x - 400.0, y).min() < 10.0  # (turned round)
+    assert np.hypot(x, y).min() < 1.0
 
 
 def test_back_in_auto_after_rtl_it_drives_straight_to_its_waypoint_then_its_route_on() -> None:

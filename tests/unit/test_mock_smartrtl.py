@@ -12,8 +12,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from convoy_mav.planning.polyline import prune_loops, simplify
 from sitl_mock import smartrtl
-from sitl_mock.smartrtl import SmartPath, prune_loops, simplify
+from sitl_mock.smartrtl import SmartPath
 
 
 def _drive(path: SmartPath, corners: list[tuple[float, float]], step: float = 0.8) -> list[str]:
@@ -88,7 +89,7 @@ def test_a_full_path_is_searched_for_loops_only_when_it_has_new_points(
     """Low on space with nothing to cut, it does not search the whole path again at
     every step (ArduPilot restarts its loop search only on newly simplified points)."""
     searched = []
-    real = smartrtl.prune_loops
+    real = prune_loops
 
     def counted(points: list[tuple[float, float]], delta: float) -> list[tuple[float, float]]:
         searched.append(len(points))

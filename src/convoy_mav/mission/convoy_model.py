@@ -106,7 +106,9 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from convoy_mav.errors import PlanningError
 from convoy_mav.mission.corners import CornerHabit, warp
+from convoy_mav.mission.retrace import DrivenPath
 from convoy_mav.planning.road import Road
 from convoy_mav.types import ConvoyDrive, ConvoyEstimate
 
@@ -130,6 +132,9 @@ _TURN_ACCEL = 1.0  # m/s^2: turned round (RTL) or pulling away, it speeds up at 
 _TURN_ROUND_RAD = math.radians(60.0)  # its way this far off its heading: it turns round ...
 _TURN_ROUND_MPS = 2.0  # ... braking at _TURN_ACCEL along its heading to this first
 _ASTRAY_S = 5.0  # s: on its own way, past its turn round, heading elsewhere this long ...
+_RETRACE_AIM_M = 10.0  # back along its path: it heads for the point this far on along it
+_RETRACE_NEAR_M = 100.0  # ... its place on that way searched this near the last
+_RETRACED_M = 5.0  # ... and the points of its path it passes this near are taken off
 _HOLD_BEHIND_M = 5.0  # a hold not stood at is still ahead until this far behind
 HOLD_ACCEL = 1.0  # m/s^2: braking into a planned hold and pulling away from it
 _PLAN_STEP = 0.25  # s: the timetable's grid
@@ -228,6 +233,9 @@ class ConvoyModel:
         self._going: tuple[float, float] | None = None  # (x, y) it drives straight to, home
         self._rejoin: tuple[float, float, float] | None = None  # (x, y, arc): back to its route
         self._left: tuple[float, float, float] | None = None  # (arc, x, y) where sent home
+        self._path = DrivenPath()  # the path it was seen to drive, as it keeps it for SMART_RTL
+        self._retrace: Road | None = None  # back along that path (RETRACE), and how far on
+        self._retrace_s = 0.0
         # On a way of its own (home, back to its route): from when, how long its turn
         # round may take, and since when it has driven elsewhere (``_check_way``).
         self._way_from = (math.nan, 0.0)
@@ -264,6 +272,11 @@ class ConvoyModel:
         return self.left_route or self._leaving or (road is not None and self._s > road.length)
 
     @property
+    def _own_way(self) -> bool:
+        """On a way of its own, off its route: home, back along its path, or back to it."""
+        return self._going is not None or self._retrace is not None or self._rejoin is not None
+
+    @property
     def motion(self) -> RoadMotion | None:
         """Speed and route status now, None before the first estimate."""
         est = self._est
@@ -271,7 +284,7 @@ class ConvoyModel:
             return None
         if self.route is None:
             return RoadMotion(est.t, est.speed, None)
-        if self._going is not None or self._rejoin is not None:  # (off its route)
+        if self._own_way:  # (off its route)
             return RoadMotion(est.t, est.speed, False)
         off = self._off_road
         return RoadMotion(est.t, est.speed if off else self._along, not off)
@@ -318,7 +331,9 @@ class ConvoyModel:
         starts again, as ArduRover restarts the waypoint it stands at. On its way home
         (``HOME``) to ``destination`` (x, y: the lead's home), it is forecast to drive
         straight there and stand, whatever its route (``ModeRTL``); not knowing where
-        home is, from its own velocity, as off its route. Back in its mission with a
+        home is, from its own velocity, as off its route. On its way home back along its
+        path (``RETRACE``), back along the path it was seen to drive, to its first point,
+        and stand there (``ModeSmartRTL``). Back in its mission with a
         ``destination`` (the waypoint it was driving to when sent home), straight to it
         and on along the route from there, as ``AP_Mission::resume`` drives it."""
         was, self._drive = self._drive, drive
@@ -330,10 +345,15 @@ class ConvoyModel:
             self._way_from = (est.t, turn + _ASTRAY_S)
         if drive is not was or self._going != going:  # (where it goes is new: watched anew)
             self._astray_since, self.astray = None, False
-        if drive is ConvoyDrive.HOME and was is not ConvoyDrive.HOME:
+        homeward = (ConvoyDrive.HOME, ConvoyDrive.RETRACE)
+        if drive in homeward and was not in homeward:
             on = route is not None and not (self._off_road or self._reversed)
             self._left = (self._s, est.east, est.north) if on and est is not None else None
             self._way_top = max(0.0 if est is None else est.speed, self._cruise or 0.0)
+        if drive is ConvoyDrive.RETRACE and was is not ConvoyDrive.RETRACE:
+            self._retrace, self._retrace_s = self._way_back(), 0.0
+        elif drive is not ConvoyDrive.RETRACE:
+            self._retrace = None
         if drive is ConvoyDrive.MISSION and destination is not None and route is not None:
             self._rejoin = (*destination, self._rejoin_arc(route, destination))
         back = drive is ConvoyDrive.MISSION and was not in (None, ConvoyDrive.MISSION)
@@ -352,6 +372,26 @@ class ConvoyModel:
         arc, x, y = left
         return road.project(*point, arc, window=math.dist((x, y), point) + _REJOINED_M)
 
+    def _way_back(self) -> Road | None:
+        """The way back along the path it was seen to drive, from where it is (its
+        newest point) to the first: None if it was seen to drive none."""
+        way = self._path.way_back()
+        if len(way) < 2:
+            return None
+        xs, ys = zip(*way, strict=True)
+        try:
+            return Road.from_points(xs, ys)
+        except PlanningError:  # (points within a metre of each other: it drove nowhere)
+            return None
+
+    def _retrace_goal(self) -> tuple[float, float] | None:
+        """Back along its path: the point a little on along that way it heads for."""
+        road = self._retrace
+        if road is None:
+            return None
+        p = road.point(min(self._retrace_s + _RETRACE_AIM_M, road.length))
+        return p.x, p.y
+
     def _check_way(self, est: ConvoyEstimate) -> None:
         """Whether the convoy drives the way of its own it is forecast to (home, or back
         to its route). Past the time its turn round takes (braking from its speed then at
@@ -359,7 +399,8 @@ class ConvoyModel:
         or more over ``_TURNING_OFF_RAD`` off the way there is ``astray``: a rally point
         nearer than home, a home moved, a mode read wrong. It is then forecast from its
         own velocity (and back on its route, by its route) until it heads there again."""
-        goal = self._going or (None if self._rejoin is None else self._rejoin[:2])
+        goal = self._going or self._retrace_goal()
+        goal = goal or (None if self._rejoin is None else self._rejoin[:2])
         since, grace = self._way_from
         if goal is None or not est.t - since > grace or est.speed < _CRUISING_MPS:
             self._astray_since = None
@@ -392,6 +433,14 @@ class ConvoyModel:
             return
         first = self._est is None
         self._est = est
+        if self._drive is ConvoyDrive.RETRACE:
+            self._path.reached(est.east, est.north, _RETRACED_M)
+            road = self._retrace
+            if road is not None:
+                on = road.project(est.east, est.north, self._retrace_s, _RETRACE_NEAR_M)
+                self._retrace_s = min(max(self._retrace_s, on), road.length)
+        else:
+            self._path.add(est.east, est.north)
         self._check_way(est)
         rejoin = self._rejoin
         if (
@@ -432,7 +481,7 @@ class ConvoyModel:
             and off > _TURNING_OFF_M
             and along < est.speed * math.cos(_TURNING_OFF_RAD)
         )
-        if self._along >= _CRUISING_MPS and self._going is None and self._rejoin is None:
+        if self._along >= _CRUISING_MPS and not self._own_way:
             self._cruise = self._along  # (not off its route on a way of its own)
         if self._along >= _STANDING_MPS:
             self._stood_since = None
@@ -587,9 +636,11 @@ class ConvoyModel:
         if est is None:
             return np.zeros(len(times)), np.zeros(len(times))
         dt = _since(times, est)
-        if self._going is not None:
+        if self._going is not None or self._retrace is not None:
             if self.astray:
                 return est.east + est.ve * dt, est.north + est.vn * dt
+            if self._retrace is not None:
+                return self._retracing(est, dt, self._retrace)
             return self._homeward(est, dt)
         road = self.road
         if self._rejoin is not None and self.route is not None:
@@ -603,6 +654,33 @@ class ConvoyModel:
         """Its own way to where it is going (``set_drive``), and standing there."""
         assert self._going is not None
         x, y, _, _ = self._way(est, self._going, dt)
+        return x, y
+
+    def _retracing(
+        self, est: ConvoyEstimate, dt: FloatArray, way: Road
+    ) -> tuple[FloatArray, FloatArray]:
+        """Back along the path it was seen to drive (``set_drive``): its own way
+        (``_way``: turned round if it must) to the point it heads for on that path, then
+        on along it at the speed of its own way, standing at its end, its first point.
+        A rover that was seen to take its route's corners slowly (``CornerHabit``)
+        takes the corners of its way back so too: its firmware slows for them whatever
+        mode drives it."""
+        goal_s = min(self._retrace_s + _RETRACE_AIM_M, way.length)
+        goal = way.point(goal_s)
+        x, y, gone, far = self._way(est, (goal.x, goal.y), dt)
+        past = gone > far
+        if not past.any():
+            return x, y
+        arcs = goal_s + gone - far
+        corner = self.corner_habit.speed
+        top = max(est.speed, self._cruise or 0.0, self._way_top)
+        if corner is not None and corner < CORNER_RATIO * top:
+            grid = np.arange(0.0, float(np.max(dt)) + _PLAN_STEP, _PLAN_STEP)
+            _, _, ahead, _ = self._way(est, (goal.x, goal.y), grid)
+            timetable = goal_s + np.maximum(ahead - far, 0.0)
+            cap = self.corner_habit.cap(way, corner, HOLD_ACCEL)
+            arcs = np.interp(dt, grid, warp(timetable, _PLAN_STEP, cap, 0.0))
+        x[past], y[past], _, _ = way.arrays(np.minimum(arcs[past], way.length))
         return x, y
 
     def _way(
@@ -910,7 +988,7 @@ class ConvoyModel:
         route = self.road
         if est is None or route is None or self._off_road or self._along < _MOVING_MPS:
             return None
-        if self._going is not None or self._rejoin is not None:
+        if self._own_way:
             return None
         s = self._s + self.ahead(_since(times, est))
         ahead = np.arange(self._s, float(s[-1]) + short_m, _CORNER_STEP_M)
@@ -948,7 +1026,7 @@ class ConvoyModel:
         cruise = self._cruise
         if est is None or route is None or self._off_road or cruise is None:
             return None
-        if self._going is not None or self._rejoin is not None:
+        if self._own_way:
             return None
         if self._along >= below_mps:
             return None
