@@ -62,6 +62,8 @@
 # again FOR s later; drive --rtl-at): the service forecasts it home and back.
 # ROVER_RALLY=METRES uploads a rally point that far to its left before each RTL (drive
 # --rally-left): the service reads it and forecasts the convoy there.
+# ROVER_SMART_RTL="AT:FOR ..." sends it home back along its path (SMART_RTL at boot time
+# AT s, AUTO again FOR s later; drive --smart-rtl-at): forecast back along that path.
 #
 # SITL_DIR is an ArduPilot tree with build/sitl/bin/arducopter and arduplane built
 # (see the project's notes on building SITL; it is not part of `make test`).
@@ -158,6 +160,7 @@ PY
     for m in ${ROVER_MOVES:-}; do holds+=(--move-at "$m"); done  # (... and its edits)
     for r in ${ROVER_RTL:-}; do holds+=(--rtl-at "$r"); done  # (... and its RTLs)
     [ -n "${ROVER_RALLY:-}" ] && holds+=(--rally-left "$ROVER_RALLY")  # (... to a rally point)
+    for r in ${ROVER_SMART_RTL:-}; do holds+=(--smart-rtl-at "$r"); done  # (... and SMART_RTLs)
     "$py" checks/rover_mission.py drive tcp:127.0.0.1:5962 "$out/road.csv" "$mission_speed" \
       "${holds[@]}" >"$out/rover_drive.log" 2>&1 &
     pids+=($!)

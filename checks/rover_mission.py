@@ -36,6 +36,8 @@ again at boot time AT s, as it drives; each prints the answer and the texts it s
 AUTO again FOR s later; each prints how far from home it stood and its speed in AUTO;
 with ``--rally-left METRES`` a rally point that far to its left is uploaded first
 (ArduRover drives there if it is nearer than home and within RALLY_LIMIT_KM).
+``--smart-rtl-at AT:FOR`` (repeatable) is the same with SMART_RTL: home back along the
+path it drove.
 
 ``compare`` sets the drive of a real rover (its GLOBAL_POSITION_INT in a tlog, from when
 it first moves to when it last does) beside the mock's rover driving the same road as
@@ -75,6 +77,7 @@ RALLY = mavlink.MAV_MISSION_TYPE_RALLY
 ROVER_AUTO = 10  # ArduRover's custom modes
 ROVER_HOLD = 4
 ROVER_RTL = 11
+ROVER_SMART_RTL = 12
 REL = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
 FIRST = ((-35.3620, 149.1650), (-35.3600, 149.1650), (-35.3600, 149.1680))
 SECOND = (*FIRST, (-35.3620, 149.1680), (-35.3630, 149.1660))
@@ -208,6 +211,7 @@ def drive(
     moves: Sequence[tuple[float, float]] = (),
     rtls: Sequence[tuple[float, float]] = (),
     rally_left: float | None = None,
+    smart_rtls: Sequence[tuple[float, float]] = (),
 ) -> int:
     """Upload the road, AUTO, arm (see the module's ``drive``)."""
     link = mavutil.mavlink_connection(connection, source_system=250, source_component=190)
@@ -223,7 +227,7 @@ def drive(
         print("the rover refused to arm")
         return 1
     print(f"{time.strftime('%H:%M:%S')} armed in AUTO", flush=True)
-    return _operator(link, target, holds, speeds, moves, items, rtls, rally_left)
+    return _operator(link, target, holds, speeds, moves, items, rtls, rally_left, smart_rtls)
 
 
 def hail(link: Any) -> tuple[int, int] | None:
@@ -368,12 +372,14 @@ def _operator(
     items: list[Any] | None = None,
     rtls: Sequence[tuple[float, float]] = (),
     rally_left: float | None = None,
+    smart_rtls: Sequence[tuple[float, float]] = (),
 ) -> int:
     """HOLD at each (boot time, seconds), then AUTO; DO_CHANGE_SPEED at each (boot time,
     m/s); the mission uploaded again with a waypoint ahead moved at each (boot time,
     metres east); RTL at each (boot time, seconds), then AUTO (with ``rally_left``, a
-    rally point that far to its left uploaded first); what the rover did, printed."""
-    if not holds and not speeds and not moves and not rtls:
+    rally point that far to its left uploaded first); SMART_RTL at each, then AUTO; what
+    the rover did, printed."""
+    if not holds and not speeds and not moves and not rtls and not smart_rtls:
         return 0
     link.mav.request_data_stream_send(*target, mavlink.MAV_DATA_STREAM_POSITION, 4, 1)
     frame: LocalFrame | None = None
@@ -394,7 +400,8 @@ def _operator(
     plan = sorted([(at, "hold", seconds) for at, seconds in holds] +
                   [(at, "speed", mps) for at, mps in speeds] +
                   [(at, "move", metres) for at, metres in moves] +
-                  [(at, "rtl", seconds) for at, seconds in rtls])  # fmt: skip
+                  [(at, "rtl", seconds) for at, seconds in rtls] +
+                  [(at, "smart", seconds) for at, seconds in smart_rtls])  # fmt: skip
     home = (0.0, 0.0)  # (north, east: the frame's origin is its first fix, where it armed)
     for at, kind, value in plan:
         t, n0, e0, v0 = fix()
@@ -429,22 +436,23 @@ def _operator(
                   f"{said}; 10-20 s later {min(speeds_seen[-10:]):.1f}-"
                   f"{max(speeds_seen[-10:]):.1f} m/s", flush=True)  # fmt: skip
             continue
-        if kind == "rtl":
-            goal, to = home, "home"
-            if rally_left is not None and frame is not None:
+        if kind in ("rtl", "smart"):
+            goal, to = home, "home" if kind == "rtl" else "home back along its path"
+            if kind == "rtl" and rally_left is not None and frame is not None:
                 _, n1, e1, _ = fix()
                 left = math.atan2(e1 - e0, n1 - n0) - math.pi / 2.0
                 goal = (n1 + rally_left * math.cos(left), e1 + rally_left * math.sin(left))
                 answer = upload(link, target, [_rally_item(target, frame, goal)], RALLY)
                 to = f"a rally point {rally_left:.0f} m to its left ({answer})"
-            link.mav.set_mode_send(target[0], flag, ROVER_RTL)
+            link.mav.set_mode_send(target[0], flag, ROVER_RTL if kind == "rtl" else ROVER_SMART_RTL)
             while t < at + value:
                 t, n, e, v = fix()
             off = math.dist((n, e), goal)
             link.mav.set_mode_send(target[0], flag, ROVER_AUTO)
             while t < at + value + 15.0:
                 t, _, _, v_auto = fix()
-            print(f"RTL at {at:.0f} s (boot), {v0:.1f} m/s, {math.dist((n0, e0), home):.0f} m "
+            name = "RTL" if kind == "rtl" else "SMART_RTL"
+            print(f"{name} at {at:.0f} s (boot), {v0:.1f} m/s, {math.dist((n0, e0), home):.0f} m "
                   f"from home, to {to}: {off:.1f} m from it at {at + value:.0f} s, {v:.1f} m/s; "
                   f"AUTO: {v_auto:.1f} m/s 15 s later", flush=True)  # fmt: skip
             continue
@@ -623,6 +631,10 @@ def main() -> int:
         "--rally-left", type=float, metavar="METRES",
         help="before each RTL, upload a rally point METRES to the rover's left",
     )  # fmt: skip
+    d.add_argument(
+        "--smart-rtl-at", action="append", default=[], type=_pair, metavar="AT:FOR",
+        help="SMART_RTL at the rover's boot time AT s, AUTO again FOR s later (repeatable)",
+    )  # fmt: skip
     c = sub.add_parser("compare", help="a rover's drive in a tlog against the mock's rover")
     c.add_argument("tlog", help="the tlog of the rover's drive")
     c.add_argument("road", help="the CSV time,lat,lon it was sent down (``drive``)")
@@ -635,7 +647,7 @@ def main() -> int:
     if args.command == "drive":
         return drive(
             args.connection, args.road, args.speed, args.hold, args.speed_at, args.move_at,
-            args.rtl_at, args.rally_left,
+            args.rtl_at, args.rally_left, args.smart_rtl_at,
         )  # fmt: skip
     return read(args)
 

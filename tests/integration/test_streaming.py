@@ -308,7 +308,10 @@ async def test_a_fleet_heard_again_after_a_silence_is_no_late_round(first: int) 
     assert clock.silences == 1
     times = [sp.t for _, sp in vehicle.sent]
     assert max(b - a for a, b in itertools.pairwise(times)) > 4.0  # mission time stepped on
-    assert streamer.widest_gap_s < 0.5
+    # The step over the silence, taken for a late round, would be over 4 s; the loop's
+    # own lateness on a busy host is what is left (a CI run beside the suite's other
+    # worker: 1.04 mission s, 52 ms of wall time at 20x).
+    assert streamer.widest_gap_s < 2.0
 
 
 async def test_a_paused_simulator_steps_the_clock_and_streaming_goes_on() -> None:
