@@ -86,6 +86,9 @@ Design rules:
   learnt as the rover's: a driver keeps none of them. Braking and pulling away are
   still forecast from its fixes: forecast from the mode (at once, seconds before the
   fixes show them) they measured no better in simulation (``docs/road-planner.md``).
+  Sent home, it is forecast there: straight to its home (RTL), or back along the path
+  it was seen to drive (SMART_RTL: ``mission.retrace``, kept as the rover keeps its
+  own), turned round first if it must be and slowed through the corners as learnt.
 - A route known to be a circuit (``circuit``: a rover's mission that jumps
   back to its first waypoint, DO_JUMP, closed by the drive back there) is
   lapped: past its end the convoy is on the next lap at once, not driving
