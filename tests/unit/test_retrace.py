@@ -144,9 +144,7 @@ def test_a_convoy_sent_home_back_along_its_path_is_forecast_round_its_corners() 
     forecast from its own velocity (as a driver's drive, or no mode heard) the corners
     come unforeseen (simulation, 7 UAVs, no route: 96.2 % and 5-s gaps, now 99.6 %)."""
     rt = drive("there and back", _OUT + _BACK, Drive(((0.0, 8.0),), end_stop_s=60.0), noise_m=1.0)
-    driven = np.concatenate(
-        ([0.0], np.cumsum(np.hypot(np.diff(rt.true_north), np.diff(rt.true_east))))
-    )
+    driven = path_lengths(zip(rt.true_north.tolist(), rt.true_east.tolist(), strict=True))
     turn = float(rt.t[np.searchsorted(driven, sum(p.arc_length for p in _OUT))])
     request = PlanRequest(150.0, 100.0, 18.0)
     runs = {
