@@ -89,6 +89,11 @@ speed (at least the turn radius): ArduPlane's L1 distance, ``damping * period * 
 with SITL's ``NAVL1_PERIOD`` 15 and the default damping 0.75 (79 m at 22 m/s). A plane
 a few L1 distances off a km-wide loiter turns onto it in seconds (its PD on the radial
 error has the period's time scale, whatever the radius), not over a km."""
+_CAPTURE_EASE = 2.0
+"""Capture lengths off its loiter beyond which a plane flies straight at the centre, as
+L1's capture law has it from about one L1 distance out (``AP_L1_Control::update_loiter``);
+the vector field is eased into that line over twice the length, so a plane turning no
+tighter than the mock's turn radius meets the circle as smoothly as it did before."""
 _COPTER_STOP_ANGLE = 0.25 * math.pi
 """A copter whose velocity points further than this from the wanted one brakes first."""
 _HOLD_DEADBAND = 0.05
@@ -447,7 +452,13 @@ class Aircraft:
         elif mode == _M_LOITER:
             # Vector field around the circle (Nelson et al. 2007): tangent on it, 45 deg
             # inward one capture length outside; its derivative along the motion is fed
-            # forward.
+            # forward. A plane further out than ``_CAPTURE_EASE`` capture lengths flies
+            # straight at the centre, as ArduPlane's L1 does (``update_loiter``: its
+            # capture law holds while ``xtrackErrCirc * Kx`` outweighs ``V * Kv``, that
+            # is beyond ``V * Kv / Kx``, one L1 distance), and the field is eased into
+            # that line in between, its slope kept at both ends. (The field alone still
+            # pointed 13 deg off the centre of a straight leg's carrot, 600 m ahead: the
+            # mock's planes drifted 26 m off their legs in the median, SITL's 2.4 m.)
             rn = s.north - self._pn
             re = s.east - self._pe
             d2 = rn * rn + re * re
@@ -462,11 +473,25 @@ class Aircraft:
                 radius += self._lag2 * v0 * v0 / radius
             capture = max(self.params.min_turn_radius, _L1_S * v0)
             kc = _LOITER_SHARPNESS / (radius if radius < capture else capture)
-            x = kc * (d - radius)
-            chi = math.atan2(re, rn) + sign * (_HALF_PI + math.atan(x))
-            chi_rate = (rn * ge - re * gn) / d2 + sign * kc / (1.0 + x * x) * (
-                rn * gn + re * ge
-            ) / d
+            off = d - radius
+            if copter or off <= 0.0:
+                x = kc * off
+                inward = math.atan(x)
+                slope = kc / (1.0 + x * x)
+            elif off < _CAPTURE_EASE * capture:  # (L1's circle mode, eased into its line in)
+                x = kc * off
+                u = off / (_CAPTURE_EASE * capture)
+                w = u * u * (3.0 - 2.0 * u)  # (smoothstep: the field's slope kept at both ends)
+                field = math.atan(x)
+                inward = field + (_HALF_PI - field) * w
+                slope = kc / (1.0 + x * x) * (1.0 - w) + (_HALF_PI - field) * 6.0 * u * (
+                    1.0 - u
+                ) / (_CAPTURE_EASE * capture)
+            else:  # L1's capture: straight at the centre
+                inward = _HALF_PI
+                slope = 0.0
+            chi = math.atan2(re, rn) + sign * (_HALF_PI + inward)
+            chi_rate = (rn * ge - re * gn) / d2 + sign * slope * (rn * gn + re * ge) / d
             if copter:
                 c = vcmd * math.cos(chi)
                 sn = vcmd * math.sin(chi)
