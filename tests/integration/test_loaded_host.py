@@ -48,9 +48,15 @@ DURATION = 300.0
 FREEZE_AT, FREEZE_S = 200.0, 0.8  # mission s: the loop frozen this long at this time
 # (past the 0.5 s the service calls late, short of PX4's 1-s offboard loss)
 ROOT = Path(__file__).resolve().parents[2]
-_BUSY = "import math\nx = 0.0\nwhile True:\n    x = math.sin(x + 1.0)\n"
+# (Each ends once its parent has gone: a test session killed before the fixture's
+# teardown left them burning, and every measurement on the host after it was off.)
+_BUSY = (
+    "import math, os\nparent = os.getppid()\nx = 0.0\nn = 0\n"
+    "while n % 100000 or os.getppid() == parent:\n    x = math.sin(x + 1.0)\n    n += 1\n"
+)
 _BIG = (  # (a page of each 4 KiB touched in turn: memory traffic, not just CPU)
-    "import time\nblob = bytearray(400 << 20)\nwhile True:\n"
+    "import os, time\nparent = os.getppid()\nblob = bytearray(400 << 20)\n"
+    "while os.getppid() == parent:\n"
     "    blob[::4096] = b'x' * len(blob[::4096])\n    time.sleep(0.01)\n"
 )
 _ENDPOINT = re.compile(
