@@ -256,14 +256,17 @@ class Firmware:
     def loiter_circle(self, param3: float, param4: float, default: float) -> tuple[float, bool]:
         """Radius and clockwise flag of a DO_REPOSITION loiter (planes).
 
-        ArduPlane: radius from param3 when > 0, counter-clockwise when param4 is
-        non-zero (``handle_command_int_do_reposition``). PX4 has no documented
+        ArduPlane: radius from param3 when > 0, cut to whole metres up to 65535
+        (``ModeGuided::set_radius_and_direction``, ``constrain_int32`` to ``UINT16_MAX``:
+        a wider loiter is flown at that radius about its far centre), counter-clockwise
+        when param4 is non-zero (``handle_command_int_do_reposition``). PX4 has no documented
         radius parameter; the mock reads |param3| as the radius and a negative
         param3 as counter-clockwise, as recent PX4 builds do, and otherwise uses
         NAV_LOITER_RAD clockwise.
         """
         if self.is_ardupilot:
-            radius = param3 if math.isfinite(param3) and param3 > 0.0 else default
+            given = math.isfinite(param3) and param3 > 0.0
+            radius = (float(min(int(param3), _UINT16_MAX)) if given else 0.0) or default
             ccw = math.isfinite(param4) and param4 != 0.0
             return radius, not ccw
         if math.isfinite(param3) and param3 != 0.0:
@@ -282,6 +285,7 @@ class Firmware:
 
 
 # ============================================================================ tables
+_UINT16_MAX = 65535
 _PX4_AUTO = 4
 _PX4_SUB_MISSION = 4
 

@@ -470,8 +470,8 @@ def test_arduplane_reposition_only_when_the_arc_changes() -> None:
     assert msg.command == M.MAV_CMD_DO_REPOSITION
     assert msg.frame == M.MAV_FRAME_GLOBAL_INT
     centre = FRAME.to_geo(0.0, 0.0, -40.0)
-    # (L1 flies it EAS2TAS^2 wider: commanded that much tighter)
-    assert msg.param3 == pytest.approx(120.0 / eas2tas_squared(centre.alt), abs=1e-3)
+    # (L1 flies it EAS2TAS^2 wider: commanded that much tighter, in whole metres)
+    assert msg.param3 == round(120.0 / eas2tas_squared(centre.alt))
     assert msg.param4 == 1.0
     assert (msg.x, msg.y) == (round(centre.lat * 1e7), round(centre.lon * 1e7))
     assert msg.z == pytest.approx(centre.alt)
@@ -554,11 +554,42 @@ def test_arduplane_carrots_and_holds_carry_a_radius_once_an_arc_had_one() -> Non
     assert msg.param3 == pytest.approx(2000.0 / scale, abs=0.5)
     ap.on_ack(M.MAV_CMD_DO_REPOSITION, M.MAV_RESULT_ACCEPTED, 1.1)
     (msg,) = ap.setpoint_messages(replace(east, t=2.0), 2.0, None)  # a straight again
-    assert msg.param3 == pytest.approx(ap.model.command_radius(0.25 * ap.carrot, scale))
+    assert msg.param3 == round(ap.model.command_radius(0.25 * ap.carrot, scale))
     ap.setpoint_messages(circle_setpoint(0.5, radius=120.0), 3.0, None)
     hold = replace(east, t=4.0, vn=0.0, ve=0.0, hold=True)
     (msg,) = ap.setpoint_messages(hold, 4.0, None)
-    assert msg.param3 == pytest.approx(ap.model.command_radius(120.0, scale))  # the tightest
+    assert msg.param3 == round(ap.model.command_radius(120.0, scale))  # the tightest
+
+
+def test_an_arc_wider_than_arduplane_takes_is_flown_as_the_straight_it_nearly_is() -> None:
+    """ArduPlane cuts a loiter's radius to 65535 m (``set_radius_and_direction``): SITL
+    told an arc of 180 km flew at its centre, 190 km off, until the next one. Wider
+    arcs go as carrots along their tangent, moved on as straights are."""
+    ap = plane()
+    wide = circle_setpoint(0.0, radius=180_000.0)  # (at the arc's top, heading east)
+    (msg,) = ap.setpoint_messages(wide, 0.0, None)
+    assert msg.command == M.MAV_CMD_DO_REPOSITION
+    assert ap.loiter is not None
+    assert ap.loiter[:2] == pytest.approx((wide.north, wide.east + ap.carrot))
+    assert msg.param3 < 1000.0  # (a carrot's radius: nothing given yet, 0)
+    assert ap.arc is None  # (not learnt from as a loiter)
+    ap.on_ack(M.MAV_CMD_DO_REPOSITION, M.MAV_RESULT_ACCEPTED, 0.1)
+    on = circle_setpoint(0.05 * ap.carrot / 180_000.0, radius=180_000.0)
+    assert ap.setpoint_messages(on, 1.0, None) == []
+    (msg,) = ap.setpoint_messages(circle_setpoint(0.0, radius=60_000.0), 2.0, None)
+    assert msg.param3 == round(60_000.0 / eas2tas_squared(FRAME.origin.alt + 40.0))
+
+
+def test_the_mock_arduplane_cuts_a_loiters_radius_to_65535_m() -> None:
+    gcs = warm_gcs(make_vehicle(AP, "plane"))
+    ap = plane()
+    assert send_and_ack(gcs, ap.mode_command("GUIDED").message(1, 1))[0].result == 0
+    assert send_and_ack(gcs, ap.arm_command().message(1, 1))[0].result == 0
+    msg = ap.reposition(0.0, 180_000.0, -40.0, 180_000.0, True)
+    assert send_and_ack(gcs, msg)[0].result == M.MAV_RESULT_ACCEPTED
+    goal = gcs.vehicle.flight.goal
+    assert isinstance(goal, Loiter)
+    assert goal.radius == pytest.approx(65535.0 * eas2tas_squared(FRAME.origin.alt + 40.0))
 
 
 def test_arduplane_loiter_is_flown_by_the_mock() -> None:
@@ -573,9 +604,9 @@ def test_arduplane_loiter_is_flown_by_the_mock() -> None:
     assert ack.result == M.MAV_RESULT_ACCEPTED
     goal = gcs.vehicle.flight.goal
     assert isinstance(goal, Loiter)
-    assert (goal.north, goal.east, goal.radius, goal.clockwise) == pytest.approx(
-        (0.0, 0.0, 150.0, False), abs=0.02
-    )
+    # (the radius sent in whole metres, as ArduPlane takes it: 150 m within half of one)
+    assert (goal.north, goal.east, goal.clockwise) == pytest.approx((0.0, 0.0, False), abs=0.02)
+    assert goal.radius == pytest.approx(150.0, abs=0.5 * eas2tas_squared(FRAME.origin.alt + 40.0))
     assert goal.down == pytest.approx(-40.0, abs=0.01)
 
 

@@ -63,6 +63,7 @@ from convoy_mav.types import Setpoint
 __all__ = ["ROVER_MODES", "ArduCopter", "ArduPilot", "ArduPlane", "ardupilot_mode_name"]
 
 _LEARNT_SAMPLES = 200
+_LOITER_RADIUS_MAX = 65535.0  # m: ArduPlane's GUIDED loiter radius (UINT16_MAX)
 """Loiter samples (10 s at 20 Hz) before the learnt overshoot is trusted to judge a plan."""
 
 _M = mavlink
@@ -319,12 +320,13 @@ class ArduPlane(ArduPilot):
 
         param1 -1 (speed unchanged), param2 0 (no mode change: only flown in
         GUIDED, so a pilot's mode switch is never overridden), param3 radius
-        (0: WP_LOITER_RAD), param4 1 for counter-clockwise.
+        (0: WP_LOITER_RAD) in whole metres, which ArduPlane cuts it to (rounded here,
+        not cut: at most half a metre off), param4 1 for counter-clockwise.
         """
         geo = self.frame.to_geo(north, east, down)
         return _M.MAVLink_command_int_message(
             self.sysid, self.compid, _M.MAV_FRAME_GLOBAL_INT, _M.MAV_CMD_DO_REPOSITION, 0, 0,
-            -1.0, 0.0, radius, 0.0 if clockwise else 1.0,
+            -1.0, 0.0, float(round(radius)), 0.0 if clockwise else 1.0,
             round(geo.lat * 1e7), round(geo.lon * 1e7), geo.alt,
         )  # fmt: skip
 
@@ -334,16 +336,27 @@ class ArduPlane(ArduPilot):
             self.sysid, self.compid
         )
 
+    def _loiter_radius(self, sp: Setpoint, scale: float) -> float | None:
+        """The radius to command for the arc ``sp`` flies; None to fly it as a straight:
+        a hold, no arc, or one wider than ArduPlane takes. ``set_radius_and_direction``
+        cuts the radius to 65535 m, and the centre of a wider arc is far off: SITL told
+        an arc of 180 km flew at its centre, 190 km away, until the next (re-joined).
+        Over the carrot's look-ahead such an arc is within 3 m of its tangent."""
+        if sp.hold or sp.center is None or sp.radius <= 0.0:
+            return None
+        radius = self.model.command_radius(sp.radius, scale)
+        return radius if radius <= _LOITER_RADIUS_MAX else None
+
     def _loiter_for(self, sp: Setpoint) -> tuple[float, float, float, float, bool]:
         scale = self.scale = self._scale(sp.down)
         if sp.hold:
             return sp.north, sp.east, sp.down, self._point_radius(scale), True
-        if sp.center is not None and sp.radius > 0.0:
+        radius = self._loiter_radius(sp, scale)
+        if radius is not None and sp.center is not None:
             learnt = self.model.samples >= _LEARNT_SAMPLES
             if learnt and not self.model.feasible(sp.radius, scale):
                 self.too_tight = max(self.too_tight or 0.0, sp.radius)
             self.tightest_arc = min(self.tightest_arc or math.inf, sp.radius)
-            radius = self.model.command_radius(sp.radius, scale)
             return sp.center[0], sp.center[1], sp.down, radius, sp.clockwise
         v = math.hypot(sp.vn, sp.ve)
         if v < 1e-6:
@@ -382,7 +395,7 @@ class ArduPlane(ArduPilot):
         if position is not None:
             self._learn(sp, t, position)
         loiter = self._loiter_for(sp)
-        straight = not sp.hold and (sp.center is None or sp.radius <= 0.0)
+        straight = not sp.hold and self._loiter_radius(sp, self.scale) is None
         stale = not self.loiter_acked and t - self.loiter_sent_t >= self.retry
         if self._loiter_changed(loiter, straight) or stale:
             out.append(self.reposition(*loiter))
@@ -399,7 +412,7 @@ class ArduPlane(ArduPilot):
 
     def _learn(self, sp: Setpoint, t: float, position: tuple[float, float]) -> None:
         """Measure how wide the arc in force is flown; a new arc restarts the settling."""
-        if sp.hold or sp.center is None or sp.radius <= 0.0:
+        if sp.center is None or self._loiter_radius(sp, self.scale) is None:
             self.arc = None
             return
         arc = (sp.center[0], sp.center[1], sp.radius, sp.clockwise)
