@@ -22,8 +22,9 @@ What differs from PX4 (ArduPilot's ``mode.h`` and ``GCS_Mavlink.cpp``):
       changes (or until accepted), and the along-track phase is corrected with
       rate-limited DO_CHANGE_SPEED. A straight segment is flown as a loiter
       around a point far ahead on the line (a "carrot"), moved as the plane
-      advances. Its radius is given (the plan's tightest arc, at most a quarter of
-      the look-ahead), never left 0 once an arc was sent:
+      advances; so is an arc wider than ArduPlane's loiters (65535 m). Its radius
+      is given (the plan's tightest arc, at most a quarter of the look-ahead),
+      never left 0 once an arc was sent:
       ArduPlane keeps the last radius a reposition gave until GUIDED is entered
       again, so a carrot sent with 0 after a 2 km arc was flown as a 2 km loiter
       around the carrot, away from it (SITL: the plane 1 km off its slot, re-joined;
