@@ -64,8 +64,8 @@ from convoy_mav.types import Setpoint
 __all__ = ["ROVER_MODES", "ArduCopter", "ArduPilot", "ArduPlane", "ardupilot_mode_name"]
 
 _LEARNT_SAMPLES = 200
-_LOITER_RADIUS_MAX = 65535.0  # m: ArduPlane's GUIDED loiter radius (UINT16_MAX)
 """Loiter samples (10 s at 20 Hz) before the learnt overshoot is trusted to judge a plan."""
+_LOITER_RADIUS_MAX = 65535.0  # m: ArduPlane's widest GUIDED loiter (UINT16_MAX)
 
 _M = mavlink
 
