@@ -348,22 +348,25 @@ class ArduPlane(ArduPilot):
         radius = self.model.command_radius(sp.radius, scale)
         return radius if radius <= _LOITER_RADIUS_MAX else None
 
-    def _loiter_for(self, sp: Setpoint) -> tuple[float, float, float, float, bool]:
+    def _loiter_for(self, sp: Setpoint) -> tuple[tuple[float, float, float, float, bool], bool]:
+        """The loiter that flies ``sp`` (north, east, down, radius, clockwise), and
+        whether it is a straight's carrot."""
         scale = self.scale = self._scale(sp.down)
         if sp.hold:
-            return sp.north, sp.east, sp.down, self._point_radius(scale), True
+            return (sp.north, sp.east, sp.down, self._point_radius(scale), True), False
         radius = self._loiter_radius(sp, scale)
         if radius is not None and sp.center is not None:
             learnt = self.model.samples >= _LEARNT_SAMPLES
             if learnt and not self.model.feasible(sp.radius, scale):
                 self.too_tight = max(self.too_tight or 0.0, sp.radius)
             self.tightest_arc = min(self.tightest_arc or math.inf, sp.radius)
-            return sp.center[0], sp.center[1], sp.down, radius, sp.clockwise
+            return (sp.center[0], sp.center[1], sp.down, radius, sp.clockwise), False
+        point = self._point_radius(scale)
         v = math.hypot(sp.vn, sp.ve)
         if v < 1e-6:
-            return sp.north, sp.east, sp.down, self._point_radius(scale), True
+            return (sp.north, sp.east, sp.down, point, True), True
         k = self.carrot / v
-        return sp.north + k * sp.vn, sp.east + k * sp.ve, sp.down, self._point_radius(scale), True
+        return (sp.north + k * sp.vn, sp.east + k * sp.ve, sp.down, point, True), True
 
     def _point_radius(self, scale: float) -> float:
         """The radius of a loiter around a point (a carrot, a hold): the plan's tightest
@@ -395,8 +398,7 @@ class ArduPlane(ArduPilot):
         out: list[Message] = []
         if position is not None:
             self._learn(sp, t, position)
-        loiter = self._loiter_for(sp)
-        straight = not sp.hold and self._loiter_radius(sp, self.scale) is None
+        loiter, straight = self._loiter_for(sp)
         stale = not self.loiter_acked and t - self.loiter_sent_t >= self.retry
         if self._loiter_changed(loiter, straight) or stale:
             out.append(self.reposition(*loiter))
