@@ -24,14 +24,11 @@ from collections import defaultdict
 
 from pymavlink import mavutil
 
+from convoy_mav.geo import GeoPoint, LocalFrame, no_position_yet
+
 _L1_S = 0.3183 * 0.75 * 15.0  # s: L1's distance over the ground speed
 _FAR = 4.0  # L1 distances out: far off, on a carrot's way
-_M_PER_DEG = 111319.5
 _DO_REPOSITION = 192
-
-
-def _ne(lat: float, lon: float, lat0: float) -> tuple[float, float]:
-    return lat * _M_PER_DEG, lon * _M_PER_DEG * math.cos(math.radians(lat0))
 
 
 def _quantiles(values: list[float]) -> str:
@@ -58,20 +55,20 @@ def measure(path: str) -> dict[str, list[float]]:
         speed = math.hypot(msg.vx, msg.vy) / 100.0
         if not kept or speed < 5.0 or kept[-1][2] <= 0.0:
             continue
-        lat0 = msg.lat * 1e-7
-        pn, pe = _ne(lat0, msg.lon * 1e-7, lat0)
-        cn, ce = _ne(kept[-1][0], kept[-1][1], lat0)
-        d = math.hypot(cn - pn, ce - pe)
-        if (d - kept[-1][2]) / (_L1_S * speed) < _FAR:
+        if no_position_yet(msg.lat, msg.lon):
+            continue
+        plane = LocalFrame(GeoPoint(msg.lat * 1e-7, msg.lon * 1e-7))  # (at its origin)
+        cn, ce, _ = plane.to_ned(GeoPoint(kept[-1][0], kept[-1][1]))
+        if (math.hypot(cn, ce) - kept[-1][2]) / (_L1_S * speed) < _FAR:
             continue
         course = math.atan2(msg.vy, msg.vx)
-        off = (course - math.atan2(ce - pe, cn - pn) + math.pi) % (2.0 * math.pi) - math.pi
+        off = (course - math.atan2(ce, cn) + math.pi) % (2.0 * math.pi) - math.pi
         out["far_deg"].append(abs(math.degrees(off)))
         if len(kept) == 2:
-            an, ae = _ne(kept[0][0], kept[0][1], lat0)
+            an, ae, _ = plane.to_ned(GeoPoint(kept[0][0], kept[0][1]))
             step = math.hypot(cn - an, ce - ae)
             if 20.0 < step < 200.0:  # (a carrot moved on along its line)
-                out["line_m"].append(abs(((pn - an) * (ce - ae) - (pe - ae) * (cn - an)) / step))
+                out["line_m"].append(abs((an * (ce - ae) - ae * (cn - an)) / step))
     return out
 
 
