@@ -710,7 +710,7 @@ class SimVehicle:
             pitch=math.atan2(-vd, max(speed, 1.0)) if airborne else 0.0,
             yaw=yaw,
             yaw_rate=yaw_rate,
-            airspeed=speed,
+            airspeed=speed / fw.airspeed_scale(geo.alt),  # (ArduPlane: its EAS)
             throttle=(55 if airborne else 5) if fl.armed else 0,
             home=fl.home,
             home_local=self._frames.local.to_ned(fl.home),

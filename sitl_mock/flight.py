@@ -97,6 +97,9 @@ class FlightController:
         self.takeoff_alt = 30.0 if self.plane else 10.0
         self.rtl_alt = 60.0 if self.plane else 30.0
         self.cruise: float | None = None
+        self._equivalent = self.plane and firmware.equivalent_airspeeds
+        self._tas_key: tuple[float, int] | None = None
+        self._tas = 0.0
         self.home = home
         self.reset()
 
@@ -187,10 +190,23 @@ class FlightController:
             return events
         self._check_setpoint_loss(now, events)
         self._check_launch(now)
+        if self._equivalent:
+            self._true_airspeed(ac)
         ac.command(self._desired())
         ac.step(dt)
         self._after_step(events)
         return events
+
+    def _true_airspeed(self, ac: Aircraft) -> None:
+        """Fly the airspeed in force (told, else the airframe's cruise) as the equivalent
+        airspeed it is to ArduPlane: faster through thinner air (``Firmware.airspeed_scale``),
+        followed as the plane climbs or descends (set again once it moved a metre)."""
+        eas = self.cruise if self.cruise is not None else ac.params.airspeed
+        key = (eas, round(ac.state.down))
+        if key != self._tas_key:
+            amsl = self.frames.world.origin.alt - ac.state.down
+            self._tas_key, self._tas = key, eas * self.firmware.airspeed_scale(amsl)
+        ac.set_speed(self._tas)  # (a command or a rebuilt airframe may have set another)
 
     def _desired(self) -> Guidance:
         behaviour = self.mode.behaviour

@@ -283,6 +283,23 @@ class Firmware:
         """
         return l1_loiter_scale(amsl) if self.is_ardupilot else 1.0
 
+    def airspeed_scale(self, amsl: float) -> float:
+        """True airspeed a plane flies per unit of airspeed commanded, at ``amsl`` (m).
+
+        ArduPlane's airspeeds (DO_CHANGE_SPEED, AIRSPEED_CRUISE/MIN/MAX) are equivalent
+        airspeeds: TECS demands ``_TAS_dem = _EAS_dem * EAS2TAS`` (``AP_TECS``), so a
+        plane told 22 m/s 684 m above the sea flies 22.7 m/s through the air. (ArduPlane
+        SITL flies 23.5: its simulated pitot divides the EAS it is handed by EAS2TAS
+        once more, ``SITL_State::_update_airspeed``; a real pitot does not.) ArduCopter's
+        speeds are ground speeds, and PX4's planes here fly their setpoints' speeds.
+        """
+        return math.sqrt(l1_loiter_scale(amsl)) if self.equivalent_airspeeds else 1.0
+
+    @property
+    def equivalent_airspeeds(self) -> bool:
+        """A plane whose commanded airspeeds are equivalent airspeeds (ArduPlane)."""
+        return self.is_ardupilot and self.vehicle_class == "plane"
+
 
 # ============================================================================ tables
 _UINT16_MAX = 65535

@@ -493,11 +493,16 @@ def test_arduplane_reposition_only_when_the_arc_changes() -> None:
     assert len(ap.setpoint_messages(flipped, 21.3, None)) == 1
 
 
+def _eas(speed: float, down: float = -40.0) -> float:
+    """The equivalent airspeed ArduPlane is told to fly a true ``speed`` at ``down``."""
+    return speed / math.sqrt(eas2tas_squared(FRAME.origin.alt - down))
+
+
 def test_arduplane_speed_changes_are_rate_limited() -> None:
     ap = plane()
     sp = circle_setpoint(1.0)
     ap.setpoint_messages(sp, 0.0, (sp.north, sp.east))  # reposition + first speed
-    assert ap.speed == pytest.approx(18.0)
+    assert ap.speed == pytest.approx(_eas(18.0))
     behind = (100 * math.cos(0.5), 100 * math.sin(0.5))
     assert ap.setpoint_messages(sp, 0.5, behind) == []  # too soon
     ap.on_ack(M.MAV_CMD_DO_REPOSITION, M.MAV_RESULT_ACCEPTED, 0.5)
@@ -506,7 +511,8 @@ def test_arduplane_speed_changes_are_rate_limited() -> None:
     assert (msg.param1, msg.param3) == (0.0, -1.0)
     # the proportional speed, plus the integral the phase loop learnt over that second
     assert ap.phase.bias > 0.0
-    assert msg.param2 == pytest.approx(phase_corrected_speed(sp, *behind, bias=ap.phase.bias))
+    flown = phase_corrected_speed(sp, *behind, bias=ap.phase.bias)
+    assert msg.param2 == pytest.approx(_eas(flown))
     assert ap.setpoint_messages(sp, 2.5, behind) == []  # no change worth sending
     ap.on_ack(M.MAV_CMD_DO_CHANGE_SPEED, M.MAV_RESULT_FAILED, 2.6)
     assert len(ap.setpoint_messages(sp, 3.6, behind)) == 1  # refused: sent again
@@ -525,6 +531,29 @@ def test_arduplane_speed_changes_stay_inside_its_airspeed_range() -> None:
     ahead = (100 * math.cos(1.5), 100 * math.sin(1.5))
     msgs = ap.setpoint_messages(sp, 2.0, ahead)  # ... and 0.85 x 18
     assert [m.param2 for m in msgs if m.command == M.MAV_CMD_DO_CHANGE_SPEED] == [17.5]
+
+
+def test_arduplane_is_told_the_equivalent_airspeed_of_the_plans_speed() -> None:
+    """ArduPlane's airspeeds are equivalent airspeeds (TECS flies ``EAS * EAS2TAS``):
+    18 m/s planned at 568 m AMSL is told 17.5, and at 2 km 16.3. Its range is in
+    the same terms, so the plan's top speed is checked against AIRSPEED_MAX as told."""
+    ap = plane()
+    for down, told in ((-80.0, 17.51), (-1512.0, 16.32)):
+        sp = replace(circle_setpoint(0.3), down=down)
+        msgs = ap.setpoint_messages(sp, 0.0, (sp.north, sp.east))
+        (speed,) = [m.param2 for m in msgs if m.command == M.MAV_CMD_DO_CHANGE_SPEED]
+        assert speed == pytest.approx(told, abs=0.01)
+        assert speed == pytest.approx(_eas(18.0, down))
+        ap.reset()
+    # At 2 km the phase loop's top, 1.15 x 18 = 20.7 m/s, is 18.8 m/s EAS: inside 19.
+    ap.on_param("AIRSPEED_MAX", 19.0)
+    assert ap.cannot_fly(18.0) is None
+    ap.on_param("AIRSPEED_MAX", 18.0)
+    assert ap.cannot_fly(18.0) == (
+        "flies no faster than 18.0 m/s (AIRSPEED_MAX), the plan asks for up to 20.7 m/s "
+        "(18.0 and 15 % to catch up) (18.8 m/s equivalent airspeed): set AIRSPEED_MAX to "
+        "at least 19 or scale airspeed_mps by 0.96"
+    )
 
 
 def test_arduplane_straight_is_a_moving_carrot() -> None:

@@ -411,6 +411,34 @@ def test_plane_loiters_wide_as_its_navigation_controller_does(
         assert eas2tas_squared(548.0) == pytest.approx(1.0544, abs=1e-4)
 
 
+@pytest.mark.parametrize("personality", [AP, PX4])
+def test_an_arduplanes_airspeed_is_equivalent_and_flown_faster_in_thin_air(
+    personality: Personality,
+) -> None:
+    """ArduPlane's TECS demands an equivalent airspeed (``_TAS_dem = _EAS_dem *
+    EAS2TAS``): told 20 m/s at 548 m AMSL it flies 20.5 through the air, and at 3 km
+    above home 23.8, reporting 20 in VFR_HUD; SITL at 684 m flew 19.23 m/s over the
+    ground told 18 (1.068: its pitot divides by EAS2TAS twice). PX4's plane here flies
+    the speed told."""
+    gcs = _guided_plane(personality)
+    _loiter(gcs, personality, 600.0, 0.0, 400.0, clockwise=True)
+    gcs.command(mavlink.MAV_CMD_DO_CHANGE_SPEED, 0, 20.0, -1)
+    for above, amsl in ((60.0, 548.0), (3000.0, 3488.0)):
+        centre = WORLD.to_geo(600.0, 0.0)
+        gcs.command_int(mavlink.MAV_CMD_DO_REPOSITION, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+                        (-1.0, 0.0, 400.0, 0.0), round(centre.lat * 1e7),
+                        round(centre.lon * 1e7), above)  # fmt: skip
+        gcs.run(1000.0 if above > 100.0 else 60.0, telemetry=False)
+        scale = math.sqrt(eas2tas_squared(amsl)) if personality is AP else 1.0
+        assert gcs.truth().down == pytest.approx(WORLD.origin.alt - amsl, abs=1.0)
+        assert gcs.truth().speed == pytest.approx(20.0 * scale, abs=0.02)
+        hud = of_type(gcs.run(1.0), "VFR_HUD")[-1]
+        assert hud.airspeed == pytest.approx(20.0, abs=0.02)
+        assert hud.groundspeed == pytest.approx(20.0 * scale, abs=0.02)
+    if personality is AP:  # (the standard atmosphere: 2.7 % at 548 m, 19 % at 3.5 km)
+        assert math.sqrt(eas2tas_squared(3488.0)) == pytest.approx(1.1905, abs=1e-4)
+
+
 def test_arduplane_keeps_the_last_reposition_radius_until_guided_is_entered_again() -> None:
     """``ModeGuided::set_radius_and_direction`` runs only for param3 > 0, and
     ``active_radius_m`` is cleared only when GUIDED is entered: a reposition with radius

@@ -429,6 +429,8 @@ class Autopilot(ABC):
     """The mode that climbs out by itself (ArduPlane TAKEOFF); None: a command does."""
     speed_params: SpeedParams | None = None
     lean_param: str | None = None
+    commanded_as: ClassVar[str] = "as commanded"
+    """What its speed commands mean, where :meth:`as_commanded` converts a true speed."""
 
     def __init__(self, sysid: int, compid: int, frame: LocalFrame, kind: VehicleClass) -> None:
         self.sysid = sysid
@@ -554,6 +556,11 @@ class Autopilot(ABC):
         speed = math.hypot(sp.vn, sp.ve)
         self.fastest_asked = max(self.fastest_asked, speed)
 
+    def as_commanded(self, speed: float) -> float:
+        """A true ``speed`` (m/s) as the autopilot's speed commands and parameters reckon
+        it (``commanded_as``): the same, but for a plane's equivalent airspeed."""
+        return speed
+
     def within_range(self, speed: float) -> float:
         """``speed`` (m/s) inside the range the autopilot reported, where it has: ArduPlane
         refuses a DO_CHANGE_SPEED outside AIRSPEED_MIN..MAX and keeps the speed in
@@ -630,6 +637,9 @@ class Autopilot(ABC):
             asks += f" ({airspeed:.1f} and {100 * PHASE_LIMIT:.0f} % to catch up)"
         limit, floor = self.speed_limit, self.speed_floor
         seen = self.seen_top
+        top_c, bottom_c = self.as_commanded(top), self.as_commanded(bottom)
+        if abs(top_c - top) >= 0.05:
+            asks += f" ({top_c:.1f} m/s {self.commanded_as})"
         if seen is not None and (limit is None or seen < limit) and top > seen + _SPEED_LIMIT_TOL:
             lean = f"let it lean further ({self.lean_param}) or " if self.lean_param else ""
             return (
@@ -639,18 +649,21 @@ class Autopilot(ABC):
         p = self.speed_params
         if p is None:
             return None
-        if limit is not None and top > limit + _SPEED_LIMIT_TOL:
+        if limit is not None and top_c > limit + _SPEED_LIMIT_TOL:
             high = self.speed_names.get(p.high, p.high)
             return (
                 f"flies no faster than {limit:.1f} m/s ({high}), {asks}: set {high} to at "
-                f"least {math.ceil(top / p.unit - 1e-9)} or scale airspeed_mps by "
-                f"{limit / top:.2f}"
+                f"least {math.ceil(top_c / p.unit - 1e-9)} or scale airspeed_mps by "
+                f"{limit / top_c:.2f}"
             )
-        if p.low is not None and floor is not None and 0.0 < bottom < floor - _SPEED_LIMIT_TOL:
+        if p.low is not None and floor is not None and 0.0 < bottom_c < floor - _SPEED_LIMIT_TOL:
             low = self.speed_names.get(p.low, p.low)
+            down = f"{bottom:.1f} m/s"
+            if abs(bottom_c - bottom) >= 0.05:
+                down += f" ({bottom_c:.1f} m/s {self.commanded_as})"
             return (
                 f"flies no slower than {floor:.1f} m/s ({low}), the plan asks for down to "
-                f"{bottom:.1f} m/s: set {low} to at most {math.floor(bottom / p.unit + 1e-9)} "
-                f"or scale airspeed_mps by {floor / bottom:.2f}"
+                f"{down}: set {low} to at most {math.floor(bottom_c / p.unit + 1e-9)} "
+                f"or scale airspeed_mps by {floor / bottom_c:.2f}"
             )
         return None
