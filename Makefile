@@ -23,11 +23,12 @@ demo: $(STAMP)
 	  --report out/report.json --plot out/mission.png --tlog out/mission.tlog
 
 # One pytest-xdist worker per core; an idle worker takes tests queued for a busy one
-# (worksteal), so neither waits alone on the long flights at the end. The tests that
-# need the whole host (one loads it on purpose, the road flights hold 40x) run after
-# them, alone.
+# (worksteal), so neither waits alone on the long flights at the end. Then the rover
+# flights held at their speedup, each a core to itself, two at a time; then the tests
+# that need the whole host (one loads it on purpose, the road flights hold 40x), alone.
 test: $(STAMP) broker lint typecheck
-	$(BIN)/python -m pytest -n auto --dist worksteal -m "not alone"
+	$(BIN)/python -m pytest -n auto --dist worksteal -m "not alone and not paired"
+	$(BIN)/python -m pytest -n 2 --dist worksteal -m paired
 	$(BIN)/python -m pytest -m alone
 
 # The MQTT tests run against a real mosquitto broker (Debian package); install it

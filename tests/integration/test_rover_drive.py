@@ -53,10 +53,13 @@ CIRCUIT = {
 }
 
 
-# Held at its speedup and flown after the parallel run (``alone``): beside two other flights
-# at 40x on two cores its UAVs flew their legs seconds late (a CI run: 94.3 % against 98.5 %
-# predicted) and slowed the others' (a keep-alive test missed its deadline).
-@pytest.mark.alone
+# Held at its speedup and flown after the parallel run, two at a time (``paired``): beside
+# two other flights at 40x on two cores its UAVs flew their legs seconds late (a CI run:
+# 94.3 % against 98.5 % predicted) and slowed the others' (a keep-alive test missed its
+# deadline). One beside another, each a core to itself (2026-12-02, the ten flights twice,
+# 203 and 195 s against 408 s one at a time): each flight as long as alone (31-46 s
+# against 34-48), the prediction -0.6 to +0.3 points of the truth (alone -0.5 to +0.1).
+@pytest.mark.paired
 @pytest.mark.parametrize(("personality", "planned"), [("ardupilot", True), ("px4", False)])
 async def test_a_rovers_corners_are_learnt_and_its_convoy_protected(
     personality: str, planned: bool
@@ -96,7 +99,7 @@ async def test_a_rovers_corners_are_learnt_and_its_convoy_protected(
 _ARDUROVER_HOLD, _ARDUROVER_AUTO, _ARDUROVER_RTL, _ARDUROVER_SMART_RTL = 4, 10, 11, 12
 
 
-@pytest.mark.alone
+@pytest.mark.paired
 async def test_a_rover_its_operator_holds_stands_and_is_watched_standing() -> None:
     marks: dict[str, Any] = {}
 
@@ -141,7 +144,7 @@ async def test_a_rover_its_operator_holds_stands_and_is_watched_standing() -> No
     _assert_predicted(report, truth, 0.02)
 
 
-@pytest.mark.alone
+@pytest.mark.paired
 @pytest.mark.parametrize(
     ("mode", "name"),
     [(_ARDUROVER_HOLD, "HOLD"), (_ARDUROVER_RTL, "RTL"), (_ARDUROVER_SMART_RTL, "SMART_RTL")],
@@ -203,7 +206,7 @@ async def test_a_follower_its_operator_holds_or_sends_home_parts_and_the_lead_is
     _assert_predicted(report, truth, 0.03)
 
 
-@pytest.mark.alone
+@pytest.mark.paired
 async def test_a_lead_sent_home_back_along_its_path_is_forecast_round_its_corners() -> None:
     """SMART_RTL on the lead 220 s into the circuit (its operator, or its failsafe:
     ArduRover's FS_ACTION 3 and 4): it turns round and drives home back along its path,
@@ -243,7 +246,7 @@ async def test_a_lead_sent_home_back_along_its_path_is_forecast_round_its_corner
     _assert_predicted(report, truth, 0.03)
 
 
-@pytest.mark.alone
+@pytest.mark.paired
 async def test_a_rover_its_operator_calls_home_is_watched_off_its_route_and_back() -> None:
     """RTL from the circuit (the lead alone, the convoy behind it): the lead drives
     straight home across the block and stands there; in AUTO it drives back to the
@@ -407,7 +410,7 @@ async def _ground_station(
             link.close()
 
 
-@pytest.mark.alone
+@pytest.mark.paired
 async def test_a_rover_its_operator_slows_keeps_the_speed_and_is_forecast_at_it() -> None:
     """DO_CHANGE_SPEED 5 m/s on the circuit's 8 m/s stretch: kept to the 6 m/s mark."""
     marks: dict[str, Any] = {}
@@ -463,7 +466,7 @@ async def _upload(fleet: MockFleet, sysid: int, items: list[Any]) -> str:
         link.close()
 
 
-@pytest.mark.alone
+@pytest.mark.paired
 async def test_a_rovers_mission_its_operator_changes_is_read_again_and_flown() -> None:
     """A corner of the circuit moved and the mission uploaded again as the rover
     drives it (as many items: MISSION_CURRENT's total does not change). ArduRover goes on
