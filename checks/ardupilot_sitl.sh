@@ -90,8 +90,9 @@ rm -rf "$out" && mkdir -p "$out"
 pids=()
 cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done; wait 2>/dev/null || true; }
 trap cleanup EXIT INT TERM
-# Homes 40 m apart along a line east of the mission origin (CMAC, ArduPilot's default).
-lat=-35.363262 lon=149.165237 alt=584
+# Homes 40 m apart along a line east of the mission origin (CMAC, ArduPilot's default;
+# HOME_ALT=M sets the airfield M metres above the sea, with ROAD only).
+lat=-35.363262 lon=149.165237 alt=${HOME_ALT:-584}
 base=${CONFIG:-checks/sitl_$frame.toml}  # (the three UAVs, the aircraft and the convoy)
 config=$base
 uavs=3
@@ -126,6 +127,8 @@ with open(f"{out}/road.csv", "w") as fh:
         fh.write(f"{float(t) + 30.0:.2f},{g.lat:.8f},{g.lon:.8f}\n")
 text = open(base).read()
 head = text[: text.index("[convoy]")]
+if alt != 584.0:  # (the base config's origin is SITL's default home)
+    head = head.replace("alt = 584.0 }", f"alt = {alt} }}")
 links = "".join(
     f'[[convoy.vehicle]]\nconnection = "udpout:127.0.0.1:{14640 + s - 1}"\nsysid = {s}\n\n'
     for s in (fleet + 2, fleet + 3)
