@@ -23,7 +23,7 @@ import time
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import common as mavlink
 
-from convoy_mav.atmosphere import eas2tas_squared
+from convoy_mav.atmosphere import eas2tas
 
 _TAKEOFF, _GUIDED = 13, 15  # ArduPlane custom modes
 _HOLD_S = 200.0  # autopilot seconds at each speed
@@ -102,9 +102,9 @@ def main(argv: list[str]) -> None:
     print("told m/s  VFR_HUD airspeed  ground speed  ratio  AMSL m  EAS2TAS there")
     for speed in speeds:
         air, ground, amsl = _fly(link, home, speed)
-        eas2tas = math.sqrt(eas2tas_squared(amsl))
+        scale = eas2tas(amsl)
         print(f"{speed:8.1f}  {air:16.2f}  {ground:12.2f}  {ground / air:5.3f}  {amsl:6.0f}  "
-              f"{eas2tas:.3f}")  # fmt: skip
+              f"{scale:.3f}")  # fmt: skip
 
 
 if __name__ == "__main__":

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["density_ratio", "eas2tas_squared", "l1_loiter_scale"]
+__all__ = ["density_ratio", "eas2tas", "eas2tas_squared", "l1_loiter_scale"]
 
 _T0 = 288.15  # K, sea-level temperature
 _LAPSE = 0.0065  # K/m, troposphere
@@ -34,6 +34,12 @@ def density_ratio(amsl: float) -> float:
 def eas2tas_squared(amsl: float) -> float:
     """``EAS2TAS^2 = rho0 / rho`` at ``amsl``: how much wider ArduPlane flies a loiter."""
     return 1.0 / density_ratio(amsl)
+
+
+def eas2tas(amsl: float) -> float:
+    """``EAS2TAS = sqrt(rho0 / rho)`` at ``amsl``: true airspeed per equivalent airspeed,
+    what ArduPlane's TECS flies a commanded airspeed at (``_TAS_dem = _EAS_dem * EAS2TAS``)."""
+    return math.sqrt(eas2tas_squared(amsl))
 
 
 def l1_loiter_scale(amsl: float) -> float:

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 import pytest
 from pymavlink.dialects.v20 import common as mavlink
 
-from convoy_mav.atmosphere import eas2tas_squared
+from convoy_mav.atmosphere import eas2tas
 from convoy_mav.geo import LocalFrame
 from sitl_mock.config import MockConfig
 from sitl_mock.server import MockFleet
@@ -178,7 +178,7 @@ async def test_plane_do_reposition_loiter_radius_and_direction(
     assert fleet.history is not None
     rows = fleet.history.of(1)
     # (its airspeed is an equivalent airspeed, flown 2.7 % faster 548 m above the sea)
-    true_v = v * math.sqrt(eas2tas_squared(fleet.config.origin.alt + 60.0))
+    true_v = v * eas2tas(fleet.config.origin.alt + 60.0)
     assert max(abs(r.yaw_rate) for r in rows) <= true_v / r_min * 1.001
     late = [r for r in rows if r.t > t_start + 20.0 + 1.5 * lap]
     dist = [math.hypot(r.north - centre_n, r.east - centre_e) for r in late]

@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from convoy_mav.atmosphere import density_ratio, eas2tas_squared, l1_loiter_scale
+from convoy_mav.atmosphere import density_ratio, eas2tas, eas2tas_squared, l1_loiter_scale
 
 
 @pytest.mark.parametrize(
@@ -16,6 +16,7 @@ from convoy_mav.atmosphere import density_ratio, eas2tas_squared, l1_loiter_scal
 def test_the_density_ratio_is_the_standard_atmospheres(amsl: float, ratio: float) -> None:
     assert density_ratio(amsl) == pytest.approx(ratio, abs=5e-5)
     assert eas2tas_squared(amsl) == pytest.approx(1.0 / ratio, rel=1e-4)
+    assert eas2tas(amsl) == pytest.approx(math.sqrt(1.0 / ratio), rel=1e-4)
 
 
 def test_air_thins_with_altitude() -> None:

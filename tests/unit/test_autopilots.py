@@ -15,7 +15,7 @@ from typing import Any, Literal
 import pytest
 from pymavlink.dialects.v20 import common as mavlink
 
-from convoy_mav.atmosphere import eas2tas_squared
+from convoy_mav.atmosphere import eas2tas, eas2tas_squared
 from convoy_mav.geo import LocalFrame
 from convoy_mav.mavlink.autopilots import (
     PX4,
@@ -495,7 +495,7 @@ def test_arduplane_reposition_only_when_the_arc_changes() -> None:
 
 def _eas(speed: float, down: float = -40.0) -> float:
     """The equivalent airspeed ArduPlane is told to fly a true ``speed`` at ``down``."""
-    return speed / math.sqrt(eas2tas_squared(FRAME.origin.alt - down))
+    return speed / eas2tas(FRAME.origin.alt - down)
 
 
 def test_arduplane_speed_changes_are_rate_limited() -> None:

@@ -11,7 +11,7 @@ import math
 import pytest
 from pymavlink.dialects.v20 import common as mavlink
 
-from convoy_mav.atmosphere import eas2tas_squared
+from convoy_mav.atmosphere import eas2tas, eas2tas_squared
 from sitl_mock.autopilot import Personality, SimVehicle
 from sitl_mock.kinematics import Loiter, TrackTarget
 from tests.fakes import (
@@ -429,14 +429,14 @@ def test_an_arduplanes_airspeed_is_equivalent_and_flown_faster_in_thin_air(
                         (-1.0, 0.0, 400.0, 0.0), round(centre.lat * 1e7),
                         round(centre.lon * 1e7), above)  # fmt: skip
         gcs.run(1000.0 if above > 100.0 else 60.0, telemetry=False)
-        scale = math.sqrt(eas2tas_squared(amsl)) if personality is AP else 1.0
+        scale = eas2tas(amsl) if personality is AP else 1.0
         assert gcs.truth().down == pytest.approx(WORLD.origin.alt - amsl, abs=1.0)
         assert gcs.truth().speed == pytest.approx(20.0 * scale, abs=0.02)
         hud = of_type(gcs.run(1.0), "VFR_HUD")[-1]
         assert hud.airspeed == pytest.approx(20.0, abs=0.02)
         assert hud.groundspeed == pytest.approx(20.0 * scale, abs=0.02)
     if personality is AP:  # (the standard atmosphere: 2.7 % at 548 m, 19 % at 3.5 km)
-        assert math.sqrt(eas2tas_squared(3488.0)) == pytest.approx(1.1905, abs=1e-4)
+        assert eas2tas(3488.0) == pytest.approx(1.1905, abs=1e-4)
 
 
 def test_arduplane_keeps_the_last_reposition_radius_until_guided_is_entered_again() -> None:
