@@ -29,6 +29,7 @@ _TAKEOFF, _GUIDED = 13, 15  # ArduPlane custom modes
 _HOLD_S = 200.0  # autopilot seconds at each speed
 _ALT_M = 100.0  # above home
 _RADIUS_M = 400.0
+_USAGE = "python checks/plane_airspeed.py [CONNECTION] [SPEED ...]"
 
 
 def _command(link: mavutil.mavfile, command: int, *params: float) -> None:
@@ -95,7 +96,18 @@ def _fly(link: mavutil.mavfile, home: mavlink.MAVLink_global_position_int_messag
 
 def main(argv: list[str]) -> None:
     connection = argv[0] if argv and ":" in argv[0] else "tcp:127.0.0.1:5760"
-    speeds = [float(a) for a in argv if ":" not in a] or [14.0, 18.0, 22.0]
+    speeds = []
+    for arg in argv:
+        if ":" in arg:
+            continue
+        try:
+            speed = float(arg)
+        except ValueError:
+            speed = math.nan
+        if not (math.isfinite(speed) and speed > 0.0):
+            sys.exit(f"{arg!r}: not an airspeed (m/s > 0); usage: {_USAGE}")
+        speeds.append(speed)
+    speeds = speeds or [14.0, 18.0, 22.0]
     link = mavutil.mavlink_connection(connection, source_system=255)
     link.wait_heartbeat()
     home = _take_off(link)
