@@ -52,6 +52,7 @@ unit: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python -m pytest benchmarks --benchmark-only --benchmark-columns=median,iqr,ops,rounds
 	$(BIN)/python benchmarks/bench_mock_realtime.py
+	$(BIN)/python benchmarks/bench_mock_pace.py
 
 # convoy-mav (uvloop, asyncio) and MAVSDK-Python flying 10..1000 PX4 planes at 20 Hz (~30 min).
 bench-fleet: $(STAMP)

@@ -42,6 +42,7 @@ from typing import TYPE_CHECKING, Any, cast
 
 from pymavlink.dialects.v20 import common as mavlink
 
+from convoy_mav import eventloop
 from convoy_mav.errors import ConfigError
 from convoy_mav.geo import LocalFrame
 from convoy_mav.mavlink.signing import timestamp_now
@@ -577,7 +578,7 @@ class MockFleet:
         if not self._run_physics:
             raise RuntimeError("wait_until needs run_physics=True")
         while self.now < t:
-            await asyncio.sleep(min(max(self.clock.wall_until(t), 0.0005), 0.05))
+            await asyncio.sleep(min(max(self.clock.wall_until(t), eventloop.TIMER_TICK), 0.05))
 
     # -- physics -----------------------------------------------------------------------
 
@@ -640,7 +641,7 @@ class MockFleet:
             elif self.catch_up() >= _BURST_STEPS:
                 await asyncio.sleep(0)  # still behind: let datagrams in, then go on
             else:
-                await asyncio.sleep(max(self.clock.wall_until(self.now + self.dt), 0.0))
+                await eventloop.sleep(self.clock.wall_until(self.now + self.dt))
 
     def _warn_lag(self) -> None:
         wall = self.clock.wall_elapsed()

@@ -103,6 +103,8 @@ from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 from enum import IntEnum
 
+from convoy_mav import eventloop
+
 __all__ = ["MissionClock", "Observed", "Reading"]
 
 _REBOOT_JUMP = 1.0
@@ -237,7 +239,7 @@ class MissionClock:
             which another vehicle becomes the reference.
         silence_cap: Mission seconds ``now()`` runs on after the last vehicle was heard
             (keep it above the liveness limit, so silent vehicles are declared lost).
-        sleep: Awaitable wall sleep (``asyncio.sleep``), injected for tests.
+        sleep: Awaitable wall sleep (``eventloop.sleep``), injected for tests.
 
     Attributes:
         reboots: Reboots seen (``time_boot_ms`` jumping back), all vehicles.
@@ -264,7 +266,7 @@ class MissionClock:
         sample_spacing: float = 0.05,
         handover_after: float = 2.0,
         silence_cap: float = 10.0,
-        sleep: Callable[[float], Awaitable[None]] = asyncio.sleep,
+        sleep: Callable[[float], Awaitable[None]] = eventloop.sleep,
     ) -> None:
         if rate_hint is not None and not (math.isfinite(rate_hint) and rate_hint > 0.0):
             raise ValueError(f"rate_hint must be finite and > 0, got {rate_hint!r}")

@@ -10,6 +10,11 @@ otherwise the same code on either loop: the end-to-end tests fly it on both.
 
 uvloop's timers have millisecond resolution. Nothing here depends on finer:
 ``MissionClock.sleep_until`` looks at mission time again after every wake-up.
+But uvloop rounds a delay to whole milliseconds, so a wait of under half a
+millisecond is a timer due at once: a loop that waits so towards a deadline
+spins a core until it is due. At 25x the mock's 100-Hz physics has a step every
+0.4 wall ms, and it spent two thirds of its CPU so. Such waits go through
+:func:`sleep`, which waits one tick (1 ms) instead.
 
 Bounded waits go through :func:`wait_set` (or ``asyncio.timeout``), never
 ``asyncio.wait_for``: on Python 3.11 that swallows a cancellation which arrives as
@@ -30,9 +35,10 @@ from typing import Any, TypeVar
 
 from convoy_mav.errors import ConfigError
 
-__all__ = ["LOOP_ENV", "loop_factory", "loop_name", "run", "wait_set"]
+__all__ = ["LOOP_ENV", "TIMER_TICK", "loop_factory", "loop_name", "run", "sleep", "wait_set"]
 
 LOOP_ENV = "CONVOY_MAV_LOOP"
+TIMER_TICK = 0.001  # wall seconds: uvloop's (libuv's) timer resolution
 T = TypeVar("T")
 
 
@@ -71,6 +77,15 @@ def run(main: Coroutine[Any, Any, T], *, choice: str | None = None) -> T:
         raise
     with asyncio.Runner(loop_factory=factory) as runner:
         return runner.run(main)
+
+
+async def sleep(seconds: float) -> None:
+    """``asyncio.sleep(seconds)``, but a positive wait lasts one timer tick at least.
+
+    ``seconds`` <= 0 yields to the loop once, as ``asyncio.sleep(0)``. A wait of
+    a fraction of a tick wakes up to that fraction late instead of spinning.
+    """
+    await asyncio.sleep(seconds if seconds <= 0.0 else max(seconds, TIMER_TICK))
 
 
 async def wait_set(event: asyncio.Event, timeout: float) -> bool:

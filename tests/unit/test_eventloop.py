@@ -4,13 +4,23 @@ from __future__ import annotations
 
 import asyncio
 import sys
+import time
+from collections.abc import Awaitable, Callable
 
 import pytest
 import uvloop
 
 from convoy_mav.cli import main
 from convoy_mav.errors import ConfigError
-from convoy_mav.eventloop import LOOP_ENV, loop_factory, loop_name, run, wait_set
+from convoy_mav.eventloop import (
+    LOOP_ENV,
+    TIMER_TICK,
+    loop_factory,
+    loop_name,
+    run,
+    sleep,
+    wait_set,
+)
 
 
 async def _which() -> str:
@@ -96,3 +106,37 @@ def test_wait_set_says_whether_the_event_came() -> None:
         return came, await wait_set(asyncio.Event(), 0.01)
 
     assert run(scenario(), choice="asyncio") == (True, False)
+
+
+async def _wakes(nap: Callable[[float], Awaitable[None]], delay: float, span: float) -> int:
+    """How often a task waiting ``delay`` at a time wakes in ``span`` wall seconds."""
+    wakes = 0
+    end = time.monotonic() + span
+    while time.monotonic() < end:
+        await nap(delay)
+        wakes += 1
+    return wakes
+
+
+def test_uvloop_spins_on_a_sub_millisecond_wait_and_sleep_does_not() -> None:
+    """uvloop rounds 0.2 ms to a zero-delay timer: tens of thousands of wakes in 50 ms."""
+    spun = run(_wakes(asyncio.sleep, 0.0002, 0.05), choice="uvloop")
+    napped = run(_wakes(sleep, 0.0002, 0.05), choice="uvloop")
+    assert spun > 1000  # the hazard :func:`eventloop.sleep` is for (should uvloop change)
+    assert napped <= 2 * 0.05 / TIMER_TICK + 5
+
+
+@pytest.mark.parametrize("choice", ["uvloop", "asyncio"])
+def test_sleep_waits_what_it_is_asked_and_yields_at_zero(choice: str) -> None:
+    async def scenario() -> tuple[float, bool]:
+        t0 = time.monotonic()
+        await sleep(0.02)
+        waited = time.monotonic() - t0
+        other = asyncio.get_running_loop().create_future()
+        asyncio.get_running_loop().call_soon(other.set_result, None)
+        await sleep(0.0)  # one turn of the loop: the callback queued before it has run
+        return waited, other.done()
+
+    waited, yielded = run(scenario(), choice=choice)
+    assert waited >= 0.02 - 0.002  # (uvloop's clock is whole milliseconds)
+    assert yielded
