@@ -98,8 +98,8 @@ class FlightController:
         self.rtl_alt = 60.0 if self.plane else 30.0
         self.cruise: float | None = None
         self._equivalent = self.plane and firmware.equivalent_airspeeds
-        self._tas_key: tuple[float, int] | None = None
-        self._tas = 0.0
+        self._tas_key: int | None = None
+        self._tas_scale = 1.0
         self.home = home
         self.reset()
 
@@ -200,13 +200,16 @@ class FlightController:
     def _true_airspeed(self, ac: Aircraft) -> None:
         """Fly the airspeed in force (told, else the airframe's cruise) as the equivalent
         airspeed it is to ArduPlane: faster through thinner air (``Firmware.airspeed_scale``),
-        followed as the plane climbs or descends (set again once it moved a metre)."""
+        followed as the plane climbs or descends (set again once it moved a metre). The
+        airframe's stall and maximum airspeeds are equivalent airspeeds too."""
         eas = self.cruise if self.cruise is not None else ac.params.airspeed
-        key = (eas, round(ac.state.down))
+        key = round(ac.state.down)
         if key != self._tas_key:
             amsl = self.frames.world.origin.alt - ac.state.down
-            self._tas_key, self._tas = key, eas * self.firmware.airspeed_scale(amsl)
-        ac.set_speed(self._tas)  # (a command or a rebuilt airframe may have set another)
+            self._tas_key, self._tas_scale = key, self.firmware.airspeed_scale(amsl)
+        # (each step: a command or a rebuilt airframe may have set others)
+        ac.scale_airspeed_range(self._tas_scale)
+        ac.set_speed(eas * self._tas_scale)
 
     def _desired(self) -> Guidance:
         behaviour = self.mode.behaviour

@@ -240,6 +240,18 @@ class Aircraft:
         return self._target_down
 
     # ----------------------------------------------------------------- commands
+    def scale_airspeed_range(self, scale: float) -> None:
+        """Fly the airframe's airspeed range (stall to maximum) ``scale`` times faster.
+
+        Where the firmware reckons airspeeds as equivalent airspeeds (ArduPlane),
+        both ends are so too: a wing stalls at a dynamic pressure, so through air
+        thinner than at sea level its range is ``EAS2TAS`` faster in true airspeed.
+        """
+        if not self._copter:
+            p = self.params
+            self._vmin = p.min_airspeed_ratio * p.airspeed * scale
+            self._vmax = p.max_airspeed_ratio * p.airspeed * scale
+
     def set_speed(self, speed: float) -> None:
         """Set the cruise airspeed (DO_CHANGE_SPEED), clamped to the airframe's range.
 
