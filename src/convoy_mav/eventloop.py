@@ -14,7 +14,7 @@ But uvloop rounds a delay to whole milliseconds, so a wait of under half a
 millisecond is a timer due at once: a loop that waits so towards a deadline
 spins a core until it is due. At 25x the mock's 100-Hz physics has a step every
 0.4 wall ms, and it spent two thirds of its CPU so. Such waits go through
-:func:`sleep`, which waits one tick (1 ms) instead.
+:func:`sleep` (or :func:`wait_set`), which wait one tick (1 ms) instead.
 
 Bounded waits go through :func:`wait_set` (or ``asyncio.timeout``), never
 ``asyncio.wait_for``: on Python 3.11 that swallows a cancellation which arrives as
@@ -94,10 +94,11 @@ async def wait_set(event: asyncio.Event, timeout: float) -> bool:
     Not ``asyncio.wait_for``: on 3.11, a cancel that comes as the event is set is
     swallowed, and the vehicles' waits loop on every message. On a busy host at
     40x that kept a mission's task group from ever ending (the service flying on
-    past its duration, 3 runs in about 35).
+    past its duration, 3 runs in about 35). A positive timeout lasts a timer tick
+    at least, as :func:`sleep`: callers wait towards a deadline in a loop.
     """
     try:
-        async with asyncio.timeout(timeout):
+        async with asyncio.timeout(timeout if timeout <= 0.0 else max(timeout, TIMER_TICK)):
             await event.wait()
     except TimeoutError:
         return event.is_set()

@@ -140,3 +140,15 @@ def test_sleep_waits_what_it_is_asked_and_yields_at_zero(choice: str) -> None:
     waited, yielded = run(scenario(), choice=choice)
     assert waited >= 0.02 - 0.002  # (uvloop's clock is whole milliseconds)
     assert yielded
+
+
+def test_a_wait_set_towards_a_deadline_does_not_spin_either() -> None:
+    async def wakes() -> int:
+        event, count = asyncio.Event(), 0
+        end = time.monotonic() + 0.05
+        while time.monotonic() < end:
+            await wait_set(event, 0.0002)
+            count += 1
+        return count
+
+    assert run(wakes(), choice="uvloop") <= 2 * 0.05 / TIMER_TICK + 5
