@@ -65,7 +65,7 @@ class ControlWatch:
     settle_s: float = 3.0
     signs: int = 0  # every sign seen (for the report)
     reason: str | None = None  # why it is contested now, None when free
-    _sent: deque[tuple[float, tuple[int, int]]] = field(default_factory=lambda: deque(maxlen=64))
+    _sent: deque[tuple[float, tuple[int, int]]] = field(default_factory=deque)
     _signs: deque[float] = field(default_factory=deque)
     _last_report: tuple[int, int] | None = None
     _last_sign_t: float = -math.inf
@@ -78,9 +78,14 @@ class ControlWatch:
 
     def sent(self, t: float, lat_e7: int, lon_e7: int) -> None:
         """We commanded the UAV to (lat, lon) at mission time ``t``."""
-        if not self._sent:
+        sent = self._sent
+        if not sent:
             self._first_sent_t = t
-        self._sent.append((t, (lat_e7, lon_e7)))
+        sent.append((t, (lat_e7, lon_e7)))
+        # Kept by age, not count: a link lagging a second at 100 Hz reports a target
+        # 100 sends old (a bound of 64 made it another's). Clock steps back: kept.
+        while len(sent) > self.keep and t - sent[0][0] > self.recent_s:
+            sent.popleft()
 
     def reported(self, t: float, lat_e7: int, lon_e7: int) -> bool:
         """The autopilot reports its position target; True if it is a sign."""

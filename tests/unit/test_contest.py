@@ -22,6 +22,17 @@ def test_our_own_targets_are_never_a_sign() -> None:
     assert w.check(60.0) is None and w.signs == 0
 
 
+def test_a_link_seconds_behind_a_fast_stream_reports_our_own_targets() -> None:
+    """At 100 Hz (``setpoint_rate_hz``' top) a link lagging 3 s reports a target 300
+    sends old, 54 m behind our newest: ours while it is within ``recent_s``."""
+    w = ControlWatch()
+    for k in range(1500):  # 15 s along a road at 18 m/s
+        w.sent(k / 100, *_north(HERE, 0.18 * k))
+    now = 14.99
+    assert not w.reported(now, *_north(HERE, 0.18 * 1200))  # sent 3 s ago
+    assert w.reported(now, *_north(HERE, 0.18 * 300))  # 12 s ago: past recent_s
+
+
 def test_a_loiter_sent_once_stays_ours_however_old() -> None:
     """ArduPlane's loiter is re-sent only when it changes: still ours a minute on."""
     w = ControlWatch()
