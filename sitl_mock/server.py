@@ -400,6 +400,7 @@ class MockFleet:
             self._sinks.append(self.history)
         self._run_physics = run_physics
         self._k = 0  # physics steps done; sim time is k * dt (no float drift)
+        self.wakes = 0  # times the paced physics loop woke (at most one a timer tick)
         self._links: dict[int, VehicleLink] = {}
         self._sampler = TruthSampler(config.truth_rate)
         self._stack: AsyncExitStack | None = None
@@ -636,6 +637,7 @@ class MockFleet:
 
     async def _physics(self) -> None:
         while True:
+            self.wakes += 1
             if self._frozen:
                 await asyncio.sleep(0.005)
             elif self.catch_up() >= _BURST_STEPS:
