@@ -66,7 +66,7 @@ def main(argv: list[str] | None = None) -> int:
     for speedup in args.speedups:
         cells, shares = [], []
         for name in names:
-            with mock.patch("sitl_mock.server.eventloop.sleep", WAITS[name]):
+            with mock.patch.object(eventloop, "sleep", WAITS[name]):  # (the mock's wait)
                 share, achieved, wakes = eventloop.run(
                     _measure(args.aircraft, speedup, args.seconds), choice="uvloop"
                 )

@@ -85,7 +85,12 @@ async def sleep(seconds: float) -> None:
     ``seconds`` <= 0 yields to the loop once, as ``asyncio.sleep(0)``. A wait of
     a fraction of a tick wakes up to that fraction late instead of spinning.
     """
-    await asyncio.sleep(seconds if seconds <= 0.0 else max(seconds, TIMER_TICK))
+    await asyncio.sleep(_a_tick_at_least(seconds))
+
+
+def _a_tick_at_least(seconds: float) -> float:
+    """A positive wall delay raised to one timer tick; 0 or less as it is."""
+    return seconds if seconds <= 0.0 else max(seconds, TIMER_TICK)
 
 
 async def wait_set(event: asyncio.Event, timeout: float) -> bool:
@@ -98,7 +103,7 @@ async def wait_set(event: asyncio.Event, timeout: float) -> bool:
     at least, as :func:`sleep`: callers wait towards a deadline in a loop.
     """
     try:
-        async with asyncio.timeout(timeout if timeout <= 0.0 else max(timeout, TIMER_TICK)):
+        async with asyncio.timeout(_a_tick_at_least(timeout)):
             await event.wait()
     except TimeoutError:
         return event.is_set()
