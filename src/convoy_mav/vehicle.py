@@ -303,6 +303,7 @@ class Vehicle:
         self.reflying_t = -math.inf  # mission time it flew again after a new set-up
         self.foreign_mode_t = -math.inf  # mission time another station's mode change was taken
         self._stream_loss_text_t = -math.inf  # mission time of the last stream-loss STATUSTEXT
+        self._failsafe_beat_t = -math.inf  # mission time of its last HEARTBEAT in a failsafe
         # The autopilot's own time (s since boot) of its latest stamp, of that text and of
         # its last fall from our mode: no step of mission time falls between them (a
         # simulator paused, a fleet-wide silence heard out), so they are compared so too.
@@ -514,6 +515,8 @@ class Vehicle:
         elif msg.get_srcComponent() != ap.compid:
             return
         self.armed = bool(msg.base_mode & _ARMED)
+        if msg.system_status == _M.MAV_STATE_CRITICAL:
+            self._failsafe_beat_t = now  # (on the very HEARTBEAT that shows its failsafe mode)
         mode, self.mode = self.mode, ap.mode_name(msg.custom_mode)
         if self.status is _S.FLYING and mode == ap.external_mode != self.mode:
             self._left_mode_boot = self._boot_s
@@ -1294,22 +1297,32 @@ class Vehicle:
         our setpoint stream's doing (a failsafe: take the UAV back) rather than a pilot's
         or another ground station's (respect it).
 
-        Ours when the autopilot said so (a stream-loss STATUSTEXT within
-        ``_FAILSAFE_TEXT_S`` of ``t``, either side: the text and the HEARTBEAT that shows
-        the hold come in either order), or, its text perhaps lost with the link, soon
-        after the link came back, our stream resumed after a gap, or the UAV flew again
-        after an outage. Not ours, whatever those say, when another station's mode
-        command was accepted within ``_FOREIGN_MODE_S`` (either side, too): a stranger
-        who takes the UAV while our stream hiccups keeps it. (A text from minutes ago
-        explains no hold now: a UAV that once failed safe would be fought for ever after.)
+        Ours when the autopilot said so: a stream-loss STATUSTEXT within
+        ``_FAILSAFE_TEXT_S`` of ``t``, either side (the text and the HEARTBEAT that shows
+        the hold come in either order); or a HEARTBEAT that says it is in a failsafe as it
+        holds in a mode its stream-loss failsafe falls to (PX4 reports MAV_STATE_CRITICAL
+        then, ACTIVE after a pilot's or a station's mode change: the text is sent once,
+        the HEARTBEAT every second, so a lossy link that loses the one still shows the
+        other). With nothing said, ours soon after the link came back, our stream resumed
+        after a gap, or the UAV flew again after an outage. Not ours, whatever those say,
+        when another station's mode command was accepted within ``_FOREIGN_MODE_S``
+        (either side, too): a stranger who takes the UAV while our stream hiccups keeps
+        it. (A text from minutes ago explains no hold now: a UAV that once failed safe
+        would be fought for ever after.)
         """
         if abs(t - self.foreign_mode_t) < _FOREIGN_MODE_S:
             return False
+        ap = self.firmware
         return (
             abs(t - self._stream_loss_text_t) < _FAILSAFE_TEXT_S
             # (the same by the autopilot's clock: mission time may have stepped between
             # the text and the hold, on a loaded host after a simulator's pause)
             or abs(self._left_mode_boot - self._stream_loss_text_boot) < _FAILSAFE_TEXT_S
+            or (
+                ap is not None
+                and self.mode in ap.stream_loss_modes
+                and abs(t - self._failsafe_beat_t) < _FAILSAFE_TEXT_S
+            )
             or 0.0 <= t - self.recovered_t < _OWN_FAILSAFE_S
             or 0.0 <= t - self.stream_resumed_t < _OWN_FAILSAFE_S
             # (a UAV set up again may report the hold of its outage late: the known

@@ -89,42 +89,92 @@ def test_only_a_strangers_accepted_mode_command_counts() -> None:
     assert v.counters["foreign_mode"] == 0
 
 
+_UAV = mavlink.MAVLink(None, srcSystem=2, srcComponent=1)
+_ARMED = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mavlink.MAV_MODE_FLAG_SAFETY_ARMED
+_OFFBOARD, _LOITER = 6 << 16, (4 << 16) | (3 << 24)  # PX4 OFFBOARD, AUTO.LOITER
+_POSCTL, _RTL = 3 << 16, (4 << 16) | (5 << 24)  # PX4 POSCTL, AUTO.RTL
+_GUIDED, _AP_LOITER = 15, 12  # ArduPlane GUIDED, LOITER
+
+
+def _heard(v: Vehicle, msg: Any) -> None:
+    v.handle(_UAV.decode(bytearray(msg.pack(_UAV))))
+
+
+def _position(boot_ms: int) -> Any:
+    return mavlink.MAVLink_global_position_int_message(
+        boot_ms, 473977420, 85455940, 538000, 50000, 0, 0, 0, 0
+    )
+
+
+def _beat(
+    mode: int, status: int = mavlink.MAV_STATE_ACTIVE, autopilot: int = mavlink.MAV_AUTOPILOT_PX4
+) -> Any:
+    kind = mavlink.MAV_TYPE_QUADROTOR if autopilot == mavlink.MAV_AUTOPILOT_PX4 else 1
+    return mavlink.MAVLink_heartbeat_message(kind, autopilot, _ARMED, mode, status, 3)
+
+
+def _flying(autopilot: int = mavlink.MAV_AUTOPILOT_PX4) -> Vehicle:
+    v = _vehicle()
+    _heard(v, _beat(_OFFBOARD if autopilot == mavlink.MAV_AUTOPILOT_PX4 else _GUIDED,
+                    autopilot=autopilot))  # fmt: skip
+    v._set_status(VehicleStatus.FLYING)
+    return v
+
+
 def test_a_failsafe_across_a_step_of_mission_time_is_ours_by_the_autopilots_clock() -> None:
     """On a loaded host after a simulator's pause, mission time can step between the
     stream-loss text and the HEARTBEAT showing the hold (14 s here): the autopilot's own
     clock, on the messages around them, still puts them a second apart."""
-    uav = mavlink.MAVLink(None, srcSystem=2, srcComponent=1)
-
-    def heard(msg: Any) -> None:
-        v.handle(uav.decode(bytearray(msg.pack(uav))))
-
-    def position(boot_ms: int) -> Any:
-        return mavlink.MAVLink_global_position_int_message(
-            boot_ms, 473977420, 85455940, 538000, 50000, 0, 0, 0, 0
-        )
-
-    offboard, loiter = 6 << 16, (4 << 16) | (3 << 24)  # PX4 OFFBOARD, AUTO.LOITER
-    armed = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mavlink.MAV_MODE_FLAG_SAFETY_ARMED
-
-    def beat(mode: int) -> Any:
-        return mavlink.MAVLink_heartbeat_message(
-            mavlink.MAV_TYPE_QUADROTOR, mavlink.MAV_AUTOPILOT_PX4, armed, mode, 4, 3
-        )
-
-    v = _vehicle()
-    heard(beat(offboard))
-    v._set_status(VehicleStatus.FLYING)
-    heard(position(300_000))
+    v = _flying()
+    _heard(v, _position(300_000))
     _text(v, FAILSAFE_TEXT, 100.0)  # (mission time before the step)
-    heard(position(301_000))
-    heard(beat(loiter))
+    _heard(v, _position(301_000))
+    _heard(v, _beat(_LOITER))
     assert v.status is VehicleStatus.HOLDING
     assert v.hold_is_ours(114.0)  # (mission time after it)
-    v = _vehicle()  # the same text 60 s of its own clock before the hold: no explanation
-    heard(beat(offboard))
-    v._set_status(VehicleStatus.FLYING)
-    heard(position(300_000))
+    v = _flying()  # the same text 60 s of its own clock before the hold: no explanation
+    _heard(v, _position(300_000))
     _text(v, FAILSAFE_TEXT, 100.0)
-    heard(position(360_000))
-    heard(beat(loiter))
+    _heard(v, _position(360_000))
+    _heard(v, _beat(_LOITER))
     assert not v.hold_is_ours(160.0)
+
+
+@pytest.mark.parametrize("mode", [_LOITER, _POSCTL], ids=["AUTO.LOITER", "POSCTL"])
+def test_a_px4_that_holds_in_a_failsafe_is_ours_though_its_text_was_lost(mode: int) -> None:
+    """The soak's lossy link (30 % each way) lost the one stream-loss STATUSTEXT of three
+    PX4 planes: each was taken for a pilot's and left holding for the rest of the hour
+    (72 % covered). The HEARTBEAT that shows the hold says MAV_STATE_CRITICAL, PX4's
+    ``vehicle_status.failsafe``, every second."""
+    v = _flying()
+    _heard(v, _beat(mode, mavlink.MAV_STATE_CRITICAL))
+    assert v.status is VehicleStatus.HOLDING
+    assert v.hold_is_ours(v.clock.now())
+    assert v.hold_is_ours(v.clock.now() + 3.0)  # (as the service judges it, 3 s on)
+
+
+def test_a_pilots_hold_is_reported_active_and_stays_the_pilots() -> None:
+    v = _flying()
+    _heard(v, _beat(_LOITER, mavlink.MAV_STATE_ACTIVE))
+    assert v.status is VehicleStatus.HOLDING
+    assert not v.hold_is_ours(v.clock.now())
+
+
+def test_a_failsafe_that_returns_the_uav_or_another_firmwares_is_not_taken_for_ours() -> None:
+    """A PX4 sent home in a failsafe (its battery, RC or geofence action, as COM_OBL_RC_ACT
+    may choose too) is respected, and so is an ArduPilot's (a lost GUIDED stream changes
+    no mode there: its failsafes are the battery's, the GCS link's...)."""
+    v = _flying()
+    _heard(v, _beat(_RTL, mavlink.MAV_STATE_CRITICAL))
+    assert v.status is VehicleStatus.HOLDING and not v.hold_is_ours(v.clock.now())
+    ardupilot = mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA
+    v = _flying(ardupilot)
+    _heard(v, _beat(_AP_LOITER, mavlink.MAV_STATE_CRITICAL, ardupilot))
+    assert v.status is VehicleStatus.HOLDING and not v.hold_is_ours(v.clock.now())
+
+
+def test_another_stations_mode_command_outweighs_a_failsafe_heartbeat() -> None:
+    v = _flying()
+    _heard(v, _beat(_LOITER, mavlink.MAV_STATE_CRITICAL))
+    _mode_ack(v, v.clock.now(), to=STRANGER)
+    assert not v.hold_is_ours(v.clock.now())

@@ -431,6 +431,9 @@ class Autopilot(ABC):
     lean_param: str | None = None
     commanded_as: ClassVar[str] = "as commanded"
     """What its speed commands mean, where :meth:`as_commanded` converts a true speed."""
+    stream_loss_modes: ClassVar[frozenset[str]] = frozenset()
+    """The modes it falls to, in a failsafe, when our setpoints stop (PX4's offboard loss);
+    none where a lost stream changes no mode (ArduPilot's GUIDED flies on to the last)."""
 
     def __init__(self, sysid: int, compid: int, frame: LocalFrame, kind: VehicleClass) -> None:
         self.sysid = sysid

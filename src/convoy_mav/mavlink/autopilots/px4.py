@@ -102,6 +102,11 @@ class PX4(Autopilot):
 
     name: ClassVar[str] = "PX4"
     streams_during_setup: ClassVar[bool] = True
+    stream_loss_modes: ClassVar[frozenset[str]] = frozenset(
+        {"AUTO.LOITER", "POSCTL", "ALTCTL", "STABILIZED", "MANUAL"}
+    )
+    """COM_OBL_RC_ACT's hold and manual fallbacks. Not its return or land: a battery, RC
+    or geofence failsafe chooses those too, and is respected (unless the text says)."""
 
     def __init__(self, sysid: int, compid: int, frame: LocalFrame, kind: VehicleClass) -> None:
         super().__init__(sysid, compid, frame, kind)
