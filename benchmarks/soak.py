@@ -1,9 +1,10 @@
 """The fault soak (a benchmark, not a test): an hour of mission through every fault at once.
 
     .venv/bin/python benchmarks/soak.py [--duration 3600] [--speedup 40] [--json out/soak.json]
-        [--report out/soak-report.json]
+        [--report out/soak-report.json] [--personality ardupilot] [--road KIND [--route-known]]
 
-Against ``sitl_mock`` (PX4 planes, the moving convoy) and a real mosquitto: 30 % packet
+Against ``sitl_mock`` (PX4 planes, the moving convoy; or ArduPilot's, or the road planner's
+fleet on a generated road) and a real mosquitto: 30 % packet
 loss both ways, 200 ms latency with up to 100 ms of jitter (reordering) and 5 % of
 datagrams repeated on every link, one autopilot rebooted, the broker
 killed and restarted twice, and floods of 100 000 random and 100 000 valid-but-foreign
@@ -34,9 +35,11 @@ from pymavlink.dialects.v20 import common as mavlink
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # (tests.broker)
 
 from convoy_mav.app import ConvoyService
-from convoy_mav.config import MissionConfig, MqttConfig
-from convoy_mav.demo import SCENARIOS, run_demo
+from convoy_mav.config import DEFAULT_ORIGIN, MissionConfig, MqttConfig
+from convoy_mav.demo import SCENARIOS, Scenario, replay_scenario, run_demo
 from convoy_mav.mavlink.codec import MavCodec
+from convoy_mav.tracks.roads import KINDS as ROAD_KINDS
+from convoy_mav.tracks.roads import road_kind
 from sitl_mock import MockFleet
 from tests.broker import Broker, find_mosquitto
 
@@ -70,7 +73,21 @@ def _flood(ports: list[int], random_n: int, foreign_n: int) -> None:
             s.sendto(frame, ("127.0.0.1", ports[k % len(ports)]))
 
 
-async def soak(duration: float, speedup: float, report_file: str | None = None) -> dict[str, Any]:
+async def soak(
+    duration: float | None,
+    speedup: float,
+    report_file: str | None = None,
+    *,
+    personality: str = "px4",
+    road: str | None = None,
+    route_known: bool = False,
+) -> dict[str, Any]:
+    scenario: Scenario = SCENARIOS["moving"]
+    length = 3600.0 if duration is None else duration
+    if road is not None:  # (a generated road, driven to its end)
+        track = road_kind(road).geotrack(DEFAULT_ORIGIN)
+        scenario = replay_scenario(track, SCENARIOS["stationary"])
+        length = track.duration if duration is None else duration
     executable = find_mosquitto()
     if executable is None:
         raise SystemExit("needs mosquitto: make broker")
@@ -92,7 +109,7 @@ async def soak(duration: float, speedup: float, report_file: str | None = None) 
         plan = [(0.25, "flood"), (0.4, "broker"), (0.5, "rss"), (0.7, "broker"), (0.8, "mqtt")]
         start = fleet.now
         for at, fault in plan:
-            while fleet.now < start + at * (duration - start):
+            while fleet.now < start + at * (length - start):
                 await asyncio.sleep(0.05)
             if fault == "rss":
                 memory["half_mib"] = _rss_mib()
@@ -129,11 +146,12 @@ async def soak(duration: float, speedup: float, report_file: str | None = None) 
 
     faults = {"loss_to_vehicle": 0.3, "loss_from_vehicle": 0.3, "latency": 0.2,
               "jitter": 0.1, "duplicate": 0.05,
-              "reboot": [f"1@{0.55 * duration:.0f}"], "seed": 3}  # fmt: skip
+              "reboot": [f"1@{0.55 * length:.0f}"], "seed": 3}  # fmt: skip
     try:
         result = await run_demo(
-            SCENARIOS["moving"], duration=duration, speedup=speedup, configure=configure,
-            during=script, faults=faults,
+            scenario, duration=length, speedup=speedup, configure=configure,
+            during=script, faults=faults, personality=personality, route_known=route_known,
+            uavs=None if road is None else scenario.fleet(route_known=route_known),
         )  # fmt: skip
     finally:
         broker.stop()
@@ -146,12 +164,16 @@ async def soak(duration: float, speedup: float, report_file: str | None = None) 
     truth = result.truth
     events = report["events"]
     return {
-        "duration_s": duration,
+        "duration_s": length,
         "speedup": speedup,
+        "personality": personality,
+        "road": road or "the moving convoy (straight)",
+        "route_known": route_known,
+        "uavs": len(report["vehicles"]),
         "faults": [
             "30 % loss each way, 200 ms latency plus up to 100 ms of jitter (reordering), "
             "5 % of datagrams repeated, every link",
-            f"UAV 1 rebooted at t={0.55 * duration:.0f}",
+            f"UAV 1 rebooted at t={0.55 * length:.0f}",
             *faults_done,
         ],
         "coverage_truth": None if truth is None else round(truth.fraction, 4),
@@ -171,16 +193,22 @@ async def soak(duration: float, speedup: float, report_file: str | None = None) 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--duration", type=float, default=3600.0)
+    parser.add_argument("--duration", type=float, help="mission s (an hour; a road: its length)")
     parser.add_argument("--speedup", type=float, default=40.0)
     parser.add_argument("--json", metavar="FILE")
     parser.add_argument("--report", metavar="FILE", help="the service's whole report (JSON)")
+    parser.add_argument("--personality", choices=("px4", "ardupilot"), default="px4")
+    parser.add_argument("--road", choices=sorted(ROAD_KINDS), help="a generated road instead")
+    parser.add_argument("--route-known", action="store_true", help="with --road: its route")
     parser.add_argument("--flood", metavar="PORT", type=int, nargs="+", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.flood:  # (the soak's flooder, in a process of its own)
         _flood(args.flood, 100_000, 100_000)
         return
-    out = asyncio.run(soak(args.duration, args.speedup, args.report))
+    out = asyncio.run(
+        soak(args.duration, args.speedup, args.report, personality=args.personality,
+             road=args.road, route_known=args.route_known)
+    )  # fmt: skip
     text = json.dumps(out, indent=2)
     print(text)
     if args.json:
