@@ -223,8 +223,23 @@ class FlightController:
         if px4_offboard and self.setpoint is not None:
             return self.setpoint  # PX4 OFFBOARD flies the latest setpoint
         if self.goal is None:
-            self.goal = self._rtl_goal() if behaviour is Behaviour.RTL else self._hold_here()
+            if behaviour is Behaviour.RTL:
+                self.goal = self._rtl_goal()
+            elif behaviour is Behaviour.TAKEOFF:
+                self.goal = self._takeoff_in_flight()
+            else:
+                self.goal = self._hold_here()
         return self.goal
+
+    def _takeoff_in_flight(self) -> Loiter:
+        """A take-off mode entered (or armed in) while flying: ArduPlane's ModeTakeoff,
+        "Climbing to TKOFF alt then loitering" below TKOFF_ALT above home, "Above TKOFF
+        alt - loitering" where it is otherwise. (PX4's AUTO.TAKEOFF: holds here.)"""
+        here = self._hold_here()
+        if not self.firmware.is_ardupilot:
+            return here
+        _, _, home_down = self.frames.world.to_ned(self.home)
+        return dataclasses.replace(here, down=min(here.down, home_down - self.takeoff_alt))
 
     def _hold_here(self) -> Loiter:
         s = self._ac().state

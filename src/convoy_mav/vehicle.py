@@ -933,7 +933,11 @@ class Vehicle:
             self.ours, self._ours_t = True, self.clock.now()
         ap.reset()
         self._setup_sent = 0
-        self._airborne_already = False
+        # Flying already (rebooted in the air, a link outage, a failsafe taken back): no
+        # take-off; the setpoints bring it back to its altitude. (An ArduPlane rebooted
+        # in the air had its home reset up there and waited for ever for a climb to
+        # TKOFF_ALT above it that its TAKEOFF mode, loitering, never flew.)
+        self._airborne_already = self.airborne
         self._takeoff_accepted = False
         unconfirmed: list[SetupStep] = []  # achieved, its HEARTBEAT not yet in
         while True:

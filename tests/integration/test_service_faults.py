@@ -449,6 +449,44 @@ async def test_a_killed_and_restarted_uav_rejoins_and_the_rest_rephase_back() ->
     assert after.fraction >= 0.99
 
 
+@pytest.mark.parametrize("personality", ["ardupilot", "px4"])
+async def test_an_autopilot_rebooted_in_the_air_flies_on_without_a_take_off(
+    personality: str,
+) -> None:
+    """A reboot in flight (a watchdog, a brown-out): the autopilot comes back disarmed,
+    still flying, its home reset where its first fix puts it, up in the air. Set up
+    again, it is armed and flown straight back to its slot. (An ArduPlane was put in
+    TAKEOFF to climb to TKOFF_ALT above that home, 6 m, from 6 m below it, and loitered
+    there while the set-up waited 120 s and gave up: 75 % covered.)"""
+    marks: dict[str, float] = {}
+    fleets: list[MockFleet] = []
+
+    async def script(fleet: MockFleet, service: ConvoyService) -> None:
+        fleets.append(fleet)
+        await _protecting(fleet, service)
+        fleet.reboot(1)
+        marks["rebooted"] = fleet.now
+        while True:
+            await asyncio.sleep(0.02)
+            flying = service.vehicles[1].status is VehicleStatus.FLYING
+            if flying and fleet.now > marks["rebooted"] + 1.0:
+                marks.setdefault("flying", fleet.now)
+
+    result = await run_demo(SCENARIOS["stationary"], duration=DURATION, speedup=SPEEDUP,
+                            personality=personality, during=script)  # fmt: skip
+    report = result.report.to_dict()
+    assert not [a for a in report["alarms"] if a["kind"] == "uav_failed"], report["alarms"]
+    assert "flying" in marks and marks["flying"] - marks["rebooted"] < 30.0, marks
+    after = score_fleet(
+        fleets[0], result.report.config, marks["flying"] + _orbit(), result.report.end_t
+    )
+    print(
+        f"\nrebooted at {marks['rebooted']:.0f} s, flying again at {marks['flying']:.0f} s; "
+        f"truth coverage from one orbit on {100 * after.fraction:.2f} %"
+    )
+    assert after.fraction >= 0.99
+
+
 async def test_a_uav_relaunched_far_behind_flies_to_the_fleet_before_the_others_rephase() -> None:
     """A spare (five planes where four cover a convoy at 8 m/s) is lost and relaunched
     from its pad, kilometres behind the convoy. The others keep the plan for four, which

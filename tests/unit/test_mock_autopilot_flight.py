@@ -520,3 +520,22 @@ def test_copter_rtl_returns_home_lands_and_disarms() -> None:
     assert "Landing detected, disarmed" in texts(out)
     row = gcs.truth()
     assert not row.armed and abs(row.north) < 1.0 and row.down == pytest.approx(0.0)
+
+
+def test_an_arduplane_put_in_takeoff_while_flying_climbs_to_tkoff_alt_or_loiters_here() -> None:
+    """ArduPlane's ModeTakeoff::update, already flying: "Climbing to TKOFF alt then
+    loitering" when below TKOFF_ALT above home, "Above TKOFF alt - loitering" where it is
+    otherwise (it does not fly level at its own altitude for ever)."""
+    gcs = _guided_plane(AP)  # (climbed out to TKOFF_ALT, 30 m above home, then GUIDED)
+    flight = gcs.vehicle.flight
+    _, _, home_down = WORLD.to_ned(flight.home)
+    setp = mavlink.MAVLink_param_set_message
+    for tkoff_alt, expected_rel in ((80.0, 80.0), (10.0, 80.0)):  # (then above it: stays)
+        gcs.send(setp(1, 1, b"TKOFF_ALT", tkoff_alt, mavlink.MAV_PARAM_TYPE_REAL32))
+        assert gcs.set_mode(13).result == mavlink.MAV_RESULT_ACCEPTED  # TAKEOFF, in flight
+        gcs.run(60.0, telemetry=False)
+        goal = flight.goal
+        assert isinstance(goal, Loiter), goal
+        assert home_down - goal.down == pytest.approx(expected_rel, abs=1.0)
+        assert home_down - gcs.truth().down == pytest.approx(expected_rel, abs=3.0)
+        assert gcs.set_mode(15).result == mavlink.MAV_RESULT_ACCEPTED  # (GUIDED again)
