@@ -300,6 +300,7 @@ class ArduPlane(ArduPilot):
         self.speed: float | None = None
         """The last speed commanded (m/s), None to re-send."""
         self.speed_t = -math.inf
+        self.speed_acked = False
         self.counters = {"reposition": 0, "change_speed": 0, "refused": 0}
         self.phase = PhaseLoop()
         """The along-track phase loop (its learnt speed offset is the airframe's)."""
@@ -416,9 +417,13 @@ class ArduPlane(ArduPilot):
         if sp.hold or position is None or t - self.speed_t < self.speed_interval:
             return out
         speed = self.within_range(self.as_commanded(self.phase.speed(sp, *position, t)))
-        if speed > 0.0 and (self.speed is None or abs(speed - self.speed) >= self.speed_step):
+        # Re-sent, like a loiter, until acknowledged: on a lossy link a lost one left the
+        # plane at the speed before for as long as the phase loop asked the same.
+        unconfirmed = not self.speed_acked and t - self.speed_t >= self.retry
+        changed = self.speed is None or abs(speed - self.speed) >= self.speed_step
+        if speed > 0.0 and (changed or unconfirmed):
             out.append(self.change_speed(speed))
-            self.speed, self.speed_t = speed, t
+            self.speed, self.speed_t, self.speed_acked = speed, t, False
             self.counters["change_speed"] += 1
         return out
 
@@ -477,9 +482,11 @@ class ArduPlane(ArduPilot):
             self.loiter_acked = accepted
             if not accepted:
                 self.counters["refused"] += 1
-        elif command == _M.MAV_CMD_DO_CHANGE_SPEED and not accepted:
-            self.speed = None
-            self.counters["refused"] += 1
+        elif command == _M.MAV_CMD_DO_CHANGE_SPEED:
+            self.speed_acked = accepted
+            if not accepted:
+                self.speed = None
+                self.counters["refused"] += 1
 
     def reset(self) -> None:
         """Re-send everything at the next setpoint (after a mode change or reboot)."""
@@ -487,4 +494,5 @@ class ArduPlane(ArduPilot):
         self.loiter_acked = False
         self.speed = None
         self.speed_t = -math.inf
+        self.speed_acked = False
         self.arc = None  # (the learnt overshoot stays: it is the airframe's)
