@@ -36,7 +36,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # (tests.broker)
 
 from convoy_mav.app import ConvoyService
 from convoy_mav.config import DEFAULT_ORIGIN, MissionConfig, MqttConfig
-from convoy_mav.demo import SCENARIOS, Scenario, replay_scenario, run_demo
+from convoy_mav.demo import SCENARIOS, replay_scenario, run_demo
 from convoy_mav.mavlink.codec import MavCodec
 from convoy_mav.tracks.roads import KINDS as ROAD_KINDS
 from convoy_mav.tracks.roads import road_kind
@@ -82,12 +82,11 @@ async def soak(
     road: str | None = None,
     route_known: bool = False,
 ) -> dict[str, Any]:
-    scenario: Scenario = SCENARIOS["moving"]
-    length = 3600.0 if duration is None else duration
+    scenario, whole = SCENARIOS["moving"], 3600.0
     if road is not None:  # (a generated road, driven to its end)
         track = road_kind(road).geotrack(DEFAULT_ORIGIN)
-        scenario = replay_scenario(track, SCENARIOS["stationary"])
-        length = track.duration if duration is None else duration
+        scenario, whole = replay_scenario(track, SCENARIOS["stationary"]), track.duration
+    length = whole if duration is None else duration
     executable = find_mosquitto()
     if executable is None:
         raise SystemExit("needs mosquitto: make broker")

@@ -109,7 +109,8 @@ def _position(boot_ms: int) -> Any:
 def _beat(
     mode: int, status: int = mavlink.MAV_STATE_ACTIVE, autopilot: int = mavlink.MAV_AUTOPILOT_PX4
 ) -> Any:
-    kind = mavlink.MAV_TYPE_QUADROTOR if autopilot == mavlink.MAV_AUTOPILOT_PX4 else 1
+    px4 = autopilot == mavlink.MAV_AUTOPILOT_PX4
+    kind = mavlink.MAV_TYPE_QUADROTOR if px4 else mavlink.MAV_TYPE_FIXED_WING  # (ArduPlane)
     return mavlink.MAVLink_heartbeat_message(kind, autopilot, _ARMED, mode, status, 3)
 
 
