@@ -217,7 +217,7 @@ class VehicleLink(asyncio.DatagramProtocol):
             return
         for _ in range(faults.copies(self.sysid)):
             delay = faults.delay_to_vehicle(self.sysid)
-            if delay > 0.0:
+            if delay > 0.0 or self.fleet.frozen:  # (paused: read, and answered, once it runs)
                 self.inbound.push(now + delay, (data, addr))
             else:
                 self.process(data, addr, now)
@@ -547,6 +547,11 @@ class MockFleet:
         self._links[sysid].reboot(self.now, on_pad=on_pad)
         where = " on its pad" if on_pad else ""
         log.warning("sysid %d: rebooted%s at t=%.2f s", sysid, where, self.now)
+
+    @property
+    def frozen(self) -> bool:
+        """Paused (``pause``): no physics, nothing sent or answered, sim time stopped."""
+        return self._frozen
 
     async def pause(
         self, wall_seconds: float, *, first: Sequence[int] = (), stagger: float = 0.1

@@ -86,6 +86,12 @@ class StreamTarget(Protocol):
         """Only FLYING and SETTING_UP vehicles are sent setpoints."""
         ...
 
+    @property
+    def setpoint_lead(self) -> float:
+        """Mission seconds its setpoints take to be flown: each is sampled that far
+        ahead, for the instant it takes effect (``roundtrip``)."""
+        ...
+
     def send_setpoint(self, sp: Setpoint) -> None:
         """Send one setpoint now (never blocks)."""
         ...
@@ -172,9 +178,9 @@ class SetpointStreamer:
     Args:
         vehicles: The vehicles, re-iterated at every round (pass a live view such
             as ``dict.values()`` to add vehicles while running).
-        source: ``source(uid, t)`` -> the setpoint for mission time ``t``, or
-            None for nothing this round. An exception is logged and counted; the
-            other vehicles still get theirs.
+        source: ``source(uid, t)`` -> the setpoint for mission time ``t`` (now plus
+            the vehicle's ``setpoint_lead``), or None for nothing this round. An
+            exception is logged and counted; the other vehicles still get theirs.
         clock: The mission clock.
         rate_hz: Setpoints per mission second per vehicle (at most: see ``max_wall_hz``).
         max_wall_hz: At a speedup that would send a vehicle more than this per
@@ -346,7 +352,7 @@ class SetpointStreamer:
                 continue
             uid = vehicle.uid
             try:
-                sp = self.source(uid, t)
+                sp = self.source(uid, t + vehicle.setpoint_lead)
             except Exception:
                 self.errors += 1
                 if self.errors == 1:

@@ -75,6 +75,7 @@ from convoy_mav.mavlink.autopilots import (
 )
 from convoy_mav.mavlink.autopilots.base import param_request_message, param_set_message
 from convoy_mav.plausible import JumpGate
+from convoy_mav.roundtrip import RoundTrip
 from convoy_mav.types import Setpoint, Telemetry, VehicleStatus
 
 __all__ = ["EventKind", "LinkLike", "Vehicle", "VehicleEvent"]
@@ -112,6 +113,13 @@ _LANDED_FRESH = 12.0  # mission s a landed state stands for (sent at 0.2 Hz in f
 _PARAM_TOL = 0.05  # a PARAM_VALUE this close to what was set confirms it
 _HOME_WAIT = 60.0  # mission s after the fix that set-up waits for HOME_POSITION at most
 _STREAM_RETRY = 5.0  # mission s between stream requests while no position arrives
+_CLIMBS = (SetupStep.TAKEOFF, SetupStep.CLIMB)  # set-up steps that end at the flight altitude
+_TIMESYNC_EVERY = 1.0  # mission s between two TIMESYNC requests (the link's round trip)
+_CARRY_S = 2.0  # mission s a fix is carried on at its velocity to a setpoint's time
+_COMMANDS = (_M.MAVLINK_MSG_ID_COMMAND_LONG, _M.MAVLINK_MSG_ID_COMMAND_INT)
+_STREAM_WATCH_S = 2.0  # mission s a message asked for may be unheard before it is asked again
+_STREAM_WATCH_PERIODS = 5.0  # ...or this many of its periods, if longer
+_MSG_NAMES = {i: c.msgname for i, c in _M.mavlink_map.items()}
 _FED_LOOK = 0.5  # mission s between looks at a fed stream (PX4's COM_OF_LOSS_T: 1 s)
 _STREAM_GAP_S = 1.0  # mission s without a setpoint an autopilot may take for a loss (PX4's default)
 _OWN_FAILSAFE_S = 10.0  # mission s after a link is back in which a hold is our stream's doing
@@ -327,6 +335,9 @@ class Vehicle:
         self._acks: dict[int, tuple[int, int]] = {}  # command -> (result, seq)
         self._ack_seq = 0
         self._streams_t = -math.inf
+        self._asked: dict[int, float] = {}  # message id -> when last asked for
+        self.round_trip = RoundTrip()
+        """The link's round trips (TIMESYNC, commands): how late setpoints are flown."""
         self._last_sp: Setpoint | None = None
         self._last_sp_t = -math.inf
         self._own_sp_t = -math.inf  # when the keepalive last sent one of its own
@@ -349,6 +360,7 @@ class Vehicle:
             "HOME_POSITION": self.handle_HOME_POSITION,
             "PARAM_VALUE": self.handle_PARAM_VALUE,
             "POSITION_TARGET_GLOBAL_INT": self.handle_POSITION_TARGET_GLOBAL_INT,
+            "TIMESYNC": self.handle_TIMESYNC,
             "MISSION_ACK": self._on_mission_reply,
             "MISSION_REQUEST_INT": self._on_mission_reply,
             "MISSION_REQUEST": self._on_mission_reply,
@@ -364,6 +376,25 @@ class Vehicle:
         """Latest (north, east) in the mission frame, if any."""
         tel = self.telemetry
         return None if tel is None else (tel.north, tel.east)
+
+    def _position_at(self, t: float) -> tuple[float, float] | None:
+        """Where the latest fix puts the vehicle at mission time ``t`` (a setpoint's,
+        ``setpoint_lead`` ahead, to be compared with it): carried on at its velocity,
+        for ``_CARRY_S`` at most; None from an older fix (a telemetry gap: no phase
+        correction from it)."""
+        tel = self.telemetry
+        if tel is None:
+            return None
+        dt = max(t - tel.t, 0.0)
+        if dt > _CARRY_S:
+            return None
+        return tel.north + tel.vn * dt, tel.east + tel.ve * dt
+
+    @property
+    def setpoint_lead(self) -> float:
+        """Mission seconds ahead to sample its setpoints: the link's round trip, by
+        which they are flown late (``roundtrip``)."""
+        return self.round_trip.lead
 
     @property
     def last_setpoint(self) -> Setpoint | None:
@@ -552,6 +583,7 @@ class Vehicle:
             return
         self._ack_seq += 1
         self._acks[msg.command] = (msg.result, self._ack_seq)
+        self.round_trip.answered(msg.command, now)
         if self.firmware is not None:
             self.firmware.on_ack(msg.command, msg.result, now)
 
@@ -619,6 +651,9 @@ class Vehicle:
         if msg.lat_int or msg.lon_int:  # (0, 0: no target yet)
             self.control.reported(now, msg.lat_int, msg.lon_int)
             self._check_control(now)
+            if self.contested is None:  # (no fight made fiercer: the operator decides)
+                t = self.clock.to_mission(msg.time_boot_ms, self.uid)
+                ap.on_target(msg.lat_int, msg.lon_int, t)
 
     def stranger(self, what: str) -> None:
         """Another controller's frame for this vehicle was seen on its link."""
@@ -671,6 +706,8 @@ class Vehicle:
             self.counters["send_failed"] += 1
             return
         kind = msg.get_msgId()  # (our position targets, to tell them from another's)
+        if kind in _COMMANDS:
+            self.round_trip.sent(msg.command, self.clock.now())
         if kind == _M.MAVLINK_MSG_ID_SET_POSITION_TARGET_GLOBAL_INT:
             if not msg.type_mask & _XY_IGNORED:
                 self.control.sent(self.clock.now(), msg.lat_int, msg.lon_int)
@@ -705,7 +742,7 @@ class Vehicle:
         now = self.clock.now()
         if math.isfinite(self._last_sp_t) and now - self._last_sp_t > _STREAM_GAP_S:
             self.stream_resumed_t = now  # (a gap: the autopilot may have failed safe meanwhile)
-        for msg in ap.setpoint_messages(sp, now, self.position):
+        for msg in ap.setpoint_messages(sp, now, self._position_at(sp.t)):
             self._send(msg)
         self._last_sp, self._last_sp_t = sp, now
         self._setup_sent += 1
@@ -744,15 +781,25 @@ class Vehicle:
             return None
         return Setpoint(now, tel.north, tel.east, -self.altitude, 0, 0, 0, tel.yaw, 0, hold=True)
 
-    def _request_streams(self) -> None:
-        if self.firmware is None:
+    def _stream_rates(self) -> Mapping[int, float]:
+        return self.flight_stream_rates if self.status is _S.FLYING else self.stream_rates
+
+    def _request_streams(self, *, fresh: bool = True) -> None:
+        """Ask for the streams; ``fresh`` stops every other first (ArduPilot's boot
+        groups), which only the first request of a set-up, or after a reboot, needs: a
+        stop lost or overtaken on the link silences what the requests with it start."""
+        ap = self.firmware
+        if ap is None:
             return
-        rates = self.flight_stream_rates if self.status is _S.FLYING else self.stream_rates
-        for msg in self.firmware.stream_requests(rates):
+        rates = self._stream_rates()
+        wanted = ap.wanted_streams(rates)
+        for msg in ap.stream_requests(rates, None if fresh else wanted.keys()):
             self._send(msg)
+        now = self.clock.now()
+        self._asked = {m: now for m, hz in wanted.items() if hz > 0.0}
         # the speed range, with the streams: as often as they are asked for, until read
-        for name in self.firmware.unread_speed_params():
-            self._send(param_request_message(self.sysid, self.firmware.compid, name))
+        for name in ap.unread_speed_params():
+            self._send(param_request_message(self.sysid, ap.compid, name))
             self._asked_params.add(name)
         self._streams_t = self.clock.now()
         self.counters["stream_requests"] += 1
@@ -806,7 +853,7 @@ class Vehicle:
             _M.MAV_TYPE_GCS, _M.MAV_AUTOPILOT_INVALID, 0, 0, _M.MAV_STATE_ACTIVE, 3
         )
         clock = self.clock
-        next_hb = -math.inf
+        next_hb = next_sync = -math.inf
         while not clock.synced:  # nobody heard yet: no mission time to pace by
             if not self._heartbeat:
                 await clock.wait_synced()
@@ -831,6 +878,9 @@ class Vehicle:
             ap = self.firmware
             if ap is not None and self.status not in (_S.CONNECTING, _S.LOST):
                 due = min(due, max(self._heard_t + self.lost_after, now) + _LOST_MARGIN)
+                if now >= next_sync:
+                    self._time_link(now)
+                    next_sync = now + _TIMESYNC_EVERY
             if ap is not None and ap.streams_during_setup and self.status in _STREAM_NEEDED:
                 if now - self._last_sp_t >= self.keepalive:
                     sp = self._own_setpoint()
@@ -845,6 +895,18 @@ class Vehicle:
                 )
                 due = min(due, look)
             await clock.sleep_until(due)
+
+    def _time_link(self, now: float) -> None:
+        """A TIMESYNC request (``tc1`` 0, ``ts1`` now in ns): its answer times the link."""
+        ts1 = max(round(now * 1e9), 0)
+        self._send(_M.MAVLink_timesync_message(0, ts1))
+        self.round_trip.sent(("timesync", ts1), now)
+
+    def handle_TIMESYNC(self, msg: Message, now: float) -> None:
+        """An answer to our TIMESYNC (``ts1`` echoed): the link's round trip. (A request
+        of the autopilot's own, ``tc1`` 0, is not answered: nothing here needs it.)"""
+        if msg.tc1 != 0:
+            self.round_trip.answered(("timesync", msg.ts1), now)
 
     @property
     def heard_t(self) -> float:
@@ -863,6 +925,35 @@ class Vehicle:
         no_position = now - self.last_t.get("GLOBAL_POSITION_INT", -math.inf)
         if no_position > 2 * self.lost_after and now - self._streams_t > _STREAM_RETRY:
             self._request_streams()  # heartbeats only: streams were forgotten (reboot)
+        else:
+            self._watch_streams(now)
+
+    def _watch_streams(self, now: float) -> None:
+        """Ask once more for each message asked for but not heard while the vehicle is.
+
+        One request lost on the link (a set-up's GPS_RAW_INT: set-up waited 120 s for a
+        fix it was never sent; a flight's GLOBAL_POSITION_INT: the plane flown blind)
+        would otherwise stand until the whole set was asked for again. A message the
+        firmware does not send (no home yet) is asked for every few of its periods.
+        """
+        ap = self.firmware
+        if ap is None or now - self._heard_t > self.lost_after:
+            return  # (a silent link is the liveness check's)
+        rates = ap.wanted_streams(self._stream_rates())
+        again = [
+            m
+            for m, t in self._asked.items()
+            if m in rates
+            and now - max(t, self.last_t.get(_MSG_NAMES[m], -math.inf))
+            >= max(_STREAM_WATCH_S, _STREAM_WATCH_PERIODS / rates[m])
+        ]
+        if not again:
+            return
+        for msg in ap.stream_requests(rates, again):
+            self._send(msg)
+        for m in again:
+            self._asked[m] = now
+        self.counters["streams_asked_again"] += len(again)
 
     async def _lifecycle(self) -> None:
         while True:
@@ -947,6 +1038,10 @@ class Vehicle:
                         deadline = await self._arm_in_turn(deadline)
                     else:
                         await self._achieve(step, deadline)
+                    if step in _CLIMBS and not self._step_done(step):
+                        break  # (disarmed, or left the mode that climbs it: round again,
+                        # never on to the next step below the flight altitude: ArduPlane
+                        # put in GUIDED 12 m up loitered there, set up never ending)
                     if step not in unconfirmed:
                         unconfirmed.append(step)
                 for late in [s for s in unconfirmed if self._step_done(s)]:
@@ -959,7 +1054,7 @@ class Vehicle:
             await self.clock.sleep_until(self.clock.now() + self.command_retry)
         self._pad = None  # (up: the plan's setpoints from now on)
         self._set_status(_S.FLYING)
-        self._request_streams()  # the flight rates
+        self._request_streams(fresh=False)  # the flight rates
 
     async def _arm_in_turn(self, deadline: float) -> float:
         """Arm once the fleet's launch sequence clears this UAV; the set-up's deadline,
@@ -1180,11 +1275,20 @@ class Vehicle:
         self, step: SetupStep, deadline: float, holds: Callable[[], bool] = lambda: True
     ) -> None:
         """Wait for the climb to the flight altitude; on a disarm, or once ``holds()`` is
-        false (the autopilot left the mode that climbs it), set-up goes round again."""
-        reached = await self._wait_until(
-            lambda: self._step_done(step) or not self.armed or not holds(),
-            deadline - self.clock.now(),
-        )
+        false (the autopilot left the mode that climbs it), set-up goes round again.
+
+        A disarm is one seen after the arming: the HEARTBEAT that shows it armed may
+        come after the arming's COMMAND_ACK (lost, on a lossy link), and taking the
+        HEARTBEATs before it for a disarm sent an ArduPlane climbing in TAKEOFF into
+        GUIDED a few metres up."""
+        seen_armed = self.armed
+
+        def over() -> bool:
+            nonlocal seen_armed
+            seen_armed = seen_armed or self.armed
+            return self._step_done(step) or (seen_armed and not self.armed) or not holds()
+
+        reached = await self._wait_until(over, deadline - self.clock.now())
         if not reached:
             raise _SetupFailed(self._gave_up(str(step), 1, None))
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
@@ -96,3 +97,23 @@ async def test_latency_delays_both_directions_in_sim_time(
     await client.until(lambda: fleet.now >= t_sent + 3.0)
     newest = max(m.time_boot_ms for m in client.of("ATTITUDE")) / 1000.0
     assert fleet.now - newest >= latency - 0.02
+
+
+async def test_a_paused_fleet_answers_nothing_until_it_runs_again(
+    start_mock: StartMock, mav_client: Callable[..., MavClient]
+) -> None:
+    """A paused simulator (SIGSTOP, a lockstep wait) reads nothing: a TIMESYNC sent
+    during the pause is answered once it runs, never during it, so a ground station
+    hears the silence it must (a link timed by TIMESYNC once kept every UAV 'heard')."""
+    fleet = await start_mock(MockConfig.simple(1, speedup=20, base_port=0))
+    client = mav_client(fleet.endpoint(1).port)
+    client.hello()
+    await client.wait_for("HEARTBEAT")
+    pause = asyncio.create_task(fleet.pause(0.3))
+    await asyncio.sleep(0.05)
+    n_before = len(client.log)
+    client.mav.timesync_send(0, 123_456)
+    await client.until(pause.done)
+    assert not [m for m in client.log[n_before:] if m.get_type() == "TIMESYNC"]
+    answer = await client.wait_for("TIMESYNC", lambda m: m.ts1 == 123_456, since=n_before)
+    assert answer.tc1 > 0  # (its boot time: an answer, not a request)

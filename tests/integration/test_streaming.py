@@ -40,6 +40,7 @@ class FakeVehicle:
     def __init__(self, sysid: int, status: VehicleStatus = VehicleStatus.FLYING) -> None:
         self.sysid = self.uid = sysid
         self.status = status
+        self.setpoint_lead = 0.0
         self.sent: list[tuple[float, Setpoint]] = []
 
     def send_setpoint(self, sp: Setpoint) -> None:
@@ -148,6 +149,28 @@ async def test_streams_on_mission_deadlines_to_flying_and_setting_up_only() -> N
     assert stats.mission.percentile(50) == pytest.approx(0.05, rel=0.15)
     assert stats.wall.percentile(50) == pytest.approx(0.05 / 20.0, rel=0.2)
     assert streamer.ticks >= len(vehicles[0].sent)
+
+
+async def test_each_vehicle_is_sent_the_setpoint_for_when_it_will_fly_it() -> None:
+    """A vehicle whose commands come back 0.4 s after they go (its ``setpoint_lead``)
+    is sent the plan 0.4 mission s ahead; one on a quick link, the plan for now."""
+    near, far = FakeVehicle(1), FakeVehicle(2)
+    far.setpoint_lead = 0.4
+    sent_at: dict[int, list[float]] = {1: [], 2: []}
+    async with autopilot_clock(20.0) as clock:
+
+        def source(sysid: int, t: float) -> Setpoint:
+            sent_at[sysid].append(clock.now())
+            return setpoint(sysid, t)
+
+        streamer = SetpointStreamer([near, far], source, clock, rate_hz=20.0)
+        async with streaming(streamer):
+            await mission_sleep(clock, 3.0)
+    for vehicle, lead in ((near, 0.0), (far, 0.4)):
+        ahead = [
+            sp.t - now for (_, sp), now in zip(vehicle.sent, sent_at[vehicle.uid], strict=True)
+        ]
+        assert ahead and max(abs(a - lead) for a in ahead) < 0.01
 
 
 async def test_a_fast_simulator_gets_fewer_setpoints_per_mission_second() -> None:

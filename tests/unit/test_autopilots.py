@@ -255,6 +255,26 @@ def test_stream_requests() -> None:
     assert sum(m.get_type() == "COMMAND_LONG" for m in ardu) == 3
 
 
+def test_streams_asked_again_are_those_alone_with_no_group_stopped() -> None:
+    """A request lost on the link is made again for its message alone: a stop sent with
+    it would silence every stream flowing, should it arrive without the rest."""
+    rates = {M.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: 10.0, M.MAVLINK_MSG_ID_GPS_RAW_INT: 1.0}
+    gps = [M.MAVLINK_MSG_ID_GPS_RAW_INT]
+    for ap in (strategy(M.MAV_AUTOPILOT_ARDUPILOTMEGA, QUAD), strategy(M.MAV_AUTOPILOT_PX4, FW)):
+        again = ap.stream_requests(rates, gps)
+        assert [(m.get_type(), m.param1, m.param2) for m in again] == [
+            ("COMMAND_LONG", float(M.MAVLINK_MSG_ID_GPS_RAW_INT), 1_000_000.0)
+        ]
+        assert set(gps) | set(rates) <= set(ap.wanted_streams(rates))
+    # a firmware without SET_MESSAGE_INTERVAL: the message's group, at its fastest member
+    ap = strategy(M.MAV_AUTOPILOT_ARDUPILOTMEGA, QUAD)
+    ap.on_ack(M.MAV_CMD_SET_MESSAGE_INTERVAL, M.MAV_RESULT_UNSUPPORTED, 1.0)
+    groups = [m for m in ap.stream_requests(rates, gps) if m.get_type() == "REQUEST_DATA_STREAM"]
+    assert [(m.req_stream_id, m.req_message_rate, m.start_stop) for m in groups] == [
+        (M.MAV_DATA_STREAM_EXTENDED_STATUS, 1, 1)
+    ]
+
+
 def test_px4_stops_the_streams_the_service_never_reads() -> None:
     gcs = Gcs(make_vehicle(MOCK_PX4, "plane"))
     before = Counter(m.get_type() for m in gcs.run(1.0))
@@ -475,22 +495,57 @@ def test_arduplane_reposition_only_when_the_arc_changes() -> None:
     assert msg.param4 == 1.0
     assert (msg.x, msg.y) == (round(centre.lat * 1e7), round(centre.lon * 1e7))
     assert msg.z == pytest.approx(centre.alt)
-    # the same arc, further along: nothing new while waiting for the ACK
-    assert (
-        ap.setpoint_messages(circle_setpoint(0.6, radius=120.0, clockwise=False), 10.5, None) == []
-    )
+    # the same arc, further along: sent once more `copy_after` on (a copy, should the
+    # first be lost), then nothing new while waiting for the ACK
+    on = circle_setpoint(0.6, radius=120.0, clockwise=False)
+    assert ap.setpoint_messages(on, 10.05, None) == []
+    assert len(ap.setpoint_messages(on, 10.15, None)) == 1
+    assert ap.setpoint_messages(on, 10.5, None) == []
     # unacknowledged for `retry`: sent again; acknowledged: quiet
-    assert len(ap.setpoint_messages(sp, 11.0, None)) == 1
-    ap.on_ack(M.MAV_CMD_DO_REPOSITION, M.MAV_RESULT_ACCEPTED, 11.1)
+    assert len(ap.setpoint_messages(sp, 11.15, None)) == 1
+    ap.on_ack(M.MAV_CMD_DO_REPOSITION, M.MAV_RESULT_ACCEPTED, 11.2)
     assert ap.setpoint_messages(sp, 20.0, None) == []
     # a new arc (another centre, radius or direction): sent at once
     moved = replace(sp, center=(30.0, 0.0))
     assert len(ap.setpoint_messages(moved, 20.1, None)) == 1
-    ap.on_ack(M.MAV_CMD_DO_REPOSITION, M.MAV_RESULT_FAILED, 20.2)
+    ap.on_ack(M.MAV_CMD_DO_REPOSITION, M.MAV_RESULT_FAILED, 20.15)  # (answered: no copy)
     assert ap.setpoint_messages(moved, 20.5, None) == []
     assert len(ap.setpoint_messages(moved, 21.2, None)) == 1  # refused: retried
     flipped = replace(moved, clockwise=True)
     assert len(ap.setpoint_messages(flipped, 21.3, None)) == 1
+
+
+def test_a_new_loiter_is_sent_twice_unless_acknowledged_at_once() -> None:
+    """On a link whose answers take longer than ``copy_after``, each new loiter goes
+    twice (a lost switch between arcs swung planes 20-60 m off the next arc); on a
+    quick link its ACK comes first and it goes once."""
+    sp = circle_setpoint(0.5, radius=120.0)
+    for rtt, sends in ((0.03, 1), (0.4, 2)):
+        ap = plane()
+        out = [len(ap.setpoint_messages(sp, 10.0, None))]
+        for k in range(1, 10):  # a setpoint every 0.05 s
+            t = 10.0 + 0.05 * k
+            if t >= 10.0 + rtt and not ap.loiter_acked:
+                ap.on_ack(M.MAV_CMD_DO_REPOSITION, M.MAV_RESULT_ACCEPTED, t)
+            out.append(len(ap.setpoint_messages(sp, t, None)))
+        assert sum(out) == sends == ap.counters["reposition"]
+
+
+def test_an_arduplane_reporting_another_target_after_the_ack_is_sent_its_loiter_again() -> None:
+    """An older loiter of ours, retried and jittered, overtook the newest on the link:
+    the ACK came, but the plane flies the old one, which its reported target shows."""
+    ap = plane()
+    sp = circle_setpoint(0.5, radius=120.0)
+    (sent,) = ap.setpoint_messages(sp, 10.0, None)
+    ap.on_ack(M.MAV_CMD_DO_REPOSITION, M.MAV_RESULT_ACCEPTED, 10.3)
+    older = (sent.x + 20_000, sent.y)  # (about 2 km north)
+    ap.on_target(*older, 10.2)  # (reported before the ACK: the loiter before, rightly)
+    ap.on_target(sent.x, sent.y + 3, 11.0)  # (ours: within a metre)
+    assert ap.setpoint_messages(sp, 11.05, None) == []
+    ap.on_target(*older, 11.2)
+    (again,) = ap.setpoint_messages(sp, 11.25, None)
+    assert (again.command, again.x, again.y) == (M.MAV_CMD_DO_REPOSITION, sent.x, sent.y)
+    assert ap.counters["target_not_ours"] == 1
 
 
 def _eas(speed: float, down: float = -40.0) -> float:
@@ -503,9 +558,9 @@ def test_arduplane_speed_changes_are_rate_limited() -> None:
     sp = circle_setpoint(1.0)
     ap.setpoint_messages(sp, 0.0, (sp.north, sp.east))  # reposition + first speed
     assert ap.speed == pytest.approx(_eas(18.0))
+    ap.on_ack(M.MAV_CMD_DO_REPOSITION, M.MAV_RESULT_ACCEPTED, 0.05)
     behind = (100 * math.cos(0.5), 100 * math.sin(0.5))
     assert ap.setpoint_messages(sp, 0.5, behind) == []  # too soon
-    ap.on_ack(M.MAV_CMD_DO_REPOSITION, M.MAV_RESULT_ACCEPTED, 0.5)
     (msg,) = ap.setpoint_messages(sp, 1.0, behind)
     assert msg.command == M.MAV_CMD_DO_CHANGE_SPEED
     assert (msg.param1, msg.param3) == (0.0, -1.0)
@@ -528,7 +583,7 @@ def test_an_arduplane_speed_change_lost_on_the_link_is_sent_again() -> None:
     on_slot = (sp.north, sp.east)
     first = ap.setpoint_messages(sp, 0.0, on_slot)
     (sent,) = [m.param2 for m in first if m.command == M.MAV_CMD_DO_CHANGE_SPEED]
-    ap.on_ack(M.MAV_CMD_DO_REPOSITION, M.MAV_RESULT_ACCEPTED, 0.2)
+    ap.on_ack(M.MAV_CMD_DO_REPOSITION, M.MAV_RESULT_ACCEPTED, 0.05)
     assert ap.setpoint_messages(sp, 0.6, on_slot) == []  # (too soon to tell)
     (again,) = ap.setpoint_messages(sp, 1.0, on_slot)  # no answer within retry: again
     assert again.command == M.MAV_CMD_DO_CHANGE_SPEED and again.param2 == pytest.approx(sent)

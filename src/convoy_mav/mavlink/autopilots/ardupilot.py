@@ -41,7 +41,7 @@ What differs from PX4 (ArduPilot's ``mode.h`` and ``GCS_Mavlink.cpp``):
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from typing import ClassVar
 
 from pymavlink.dialects.v20 import common as mavlink
@@ -66,6 +66,7 @@ __all__ = ["ROVER_MODES", "ArduCopter", "ArduPilot", "ArduPlane", "ardupilot_mod
 _LEARNT_SAMPLES = 200
 """Loiter samples (10 s at 20 Hz) before the learnt overshoot is trusted to judge a plan."""
 _LOITER_RADIUS_MAX = 65535.0  # m: ArduPlane's widest GUIDED loiter (UINT16_MAX)
+_TARGET_TOL_E7 = 10  # 1e-7 degrees (about a metre) between a loiter sent and the target reported
 
 _M = mavlink
 
@@ -180,29 +181,37 @@ class ArduPilot(Autopilot):
         self.legacy_streams = False
         """SET_MESSAGE_INTERVAL was refused: fall back to the stream groups."""
 
-    def stream_requests(self, rates: Mapping[int, float]) -> list[Message]:
+    def wanted_streams(self, rates: Mapping[int, float]) -> dict[int, float]:
+        """``rates`` and its position target at 1 Hz (another controller shows in it)."""
+        return {_M.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT: 1.0, **rates}
+
+    def stream_requests(
+        self, rates: Mapping[int, float], again: Collection[int] | None = None
+    ) -> list[Message]:
         """Every group stopped, then SET_MESSAGE_INTERVAL per message; REQUEST_DATA_STREAM
         per group (integer Hz, the fastest member) once the firmware refused the former.
-        Its position target comes at 1 Hz too (another controller shows in it)."""
-        rates = {_M.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT: 1.0, **rates}
+        Asked ``again`` for some, no group is stopped: a stop that overtook the intervals
+        on the link, or arrived without them, would silence the streams flowing."""
+        rates = self.wanted_streams(rates)
         out: list[Message] = []
         if not self.legacy_streams:  # (before the intervals: stopping a group stops its members)
-            out.append(
-                _M.MAVLink_request_data_stream_message(
-                    self.sysid, self.compid, _M.MAV_DATA_STREAM_ALL, 0, 0
+            if again is None:
+                out.append(
+                    _M.MAVLink_request_data_stream_message(
+                        self.sysid, self.compid, _M.MAV_DATA_STREAM_ALL, 0, 0
+                    )
                 )
-            )
         else:
             for group, members in _STREAM_GROUPS.items():
                 wanted = [rates[m] for m in members if m in rates]
-                if wanted:
+                if wanted and (again is None or any(m in again for m in members)):
                     hz = max(1, math.ceil(max(wanted)))
                     out.append(
                         _M.MAVLink_request_data_stream_message(
                             self.sysid, self.compid, group, hz, 1
                         )
                     )
-        return out + super().stream_requests(rates)
+        return out + super().stream_requests(rates, again)
 
     def on_ack(self, command: int, result: int, t: float) -> None:
         """A firmware without SET_MESSAGE_INTERVAL gets the stream groups instead."""
@@ -251,6 +260,8 @@ class ArduPlane(ArduPilot):
 
     Args (besides the base's):
         retry: Mission seconds before an unacknowledged or refused loiter is re-sent.
+        copy_after: Mission seconds before a new loiter is sent the second time, unless
+            acknowledged by then (a link quicker than that sends it once).
         speed_interval: Least mission seconds between two DO_CHANGE_SPEED.
         speed_step: Least change (m/s) worth a DO_CHANGE_SPEED.
         carrot: Look-ahead (m) of the loiter point that flies a straight segment.
@@ -273,6 +284,7 @@ class ArduPlane(ArduPilot):
     )
 
     retry = 1.0
+    copy_after = 0.1
     speed_interval = 1.0
     speed_step = 0.2
     carrot = 600.0
@@ -297,11 +309,16 @@ class ArduPlane(ArduPilot):
         """(north, east, down, radius, clockwise) of the last DO_REPOSITION sent."""
         self.loiter_sent_t = -math.inf
         self.loiter_acked = False
+        self.loiter_sends = 0
+        """Sends of the loiter in force (1: the first)."""
+        self.loiter_xy: tuple[int, int] | None = None
+        """Its centre as sent (1e-7 degrees), to tell it in the target reported."""
+        self.loiter_acked_t = -math.inf
         self.speed: float | None = None
         """The last speed commanded (m/s), None to re-send."""
         self.speed_t = -math.inf
         self.speed_acked = False
-        self.counters = {"reposition": 0, "change_speed": 0, "refused": 0}
+        self.counters = {"reposition": 0, "change_speed": 0, "refused": 0, "target_not_ours": 0}
         self.phase = PhaseLoop()
         """The along-track phase loop (its learnt speed offset is the airframe's)."""
         self.model = LoiterModel()
@@ -409,10 +426,18 @@ class ArduPlane(ArduPilot):
         if position is not None:
             self._learn(sp, t, position)
         loiter, straight = self._loiter_for(sp)
-        stale = not self.loiter_acked and t - self.loiter_sent_t >= self.retry
-        if self._loiter_changed(loiter, straight) or stale:
-            out.append(self.reposition(*loiter))
+        # Unconfirmed, a new loiter is sent again ``copy_after`` on, then every ``retry``:
+        # one lost on the link left the plane on the arc before for a whole retry, and a
+        # switch a second late swung it 20-60 m off the next arc (30 % loss each way).
+        wait = self.copy_after if self.loiter_sends == 1 else self.retry
+        stale = not self.loiter_acked and t - self.loiter_sent_t >= wait
+        changed = self._loiter_changed(loiter, straight)
+        if changed or stale:
+            msg = self.reposition(*loiter)
+            out.append(msg)
+            self.loiter_xy = (msg.x, msg.y)
             self.loiter, self.loiter_sent_t, self.loiter_acked = loiter, t, False
+            self.loiter_sends = 1 if changed else self.loiter_sends + 1
             self.counters["reposition"] += 1
         if sp.hold or position is None or t - self.speed_t < self.speed_interval:
             return out
@@ -480,13 +505,28 @@ class ArduPlane(ArduPilot):
         accepted = result == _M.MAV_RESULT_ACCEPTED
         if command == _M.MAV_CMD_DO_REPOSITION:
             self.loiter_acked = accepted
-            if not accepted:
+            self.loiter_acked_t = t
+            if not accepted:  # (answered: no copy, a retry)
+                self.loiter_sends = max(self.loiter_sends, 2)
                 self.counters["refused"] += 1
         elif command == _M.MAV_CMD_DO_CHANGE_SPEED:
             self.speed_acked = accepted
             if not accepted:
                 self.speed = None
                 self.counters["refused"] += 1
+
+    def on_target(self, lat_e7: int, lon_e7: int, t: float) -> None:
+        """A target reported after our loiter's ACK that is not its centre: an older
+        loiter of ours overtook it on the link (a retry, jittered), or the ACK was an
+        older one's. Sent again at the next setpoint. (Another controller's target
+        is ``contest``'s to judge; this only keeps ours in force.)"""
+        xy = self.loiter_xy
+        if xy is None or not self.loiter_acked or t <= self.loiter_acked_t:
+            return  # (a report from before the ACK shows the loiter before)
+        if abs(lat_e7 - xy[0]) + abs(lon_e7 - xy[1]) > _TARGET_TOL_E7:
+            self.loiter_acked = False
+            self.loiter_sent_t = -math.inf
+            self.counters["target_not_ours"] += 1
 
     def reset(self) -> None:
         """Re-send everything at the next setpoint (after a mode change or reboot)."""

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass
 from enum import StrEnum
 from typing import Any, ClassVar
@@ -501,11 +501,20 @@ class Autopilot(ABC):
         return None
 
     # --------------------------------------------------------------- telemetry
-    def stream_requests(self, rates: Mapping[int, float]) -> list[Message]:
-        """Messages asking for ``rates`` (message id -> Hz of mission time)."""
+    def wanted_streams(self, rates: Mapping[int, float]) -> dict[int, float]:
+        """Every message ``stream_requests(rates)`` asks for, at its rate (Hz)."""
+        return dict(rates)
+
+    def stream_requests(
+        self, rates: Mapping[int, float], again: Collection[int] | None = None
+    ) -> list[Message]:
+        """Messages asking for ``rates`` (message id -> Hz of mission time); with
+        ``again``, only those of its messages, once more, nothing else changed (a
+        request lost on the link)."""
         return [
             set_message_interval(hz, msg_id).message(self.sysid, self.compid)
-            for msg_id, hz in rates.items()
+            for msg_id, hz in self.wanted_streams(rates).items()
+            if again is None or msg_id in again
         ]
 
     # ---------------------------------------------------------------- setpoints
@@ -523,6 +532,10 @@ class Autopilot(ABC):
 
     def on_ack(self, command: int, result: int, t: float) -> None:  # noqa: B027 - optional hook
         """A COMMAND_ACK arrived (strategies re-send refused stream-path commands)."""
+
+    def on_target(self, lat_e7: int, lon_e7: int, t: float) -> None:  # noqa: B027 - optional hook
+        """It reported its position target, as it stood at mission time ``t`` (a
+        strategy whose commands stand until replaced checks its last one is in force)."""
 
     def reset(self) -> None:  # noqa: B027 - optional hook
         """Forget what was sent: everything is re-sent (after a re-set-up or reboot)."""

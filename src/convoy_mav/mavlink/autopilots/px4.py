@@ -124,9 +124,9 @@ class PX4(Autopilot):
             self.speed_params = SpeedParams("MPC_XY_VEL_MAX")  # (OFFBOARD's velocity clamp)
             self.lean_param = "MPC_TILTMAX_AIR"
 
-    def stream_requests(self, rates: Mapping[int, float]) -> list[Message]:
+    def wanted_streams(self, rates: Mapping[int, float]) -> dict[int, float]:
         """``rates``, and the profile's high-rate streams the service never reads stopped."""
-        return super().stream_requests({**_UNREAD_STREAMS, **rates})
+        return {**_UNREAD_STREAMS, **rates}
 
     def mode_name(self, custom_mode: int) -> str:
         """``"OFFBOARD"``, ``"AUTO.LOITER"``... (``"MODE(main,sub)"`` if unknown)."""
