@@ -2272,6 +2272,10 @@ class ConvoyService:
                 why: round(s, 1) for why, s in sorted(self._not_counted_s.get(sysid, {}).items())
             },
             "messages_per_s": round(v.received / heard, 2) if heard else None,
+            # The link's round trip (mission s; its setpoints are sampled that far ahead,
+            # None: never timed), and telemetry streams asked for again, lost on the link.
+            "link_round_trip_s": round(v.setpoint_lead, 3) if v.round_trip.samples else None,
+            "streams_asked_again": v.counters["streams_asked_again"],
             # Frames dropped as implausible: a time_boot_ms ahead of anything its clock
             # can have run, a position farther than the airframe can have flown.
             "rejected": {

@@ -953,7 +953,9 @@ class Vehicle:
             self._send(msg)
         for m in again:
             self._asked[m] = now
-        self.counters["streams_asked_again"] += len(again)
+        # (counted if it flowed before: one not sent yet, ArduCopter's position target
+        # outside GUIDED, a home not yet set, is no loss)
+        self.counters["streams_asked_again"] += sum(_MSG_NAMES[m] in self.last_t for m in again)
 
     async def _lifecycle(self) -> None:
         while True:

@@ -50,6 +50,10 @@ async def test_stationary_convoy_minimum_uavs(personality: str, tmp_path: Path) 
     errors = {v["sysid"]: v["median_tracking_error_m"] for v in report["vehicles"]}
     assert all(e < 10.0 for e in errors.values()), errors
     assert all(v["mean_tracking_error_m"] < 20.0 for v in report["vehicles"])
+    # Loopback: a round trip of a few mission ms (the mock's 10-ms step, at the speedup)
+    trips = [v["link_round_trip_s"] for v in report["vehicles"]]
+    assert all(t is not None and 0.0 <= t < 0.2 for t in trips), trips
+    assert all(v["streams_asked_again"] == 0 for v in report["vehicles"])
     # The tlog holds our traffic and the ground vehicles' positions under their own ids.
     from pymavlink import mavutil
 
