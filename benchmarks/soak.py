@@ -2,6 +2,7 @@
 
     .venv/bin/python benchmarks/soak.py [--duration 3600] [--speedup 40] [--json out/soak.json]
         [--report out/soak-report.json] [--personality ardupilot] [--road KIND [--route-known]]
+        [--link-only] [--seed 3]
 
 Against ``sitl_mock`` (PX4 planes, the moving convoy; or ArduPilot's, or the road planner's
 fleet on a generated road) and a real mosquitto: 30 % packet
@@ -12,6 +13,8 @@ MAVLink datagrams at the service's ports and 10 000 absurd MQTT inputs. Prints, 
 writes with ``--json``: coverage (the mock's truth, the service's monitor and its
 prediction), UAVs lost and back, alarms by kind, what was dropped and counted, and the
 process's resident memory after set-up and at the end (it must stay flat).
+``--link-only`` keeps the link's faults alone (no reboot, flood, broker or MQTT fault):
+how the fleet flies such a link; ``--seed`` draws its losses anew.
 """
 
 from __future__ import annotations
@@ -81,6 +84,8 @@ async def soak(
     personality: str = "px4",
     road: str | None = None,
     route_known: bool = False,
+    link_only: bool = False,
+    seed: int = 3,
 ) -> dict[str, Any]:
     scenario, whole = SCENARIOS["moving"], 3600.0
     if road is not None:  # (a generated road, driven to its end)
@@ -106,6 +111,8 @@ async def soak(
         memory["after_setup_mib"] = _rss_mib()
         fleets.append(fleet)
         plan = [(0.25, "flood"), (0.4, "broker"), (0.5, "rss"), (0.7, "broker"), (0.8, "mqtt")]
+        if link_only:
+            plan = [(0.5, "rss")]
         start = fleet.now
         for at, fault in plan:
             while fleet.now < start + at * (length - start):
@@ -143,9 +150,13 @@ async def soak(
                         await c.publish(f"{PREFIX}/{topic}", payload)
                 faults_done.append(f"t={fleet.now:.0f}: 10k absurd MQTT inputs")
 
-    faults = {"loss_to_vehicle": 0.3, "loss_from_vehicle": 0.3, "latency": 0.2,
-              "jitter": 0.1, "duplicate": 0.05,
-              "reboot": [f"1@{0.55 * length:.0f}"], "seed": 3}  # fmt: skip
+    faults: dict[str, Any] = {
+        "loss_to_vehicle": 0.3, "loss_from_vehicle": 0.3, "latency": 0.2, "jitter": 0.1,
+        "duplicate": 0.05, "seed": seed,
+    }  # fmt: skip
+    reboot = [] if link_only else [f"UAV 1 rebooted at t={0.55 * length:.0f}"]
+    if not link_only:
+        faults["reboot"] = [f"1@{0.55 * length:.0f}"]
     try:
         result = await run_demo(
             scenario, duration=length, speedup=speedup, configure=configure,
@@ -171,8 +182,8 @@ async def soak(
         "uavs": len(report["vehicles"]),
         "faults": [
             "30 % loss each way, 200 ms latency plus up to 100 ms of jitter (reordering), "
-            "5 % of datagrams repeated, every link",
-            f"UAV 1 rebooted at t={0.55 * length:.0f}",
+            f"5 % of datagrams repeated, every link (seed {seed})",
+            *reboot,
             *faults_done,
         ],
         "coverage_truth": None if truth is None else round(truth.fraction, 4),
@@ -183,6 +194,8 @@ async def soak(
         "alarms": dict(Counter(a["kind"] for a in report["alarms"] if a["active"])),
         "rejected": report["rejected"],
         "vehicles_rejected": {v["sysid"]: v["rejected"] for v in report["vehicles"]},
+        "tracking_mean_m": {v["sysid"]: v["mean_tracking_error_m"] for v in report["vehicles"]},
+        "link_round_trip_s": {v["sysid"]: v["link_round_trip_s"] for v in report["vehicles"]},
         "memory_mib": {k: round(v, 1) for k, v in memory.items()},
         # (the mock's ground-truth rows, kept in this process to score the run, grow with
         # the mission, as columns: ``*_truth_store_mib``; the service's own are bounded)
@@ -199,6 +212,8 @@ def main() -> None:
     parser.add_argument("--personality", choices=("px4", "ardupilot"), default="px4")
     parser.add_argument("--road", choices=sorted(ROAD_KINDS), help="a generated road instead")
     parser.add_argument("--route-known", action="store_true", help="with --road: its route")
+    parser.add_argument("--link-only", action="store_true", help="the link's faults alone")
+    parser.add_argument("--seed", type=int, default=3, help="the link's random draws")
     parser.add_argument("--flood", metavar="PORT", type=int, nargs="+", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.flood:  # (the soak's flooder, in a process of its own)
@@ -206,7 +221,8 @@ def main() -> None:
         return
     out = asyncio.run(
         soak(args.duration, args.speedup, args.report, personality=args.personality,
-             road=args.road, route_known=args.route_known)
+             road=args.road, route_known=args.route_known, link_only=args.link_only,
+             seed=args.seed)
     )  # fmt: skip
     text = json.dumps(out, indent=2)
     print(text)

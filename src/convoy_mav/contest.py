@@ -49,7 +49,7 @@ class ControlWatch:
         moved_m: Before we send any, a reported target that moves this far is driven.
         recent_s: Our targets of the last this-many seconds count as ours...
         keep: ... and so do our last ``keep`` whatever their age (a loiter re-sent
-            only when it changes stays in force).
+            only when it changes stays in force); a target sent again counts once.
         needed, window_s: Signs needed within the window to call it contested.
         clear_s: Quiet time after which it is free again.
         settle_s: Reports this soon after our first target are not judged.
@@ -81,7 +81,11 @@ class ControlWatch:
         sent = self._sent
         if not sent:
             self._first_sent_t = t
-        sent.append((t, (lat_e7, lon_e7)))
+        here = (lat_e7, lon_e7)
+        if sent and sent[-1][1] == here:  # sent again (a copy, a retry): one target still,
+            sent[-1] = (t, here)  # or a loiter retried four times on a lossy link
+            return  # pushed the one before out, and a late report of it was "not ours"
+        sent.append((t, here))
         # Kept by age, not count: a link lagging a second at 100 Hz reports a target
         # 100 sends old (a bound of 64 made it another's). Clock steps back: kept.
         while len(sent) > self.keep and t - sent[0][0] > self.recent_s:

@@ -645,6 +645,7 @@ class Vehicle:
             ap is None
             or not ap.reports_target
             or self.mode != ap.external_mode  # (a take-off, a hold: the autopilot's own)
+            or self.status is _S.HOLDING  # (told to hold or return: its HEARTBEAT may lag)
             or msg.type_mask & _XY_IGNORED
         ):
             return

@@ -41,6 +41,20 @@ def test_a_loiter_sent_once_stays_ours_however_old() -> None:
     assert w.check(60.0) is None
 
 
+def test_the_loiter_before_stays_ours_however_often_the_next_is_sent_again() -> None:
+    """A lossy link: the next arc's loiter is sent, copied and retried five times in
+    3 s, and a report of the arc before arrives late. Counted by sends, the one before
+    was pushed out of ``keep`` and the report taken for another controller's."""
+    w = ControlWatch()
+    before, after = HERE, _north(HERE, 300.0)  # (the paper's arcs: centres 2R apart)
+    w.sent(0.0, *before)
+    for t in (30.0, 30.1, 31.1, 32.1, 33.1):
+        w.sent(t, *after)
+    assert not w.reported(33.3, *before)
+    assert not w.reported(33.5, *after)
+    assert w.signs == 0
+
+
 def test_anothers_targets_make_it_contested_then_free_again() -> None:
     w = ControlWatch()
     w.sent(0.0, *HERE)
