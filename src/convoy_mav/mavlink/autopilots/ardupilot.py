@@ -19,9 +19,11 @@ What differs from PX4 (ArduPilot's ``mode.h`` and ``GCS_Mavlink.cpp``):
     * ArduPlane ignores the horizontal part of SET_POSITION_TARGET_*: the arc
       being flown is sent as a DO_REPOSITION loiter (COMMAND_INT, GLOBAL_INT,
       param3 radius, param4 = 1 counter-clockwise), re-sent only when the arc
-      changes (or until accepted), and the along-track phase is corrected with
-      rate-limited DO_CHANGE_SPEED. A straight segment is flown as a loiter
-      around a point far ahead on the line (a "carrot"), moved as the plane
+      changes (or until accepted: a second time 0.1 s on, then each second; and
+      again when the target it reports after the ACK is not it), and the
+      along-track phase is corrected with rate-limited DO_CHANGE_SPEED. A straight
+      segment is flown as a loiter around a point far ahead on the line (a
+      "carrot"), moved as the plane
       advances; so is an arc wider than ArduPlane's loiters (65535 m). Its radius
       is given (the plan's tightest arc, at most a quarter of the look-ahead),
       never left 0 once an arc was sent:
