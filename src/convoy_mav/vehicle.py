@@ -377,7 +377,7 @@ class Vehicle:
         tel = self.telemetry
         return None if tel is None else (tel.north, tel.east)
 
-    def _position_at(self, t: float) -> tuple[float, float] | None:
+    def _fix_carried_to(self, t: float) -> tuple[float, float] | None:
         """Where the latest fix puts the vehicle at mission time ``t`` (a setpoint's,
         ``setpoint_lead`` ahead, to be compared with it): carried on at its velocity,
         for ``_CARRY_S`` at most; None from an older fix (a telemetry gap: no phase
@@ -743,7 +743,7 @@ class Vehicle:
         now = self.clock.now()
         if math.isfinite(self._last_sp_t) and now - self._last_sp_t > _STREAM_GAP_S:
             self.stream_resumed_t = now  # (a gap: the autopilot may have failed safe meanwhile)
-        for msg in ap.setpoint_messages(sp, now, self._position_at(sp.t)):
+        for msg in ap.setpoint_messages(sp, now, self._fix_carried_to(sp.t)):
             self._send(msg)
         self._last_sp, self._last_sp_t = sp, now
         self._setup_sent += 1
