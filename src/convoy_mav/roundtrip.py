@@ -47,6 +47,7 @@ class RoundTrip:
     stale: float = 3.0
     samples: deque[float] = field(default_factory=deque)
     _pending: dict[Hashable, tuple[float, bool]] = field(default_factory=dict)
+    _lead: float = 0.0  # (kept, not taken at each read: the streamer reads it every round)
 
     def sent(self, key: Hashable, t: float) -> None:
         """Something its answer names by ``key`` (a command's id, a TIMESYNC's ``ts1``)
@@ -70,11 +71,10 @@ class RoundTrip:
         self.samples.append(rtt)
         if len(self.samples) > self.keep:
             self.samples.popleft()
+        self._lead = min(statistics.median(self.samples), self.cap)
         return rtt
 
     @property
     def lead(self) -> float:
         """The median round trip (s), at most ``cap``; 0 before any was timed."""
-        if not self.samples:
-            return 0.0
-        return min(statistics.median(self.samples), self.cap)
+        return self._lead
