@@ -2,10 +2,10 @@
 
     .venv/bin/python benchmarks/soak.py [--duration 3600] [--speedup 40] [--json out/soak.json]
         [--report out/soak-report.json] [--personality ardupilot] [--road KIND [--route-known]]
-        [--link-only] [--seed 3]
+        [--link-only] [--seed 3] [--frame copter]
 
-Against ``sitl_mock`` (PX4 planes, the moving convoy; or ArduPilot's, or the road planner's
-fleet on a generated road) and a real mosquitto: 30 % packet
+Against ``sitl_mock`` (PX4 planes, the moving convoy; or ArduPilot's, or copters, or the
+road planner's fleet on a generated road) and a real mosquitto: 30 % packet
 loss both ways, 200 ms latency with up to 100 ms of jitter (reordering) and 5 % of
 datagrams repeated on every link, one autopilot rebooted, the broker
 killed and restarted twice, and floods of 100 000 random and 100 000 valid-but-foreign
@@ -86,6 +86,7 @@ async def soak(
     route_known: bool = False,
     link_only: bool = False,
     seed: int = 3,
+    frame: str = "plane",
 ) -> dict[str, Any]:
     scenario, whole = SCENARIOS["moving"], 3600.0
     if road is not None:  # (a generated road, driven to its end)
@@ -160,7 +161,8 @@ async def soak(
     try:
         result = await run_demo(
             scenario, duration=length, speedup=speedup, configure=configure,
-            during=script, faults=faults, personality=personality, route_known=route_known,
+            during=script, faults=faults, personality=personality, frame=frame,
+            route_known=route_known,
             uavs=None if road is None else scenario.fleet(route_known=route_known),
         )  # fmt: skip
     finally:
@@ -177,6 +179,7 @@ async def soak(
         "duration_s": length,
         "speedup": speedup,
         "personality": personality,
+        "frame": frame,
         "road": road or "the moving convoy (straight)",
         "route_known": route_known,
         "uavs": len(report["vehicles"]),
@@ -214,6 +217,7 @@ def main() -> None:
     parser.add_argument("--route-known", action="store_true", help="with --road: its route")
     parser.add_argument("--link-only", action="store_true", help="the link's faults alone")
     parser.add_argument("--seed", type=int, default=3, help="the link's random draws")
+    parser.add_argument("--frame", choices=("plane", "copter"), default="plane")
     parser.add_argument("--flood", metavar="PORT", type=int, nargs="+", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.flood:  # (the soak's flooder, in a process of its own)
@@ -222,7 +226,7 @@ def main() -> None:
     out = asyncio.run(
         soak(args.duration, args.speedup, args.report, personality=args.personality,
              road=args.road, route_known=args.route_known, link_only=args.link_only,
-             seed=args.seed)
+             seed=args.seed, frame=args.frame)
     )  # fmt: skip
     text = json.dumps(out, indent=2)
     print(text)

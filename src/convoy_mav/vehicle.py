@@ -49,7 +49,7 @@ import functools
 import logging
 import math
 from collections import Counter, deque
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from enum import StrEnum
 from typing import Any, Protocol
@@ -78,7 +78,7 @@ from convoy_mav.plausible import JumpGate
 from convoy_mav.roundtrip import RoundTrip
 from convoy_mav.types import Setpoint, Telemetry, VehicleStatus
 
-__all__ = ["EventKind", "LinkLike", "Vehicle", "VehicleEvent"]
+__all__ = ["EventKind", "LinkLike", "Vehicle", "VehicleEvent", "refusal_reason"]
 
 log = logging.getLogger(__name__)
 
@@ -95,6 +95,7 @@ _REFUSALS = {
     _M.MAV_RESULT_FAILED: "FAILED",
 }
 _REASON_WAIT = 0.3  # mission s to wait for the STATUSTEXT that explains a refusal
+_TEXTS_KEPT = 16  # STATUSTEXTs kept to find a refusal's reasons among
 _SETTLE_S = 3.0  # mission s after home is set before position jumps are judged
 _LISTEN_S = 8.0  # mission s a UAV found flying in the external mode is watched first
 _ADOPTED_YIELD_S = 600.0  # mission s a UAV we found flying is yielded to another controller
@@ -143,6 +144,22 @@ def _is_stream_loss_failsafe(text: str | None) -> bool:
         return False
     low = text.lower()
     return "offboard" in low and ("signal" in low or "lost" in low or "loss" in low)
+
+
+def refusal_reason(texts: Iterable[tuple[int, str]]) -> str | None:
+    """The reason for a refusal among the STATUSTEXTs (severity, text) since the command.
+
+    The texts of NOTICE or worse, each once, in the order said; with none, the latest.
+    ArduCopter answers an arming refused with its checks ("Arm: Gyros inconsistent",
+    "Arm: Need Position Estimate", CRITICAL) and may go on with news of its own ("Field
+    Elevation Set", INFO) before the reason is read; a mode it refuses with why (NOTICE)
+    and that it failed (WARNING). None when nothing was said.
+    """
+    said = list(texts)
+    if not said:
+        return None
+    serious = [text for severity, text in said if severity <= _M.MAV_SEVERITY_NOTICE]
+    return "; ".join(dict.fromkeys(serious)) if serious else said[-1][1]
 
 
 class LinkLike(Protocol):
@@ -321,6 +338,8 @@ class Vehicle:
         self._flown = False
         self.first_heard_t: float | None = None
         self._statustext_t = -math.inf
+        # (the latest texts, mission time and severity: a refusal's reasons)
+        self._texts: deque[tuple[float, int, str]] = deque(maxlen=_TEXTS_KEPT)
         self._fix_t: float | None = None  # mission time a fix was first seen
         self._home_t = -math.inf  # mission time home was set (since boot)
         self._gate = JumpGate(max_speed, slack_m=_JUMP_SLACK_M, confirm=_JUMP_CONFIRM)
@@ -593,6 +612,7 @@ class Vehicle:
         text = text.rstrip("\x00").strip()
         self.last_statustext = text
         self._statustext_t = now
+        self._texts.append((now, int(msg.severity), text))
         if _is_stream_loss_failsafe(text):
             self._stream_loss_text_t = now
             self._stream_loss_text_boot = self._boot_s
@@ -1389,7 +1409,8 @@ class Vehicle:
             result_name = _REFUSALS[result]
             self.counters["refused"] += 1
             await self._wait_until(functools.partial(self._text_since, now), _REASON_WAIT)
-            reason = self.last_statustext if self._text_since(now) else "no reason given"
+            since = ((severity, text) for t, severity, text in self._texts if t >= now)
+            reason = refusal_reason(since) or "no reason given"
             wait = min(backoff, max(deadline - self.clock.now(), 0.0))
             if said is None or said[0] != reason or now - said[1] >= self.max_backoff:
                 # (the same refusal again within max_backoff is not said again)

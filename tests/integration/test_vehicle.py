@@ -377,6 +377,9 @@ class ScriptedCopter:
         self.commands: list[int] = []
         self.mode, self.armed, self.alt = 0, False, 0.0
         self.arm_refusals = 1
+        self.arm_result = mavlink.MAV_RESULT_DENIED
+        # what it says after a refused arming (severity, text)
+        self.arm_texts = [(mavlink.MAV_SEVERITY_CRITICAL, "PreArm: Throttle")]
 
     def now(self) -> float:
         return 3.0 + self.speedup * (asyncio.get_running_loop().time() - self.t0)
@@ -402,8 +405,9 @@ class ScriptedCopter:
             loop.call_later(0.3 / self.speedup, self._mode_done, int(msg.param2))  # type: ignore[attr-defined]
         elif cmd == m.MAV_CMD_COMPONENT_ARM_DISARM and self.arm_refusals:
             self.arm_refusals -= 1
-            self.deliver(ack(cmd, m.MAV_RESULT_DENIED, 0, 0, 255, 190))
-            self.deliver(m.MAVLink_statustext_message(m.MAV_SEVERITY_CRITICAL, b"PreArm: Throttle"))
+            self.deliver(ack(cmd, self.arm_result, 0, 0, 255, 190))
+            for severity, text in self.arm_texts:
+                self.deliver(m.MAVLink_statustext_message(severity, text.encode()))
         else:
             self.armed = self.armed or cmd == m.MAV_CMD_COMPONENT_ARM_DISARM
             if cmd == m.MAV_CMD_NAV_TAKEOFF:
@@ -436,10 +440,10 @@ class ScriptedCopter:
 
 
 async def _fly_scripted(
-    arm_refusals: int, timeout: float
+    arm_refusals: int, timeout: float, peer: ScriptedCopter | None = None
 ) -> tuple[ScriptedCopter, list[VehicleEvent]]:
     """Set up a vehicle on a ``ScriptedCopter`` that refuses ARM so many times, to FLYING."""
-    peer = ScriptedCopter(speedup=20.0)
+    peer = peer or ScriptedCopter(speedup=20.0)
     peer.arm_refusals = arm_refusals
     clock = MissionClock(rate_hint=20.0)
     events: list[VehicleEvent] = []
@@ -463,6 +467,26 @@ async def test_in_progress_foreign_acks_and_refusals() -> None:
         "UAV 1 (ArduCopter): arm refused (DENIED): 'PreArm: Throttle'; retrying in 1.0 s"
     ]
     assert peer.alt == pytest.approx(15.0)  # relative to home, which is at the origin here
+
+
+async def test_a_refusal_is_explained_by_its_checks_not_by_news_after_them() -> None:
+    """Real ArduCopter SITL, warming up: the arming FAILED, then its two checks
+    (CRITICAL) and its news of the field elevation (INFO) in the same instant. The
+    reason given is the checks', not the latest text."""
+    peer = ScriptedCopter(speedup=20.0)
+    m = peer.m
+    peer.arm_result = m.MAV_RESULT_FAILED
+    peer.arm_texts = [
+        (m.MAV_SEVERITY_CRITICAL, "Arm: Gyros inconsistent"),
+        (m.MAV_SEVERITY_CRITICAL, "Arm: Need Position Estimate"),
+        (m.MAV_SEVERITY_INFO, "Field Elevation Set: 584m"),
+    ]
+    _, events = await _fly_scripted(arm_refusals=1, timeout=5, peer=peer)
+    refused = [e.message for e in events if e.kind is EventKind.REFUSED]
+    assert refused == [
+        "UAV 1 (ArduCopter): arm refused (FAILED): "
+        "'Arm: Gyros inconsistent; Arm: Need Position Estimate'; retrying in 1.0 s"
+    ]
 
 
 async def test_refused_arm_is_retried_at_most_arm_backoff_apart() -> None:
