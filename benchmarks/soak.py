@@ -199,6 +199,10 @@ async def soak(
         "vehicles_rejected": {v["sysid"]: v["rejected"] for v in report["vehicles"]},
         "tracking_mean_m": {v["sysid"]: v["mean_tracking_error_m"] for v in report["vehicles"]},
         "link_round_trip_s": {v["sysid"]: v["link_round_trip_s"] for v in report["vehicles"]},
+        "streams_asked_again_stopped": {
+            v["sysid"]: (v["streams_asked_again"], v["streams_stopped"]) for v in report["vehicles"]
+        },
+        "messages_per_s": {v["sysid"]: v["messages_per_s"] for v in report["vehicles"]},
         "memory_mib": {k: round(v, 1) for k, v in memory.items()},
         # (the mock's ground-truth rows, kept in this process to score the run, grow with
         # the mission, as columns: ``*_truth_store_mib``; the service's own are bounded)

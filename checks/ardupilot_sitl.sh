@@ -30,6 +30,10 @@
 # With UAVS=N (more than 3), N aircraft fly the scripted convoy: spares beyond the
 # paper's minimum.
 #
+# With LINK=1, every UAV's link runs through a lossy, laggy radio (checks/lossy_link.py:
+# the soak's faults, 30 % loss each way, 200 ms latency plus up to 100 ms of jitter, 5 %
+# repeated, in simulated time); LINK="--seed 5 --loss 0.1 ..." passes its options.
+#
 # With KILL=AFTER_S:DOWN_S, UAV 1's SITL process is killed AFTER_S wall s in (in flight:
 # a power loss) and started again DOWN_S wall s later, on its pad with its eeprom: the
 # service must declare it lost, fly on with the others, and set it up, launch it and
@@ -174,6 +178,17 @@ PY
     pids+=($!)
   fi
 fi
+serial_base=14560  # (SITL instance K sends to serial_base + K)
+if [ -n "${LINK:-}" ]; then  # a lossy, laggy radio between the UAVs and the service
+  serial_base=14860
+  link_args=()
+  [ "$LINK" != 1 ] && read -ra link_args <<<"$LINK"
+  "$py" checks/lossy_link.py --speedup "$speedup" "${link_args[@]}" \
+    $(for k in $(seq 0 $((uavs - 1))); do echo "$((14860 + k)):$((14560 + k))"; done) \
+    >"$out/link.log" 2>&1 &
+  link_pid=$!
+  pids+=("$link_pid")
+fi
 start_instance() {  # start_instance K: SITL instance K (UAV K+1) on its pad; sets $pid
   local k=$1 home
   home=$("$py" -c "
@@ -182,7 +197,7 @@ g = LocalFrame(GeoPoint($lat, $lon, $alt)).to_geo(0.0, 40.0 * $k)
 print(f'{g.lat:.7f},{g.lon:.7f},$alt,90')")
   (cd "$out/$k" && exec "$exe" --model "$model" --speedup "$speedup" \
       --defaults "$defaults" -I "$k" --sysid $((k + 1)) --home "$home" \
-      --serial0 "udpclient:127.0.0.1:$((14560 + k))" >>sitl.log 2>&1) &
+      --serial0 "udpclient:127.0.0.1:$((serial_base + k))" >>sitl.log 2>&1) &
   pid=$!
 }
 if [ -n "${SET_SPEEDUP:-}" ]; then SET_PARAM=${SET_SPEEDUP%%:*}:SIM_SPEEDUP=${SET_SPEEDUP#*:}; fi
@@ -242,7 +257,7 @@ PY
   ) &
   pids+=($!)
 fi
-.venv/bin/convoy-mav run --config "$config" --duration "$duration" \
+.venv/bin/convoy-mav run --config "$config" --duration "$duration" ${RUN_ARGS:-} \
   --report "$out/report.json" --tlog "$out/mission.tlog" --plot "$out/mission.png" \
   --record-mission "$out/mission.inputs"
 "$py" checks/sitl_report.py "$config" "$out/report.json" "$out/mission.tlog"
@@ -280,6 +295,15 @@ for a in report['alarms']:
 for e in report['events']:
     if 'UAV 1 ' in e and any(w in e for w in ('lost', 'back', 'rebooted', 'armed', 'airborne', 'flying', 'joined', 'cleared')):
         print(e[:110])
+" "$out/report.json"
+fi
+if [ -n "${LINK:-}" ]; then
+  kill "$link_pid" 2>/dev/null || true; sleep 1  # (it prints its counts)
+  echo "link:"; cat "$out/link.log"
+  "$py" -c "
+import json, sys
+for v in json.load(open(sys.argv[1]))['vehicles']:
+    print(f\"UAV {v['sysid']}: round trip {v['link_round_trip_s']} s, streams asked again {v['streams_asked_again']}, tracking {v['mean_tracking_error_m']} m\")
 " "$out/report.json"
 fi
 if [ -n "${SECOND_AFTER:-}" ]; then

@@ -2276,6 +2276,7 @@ class ConvoyService:
             # None: never timed), and telemetry streams asked for again, lost on the link.
             "link_round_trip_s": round(v.setpoint_lead, 3) if v.round_trip.samples else None,
             "streams_asked_again": v.counters["streams_asked_again"],
+            "streams_stopped": v.counters["streams_stopped"],
             # Frames dropped as implausible: a time_boot_ms ahead of anything its clock
             # can have run, a position farther than the airframe can have flown.
             "rejected": {

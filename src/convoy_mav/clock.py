@@ -430,8 +430,9 @@ class MissionClock:
         while walls[0] < horizon:
             walls.popleft()
             times.popleft()
+        if sysid == self._ref or self._measured is None:
+            self._dirty = True  # (no rate measured yet: another clock may give it)
         if sysid == self._ref:
-            self._dirty = True
             return rebooted
         assert self._ref is not None
         ref = self._tracks[self._ref]
@@ -690,7 +691,33 @@ class MissionClock:
     def _fallback_rate(self) -> float:
         if self._measured is not None:
             return self._measured  # e.g. after a handover or a step: the last measured rate
+        others = self._rate_of_others()
+        if others is not None:
+            return others
         return self._hint if self._hint is not None else 1.0
+
+    def _rate_of_others(self) -> float | None:
+        """The slope of the best-sampled other vehicle's clock, before the reference's
+        own is known: one fleet's simulators run at one speedup.
+
+        The first vehicle heard may fall silent at once (a lossy radio, ArduPlane SITL
+        at 5x: one packet, then 2 wall s of nothing). Extrapolated at the hint (1.0
+        for ``run``) meanwhile, mission time fell 8 s behind the others' clocks, and
+        the handover to one of them stepped it on at once: two UAVs called silent for
+        8 s, a set-up begun anew.
+        """
+        best: _Track | None = None
+        for sysid, track in self._tracks.items():
+            if sysid == self._ref or len(track.walls) < _MIN_FIT_SAMPLES:
+                continue
+            if track.walls[-1] - track.walls[0] < self._min_span:
+                continue
+            if best is None or len(track.walls) > len(best.walls):
+                best = track
+        if best is None:
+            return None
+        _, _, rate = _robust_line(list(best.walls), list(best.times))
+        return rate if math.isfinite(rate) and rate > 0.0 else None
 
     # ------------------------------------------------------------------- sleep
     async def wait_synced(self) -> None:

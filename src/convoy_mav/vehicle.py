@@ -74,6 +74,7 @@ from convoy_mav.mavlink.autopilots import (
     firmware_name,
 )
 from convoy_mav.mavlink.autopilots.base import param_request_message, param_set_message
+from convoy_mav.mavlink.streams import faster_than_asked
 from convoy_mav.plausible import JumpGate
 from convoy_mav.roundtrip import RoundTrip
 from convoy_mav.types import Setpoint, Telemetry, VehicleStatus
@@ -120,7 +121,11 @@ _CARRY_S = 2.0  # mission s a fix is carried on at its velocity to a setpoint's 
 _COMMANDS = (_M.MAVLINK_MSG_ID_COMMAND_LONG, _M.MAVLINK_MSG_ID_COMMAND_INT)
 _STREAM_WATCH_S = 2.0  # mission s a message asked for may be unheard before it is asked again
 _STREAM_WATCH_PERIODS = 5.0  # ...or this many of its periods, if longer
+_RATE_WINDOW_S = 10.0  # mission s over which streams are counted against what was asked
+_RATE_SETTLE_S = 2.0  # mission s after a request before its streams are counted (a round trip)
+_RATE_ASK_MAX_S = 600.0  # mission s at most between asks to slow a stream that goes on
 _MSG_NAMES = {i: c.msgname for i, c in _M.mavlink_map.items()}
+_MSG_IDS = {name: i for i, name in _MSG_NAMES.items()}
 _FED_LOOK = 0.5  # mission s between looks at a fed stream (PX4's COM_OF_LOSS_T: 1 s)
 _STREAM_GAP_S = 1.0  # mission s without a setpoint an autopilot may take for a loss (PX4's default)
 _OWN_FAILSAFE_S = 10.0  # mission s after a link is back in which a hold is our stream's doing
@@ -323,6 +328,10 @@ class Vehicle:
         self.params: dict[str, float] = {}
         self.counters: Counter[str] = Counter()
         self.received = 0  # messages from the autopilot (the telemetry budget)
+        self._heard_n: dict[str, int] = {}  # messages of the autopilot's, by name
+        self._rate_window: tuple[float, dict[str, int]] | None = None  # start, counts then
+        self._rate_from = -math.inf  # mission time its streams may be counted from
+        self._too_fast: dict[int, tuple[int, float]] = {}  # message -> asks in a row, last
         self.recovered_t = -math.inf  # mission time it was last heard again after LOST
         self.stream_resumed_t = -math.inf  # mission time our setpoints resumed after a gap
         self.reflying_t = -math.inf  # mission time it flew again after a new set-up
@@ -506,6 +515,9 @@ class Vehicle:
         kind = msg.get_type()
         self.last[kind] = msg
         self.last_t[kind] = now
+        if msg.get_srcComponent() == self._compid:
+            heard = self._heard_n
+            heard[kind] = heard.get(kind, 0) + 1
         handler = self._handlers.get(kind)
         if handler is not None:
             try:
@@ -818,6 +830,7 @@ class Vehicle:
             self._send(msg)
         now = self.clock.now()
         self._asked = {m: now for m, hz in wanted.items() if hz > 0.0}
+        self._rate_window, self._rate_from = None, now + _RATE_SETTLE_S
         # the speed range, with the streams: as often as they are asked for, until read
         for name in ap.unread_speed_params():
             self._send(param_request_message(self.sysid, ap.compid, name))
@@ -961,6 +974,7 @@ class Vehicle:
         if ap is None or now - self._heard_t > self.lost_after:
             return  # (a silent link is the liveness check's)
         rates = ap.wanted_streams(self._stream_rates())
+        self._watch_rates(now, ap, rates)
         again = [
             m
             for m, t in self._asked.items()
@@ -977,6 +991,47 @@ class Vehicle:
         # (counted if it flowed before: one not sent yet, ArduCopter's position target
         # outside GUIDED, a home not yet set, is no loss)
         self.counters["streams_asked_again"] += sum(_MSG_NAMES[m] in self.last_t for m in again)
+
+    def _watch_rates(self, now: float, ap: Autopilot, rates: Mapping[int, float]) -> None:
+        """Ask again, every ``_RATE_WINDOW_S``, for each stream that flowed faster than
+        asked for (``faster_than_asked``): its rate's change lost on the link, or the stop
+        of a stream never asked for (ArduPilot's boot groups, PX4's profile); by message,
+        SET_MESSAGE_INTERVAL (-1 stops it), so nothing races a stop on the link."""
+        if now < self._rate_from:
+            return
+        window = self._rate_window
+        self._rate_window = (now, dict(self._heard_n)) if window is None else window
+        if window is None or now - window[0] < _RATE_WINDOW_S:
+            return
+        start, before = window
+        self._rate_window = (now, dict(self._heard_n))
+        counts = {k: n - before.get(k, 0) for k, n in self._heard_n.items()}
+        asked = {_MSG_NAMES[m]: hz for m, hz in rates.items()}
+        flowing = [_MSG_IDS[k] for k in faster_than_asked(counts, now - start, asked)]
+        self._too_fast = {m: v for m, v in self._too_fast.items() if m in flowing}
+        fast = []
+        for m in flowing:  # (one the firmware will not stop is asked ever more seldom)
+            asks, last = self._too_fast.get(m, (0, -math.inf))
+            if now - last >= min(_RATE_WINDOW_S * 2.0 ** max(asks - 2, 0), _RATE_ASK_MAX_S):
+                fast.append(m)
+                self._too_fast[m] = (asks + 1, now)
+        if not fast:
+            return
+        log.debug(
+            "%s: flowing faster than asked, asked again: %s",
+            self.name,
+            ", ".join(
+                f"{_MSG_NAMES[m]} ({counts[_MSG_NAMES[m]]} in {now - start:.0f} s)" for m in fast
+            ),
+        )
+        stops = {**{m: 0.0 for m in fast}, **rates}
+        for msg in ap.stream_requests(stops, fast):
+            self._send(msg)
+        # (asked for, at a rate or to stop: a request lost; never asked for: a profile's
+        # stream the service does not read, or one of a group whose stop was lost)
+        again = sum(m in rates for m in fast)
+        self.counters["streams_asked_again"] += again
+        self.counters["streams_stopped"] += len(fast) - again
 
     async def _lifecycle(self) -> None:
         while True:

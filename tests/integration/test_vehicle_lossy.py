@@ -31,6 +31,7 @@ if TYPE_CHECKING:
 pytestmark = [pytest.mark.integration, pytest.mark.timeout(60)]
 
 SPEEDUP = host_speedup(40.0)
+_MSG_NAMES = {i: c.msgname for i, c in mavlink.mavlink_map.items()}
 ALTITUDE = 60.0
 
 
@@ -110,6 +111,62 @@ async def test_a_stream_request_lost_on_the_link_is_asked_again(start_mock: Star
     sim = fleet.vehicles[1]
     for msg_id in vehicle.firmware.wanted_streams(vehicle.flight_stream_rates):  # type: ignore[union-attr]
         assert sim.message_interval_us(msg_id) > 0, msg_id  # every stream flows in flight
+
+
+async def test_streams_left_flowing_by_lost_requests_are_slowed_again(
+    start_mock: StartMock,
+) -> None:
+    """Lost on the link: the stop of ArduPlane's boot groups (every member at 1 Hz) and
+    the flight's slowing of ATTITUDE (1 Hz at set-up, 0.2 in flight). Nothing went
+    unheard, so nothing was asked again: ArduPlane SITL behind a lossy radio sent one
+    plane's whole boot profile, 2.6 times the others' telemetry, for the whole flight.
+    Now a stream flowing more than twice as fast as asked is asked again, message by
+    message (SET_MESSAGE_INTERVAL, -1 to stop), with no group stop to race."""
+    fleet, config = await _plane(start_mock)
+    await sim_sleep(fleet, 2.0)
+    attitude = 0
+
+    def lose(msg: Any) -> bool:
+        nonlocal attitude
+        if msg.get_type() == "REQUEST_DATA_STREAM":
+            return True
+        if _interval_request(msg, mavlink.MAVLINK_MSG_ID_ATTITUDE):
+            attitude += 1
+            return attitude == 2  # (the flight's)
+        return False
+
+    events: list[VehicleEvent] = []
+    heard: list[str] = []
+
+    def handle(msg: Any) -> None:
+        heard.append(msg.get_type())
+        vehicle.handle(msg)
+
+    mav = MavLink(fleet.endpoint(1).connect, handle)
+    link = DroppingLink(mav, lose)
+    vehicle = Vehicle(
+        1, link, MissionClock(rate_hint=SPEEDUP), LocalFrame(config.origin),
+        on_event=events.append, altitude=ALTITUDE, setup_timeout=60.0,
+    )  # fmt: skip
+    sim = fleet.vehicles[1]
+    boot_only = [
+        mavlink.MAVLINK_MSG_ID_VFR_HUD,
+        mavlink.MAVLINK_MSG_ID_LOCAL_POSITION_NED,
+        mavlink.MAVLINK_MSG_ID_SYSTEM_TIME,
+        mavlink.MAVLINK_MSG_ID_BATTERY_STATUS,
+    ]
+    async with mav, running(vehicle.run()):
+        await until(lambda: has_status(vehicle, VehicleStatus.FLYING), timeout=20)
+        await sim_sleep(fleet, 25.0)
+    assert [m.get_type() for m in link.lost] == ["REQUEST_DATA_STREAM", "COMMAND_LONG"]
+    assert all(_MSG_NAMES[m] in heard for m in boot_only)  # (the stop was lost: they flowed)
+    assert all(sim.message_interval_us(m) == -1 for m in boot_only)
+    assert sim.message_interval_us(mavlink.MAVLINK_MSG_ID_ATTITUDE) == 5_000_000
+    assert vehicle.counters["streams_stopped"] >= len(boot_only)  # (never asked for)
+    assert vehicle.counters["streams_asked_again"] >= 1  # (ATTITUDE's rate)
+    for msg_id in vehicle.firmware.wanted_streams(vehicle.flight_stream_rates):  # type: ignore[union-attr]
+        assert sim.message_interval_us(msg_id) > 0, msg_id  # (what is wanted still flows)
+    assert not [e for e in events if e.kind is EventKind.FAILED]
 
 
 async def test_an_arming_whose_heartbeats_are_lost_climbs_before_guided(

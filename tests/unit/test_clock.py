@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import itertools
 import random
 from collections.abc import Mapping
 
@@ -199,6 +200,33 @@ def test_reference_silent_hands_over_continuously() -> None:
     assert clock.now() == pytest.approx(first.mission(), abs=0.05)
     assert clock.now() > last
     assert clock.rate == pytest.approx(40.0, rel=1e-2)
+
+
+def test_a_reference_heard_once_then_silent_gives_way_at_the_others_rate() -> None:
+    """ArduPlane SITL at 5x behind a lossy radio: the first UAV heard sent one packet,
+    then nothing for 2 wall s, while the others' clocks ran on at 5x. Mission time
+    follows their rate from the first moment it is measured (not ``run``'s hint of 1.0,
+    which left it 8 s behind, to be stepped on at the handover), so no clock steps."""
+    wall = FakeWall()
+    clock = MissionClock(wall, handover_after=2.0)  # (no hint, as ``run``)
+    first, second, third = (Autopilot(wall, 5.0, boot_offset=3.064) for _ in range(3))
+    clock.observe(first.boot_ms(), 1)
+    assert clock.reference == 1
+    behind = []  # mission time less the fleet's clocks, each 0.05 wall s
+    for _ in range(40):  # 2 wall s, the first silent
+        feed(clock, wall, {2: second, 3: third}, 0.05)
+        behind.append(second.mission() - clock.now())
+    assert clock.reference == 2 and clock.handovers == 1
+    assert clock.steps == 0
+    # At 1.0 until five packets of another clock span 0.05 wall s (0.3 s behind), then
+    # at theirs; the handover takes the offset as it stands: no step. (Before: 0.2 s
+    # behind for each 0.05 wall s, 8 s by the handover, and then a step of 8 s.)
+    assert max(behind) < 0.5
+    assert max(abs(b - a) for a, b in itertools.pairwise(behind[2:])) < 0.25
+    assert clock.rate == pytest.approx(5.0, rel=1e-2)
+    feed(clock, wall, {1: first, 2: second, 3: third}, 1.0)  # the first heard again
+    stamps = first.boot_ms()
+    assert clock.to_mission(stamps, 1) == pytest.approx(clock.to_mission(stamps, 2), abs=0.05)
 
 
 def test_now_never_goes_backwards() -> None:

@@ -1,0 +1,29 @@
+"""Streams flowing faster than asked: a rate request or a stop lost on the link."""
+
+from __future__ import annotations
+
+from convoy_mav.mavlink.streams import ANSWERS, SLACK, faster_than_asked
+
+
+def test_a_stream_at_its_rate_thinned_by_loss_is_no_finding() -> None:
+    counts = {"GLOBAL_POSITION_INT": 100, "ATTITUDE": 2, "SYS_STATUS": 1}
+    asked = {"GLOBAL_POSITION_INT": 10.0, "ATTITUDE": 0.2, "SYS_STATUS": 0.2}
+    assert faster_than_asked(counts, 10.0, asked) == []
+
+
+def test_a_rate_change_lost_leaves_the_stream_too_fast() -> None:
+    # (asked 0.2 Hz in flight, still at set-up's 1 Hz; 30 % of it lost)
+    assert faster_than_asked({"ATTITUDE": 7}, 10.0, {"ATTITUDE": 0.2}) == []  # (2 x 2 + 3)
+    assert faster_than_asked({"ATTITUDE": 8}, 10.0, {"ATTITUDE": 0.2}) == ["ATTITUDE"]
+
+
+def test_a_stop_lost_leaves_streams_never_asked_for() -> None:
+    counts = {"TERRAIN_REPORT": 7, "VIBRATION": 6, "AHRS": SLACK, "LOCAL_POSITION_NED": 0}
+    found = faster_than_asked(counts, 10.0, {"LOCAL_POSITION_NED": 0.0})
+    assert found == ["TERRAIN_REPORT", "VIBRATION"]
+
+
+def test_answers_are_never_streams() -> None:
+    counts = dict.fromkeys(ANSWERS, 50)
+    assert faster_than_asked(counts, 10.0, {}) == []
+    assert {"HEARTBEAT", "TIMESYNC", "COMMAND_ACK", "PARAM_VALUE"} <= ANSWERS
