@@ -211,10 +211,11 @@ for k in $(seq 0 $((uavs - 1))); do
   mkdir -p "$out/$k"
   start_instance "$k"
   pids+=("$pid")
+  [ "$k" = 0 ] && uav1_pid=$pid  # (the rovers, the mock or the radio may come first)
 done
 if [ -n "${KILL:-}" ]; then
   (sleep "${KILL%%:*}"
-   kill -9 "${pids[0]}"
+   kill -9 "$uav1_pid"
    echo "$(date +%T) UAV 1's SITL killed" >"$out/kill.log"
    sleep "${KILL#*:}"
    start_instance 0

@@ -1465,7 +1465,7 @@ class Vehicle:
             self.counters["refused"] += 1
             await self._wait_until(functools.partial(self._text_since, now), _REASON_WAIT)
             since = ((severity, text) for t, severity, text in self._texts if t >= now)
-            reason = refusal_reason(since) or "no reason given"
+            reason = refusal_reason(since) or "no reason heard"
             wait = min(backoff, max(deadline - self.clock.now(), 0.0))
             if said is None or said[0] != reason or now - said[1] >= self.max_backoff:
                 # (the same refusal again within max_backoff is not said again)
