@@ -1007,7 +1007,8 @@ class Vehicle:
         self._rate_window = (now, dict(self._heard_n))
         counts = {k: n - before.get(k, 0) for k, n in self._heard_n.items()}
         asked = {_MSG_NAMES[m]: hz for m, hz in rates.items()}
-        flowing = [_MSG_IDS[k] for k in faster_than_asked(counts, now - start, asked)]
+        found = faster_than_asked(counts, now - start, asked)
+        flowing = [_MSG_IDS[k] for k in found if k in _MSG_IDS]  # (not a dialect's unknown)
         self._too_fast = {m: v for m, v in self._too_fast.items() if m in flowing}
         fast = []
         for m in flowing:  # (one the firmware will not stop is asked ever more seldom)

@@ -38,6 +38,9 @@ ANSWERS: frozenset[str] = frozenset(
         "LOG_ENTRY",
         "LOG_DATA",
         "BAD_DATA",
+        "CAMERA_TRIGGER",  # (a camera's events: PX4 forwards each as it comes)
+        "CAMERA_IMAGE_CAPTURED",
+        "ADSB_VEHICLE",  # (traffic, forwarded as heard: never stopped on the service's link)
     }
 )
 """Messages an autopilot sends as answers or on events, never as a stream of its own."""
