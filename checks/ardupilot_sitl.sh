@@ -30,9 +30,10 @@
 # With UAVS=N (more than 3), N aircraft fly the scripted convoy: spares beyond the
 # paper's minimum.
 #
-# With LINK=1, every UAV's link runs through a lossy, laggy radio (checks/lossy_link.py:
-# the soak's faults, 30 % loss each way, 200 ms latency plus up to 100 ms of jitter, 5 %
-# repeated, in simulated time); LINK="--seed 5 --loss 0.1 ..." passes its options.
+# With LINK=1, every UAV's link (and ROVER's) runs through a lossy, laggy radio
+# (checks/lossy_link.py: the soak's faults, 30 % loss each way, 200 ms latency plus up to
+# 100 ms of jitter, 5 % repeated, in simulated time); LINK="--seed 5 --loss 0.1 ..."
+# passes its options.
 #
 # With KILL=AFTER_S:DOWN_S, UAV 1's SITL process is killed AFTER_S wall s in (in flight:
 # a power loss) and started again DOWN_S wall s later, on its pad with its eeprom: the
@@ -108,6 +109,8 @@ if [ -z "${ROAD:-}" ] && [ "${UAVS:-3}" -gt 3 ]; then  # more than the paper's m
     done
     sed -n '/^\[convoy\]/,$p' "$base"; } >"$config"
 fi
+rover_port=14600  # (the real rover's link: through the radio too with LINK)
+[ -n "${LINK:-}" ] && rover_port=14900
 if [ -n "${ROAD:-}" ]; then
   config=$out/road.toml
   # The road as the mock's CSV track, and the config: the aircraft past the base
@@ -157,7 +160,7 @@ PY
     (cd "$out/rover" && exec "$SITL_DIR/build/sitl/bin/ardurover" --model rover \
         --speedup "$speedup" -I 20 --sysid 60 --home "$rover_home,$alt,0" \
         --defaults "$SITL_DIR/Tools/autotest/default_params/rover.parm,$PWD/../rover.parm" \
-        --serial0 udpclient:127.0.0.1:14600 >sitl.log 2>&1) &
+        --serial0 "udpclient:127.0.0.1:${rover_port}" >sitl.log 2>&1) &
     pids+=($!)
     mission_speed=${ROVER_SPEED:-8}
     [ -n "${ROVER_NO_PLAN_SPEED:-}" ] && mission_speed=0  # (no DO_CHANGE_SPEED: WP_SPEED)
@@ -185,6 +188,7 @@ if [ -n "${LINK:-}" ]; then  # a lossy, laggy radio between the UAVs and the ser
   [ "$LINK" != 1 ] && read -ra link_args <<<"$LINK"
   "$py" checks/lossy_link.py --speedup "$speedup" "${link_args[@]}" \
     $(for k in $(seq 0 $((uavs - 1))); do echo "$((14860 + k)):$((14560 + k))"; done) \
+    ${ROVER:+14900:14600} \
     >"$out/link.log" 2>&1 &
   link_pid=$!
   pids+=("$link_pid")

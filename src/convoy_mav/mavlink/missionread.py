@@ -12,6 +12,9 @@ Design rules:
       vehicle's reason.
     * Timeouts are the protocol's (1.5 s, five tries for each request) and run on the
       caller's ``now``: a network wait is a wall-clock wait whatever the mission's speedup.
+      A link that has lost answers in this read gets the tries its answer rate needs
+      (``tries_allowed``): five at 30 % loss each way fail one item in 30, and a read of
+      44 items four times in five (ArduRover SITL behind such a radio was never read).
     * A MISSION_ITEM (the float form) in answer is taken as well: firmware older than
       MAVLink 2's INT requests answers so.
     * The items are kept as sent; what they mean for the convoy is
@@ -34,6 +37,8 @@ __all__ = ["MissionItem", "MissionRead", "MissionWatch", "ParamAsks"]
 
 TIMEOUT_S = 1.5
 TRIES = 5
+MAX_TRIES = 20  # ... on a lossy link (``MissionRead.tries_allowed``)
+ITEM_MISS = 1e-6  # the chance of giving up on one request a lossy link's tries allow
 MAX_ITEMS = 2000  # a rover's mission is hundreds of items at most: more is refused unread
 
 
@@ -88,6 +93,8 @@ class MissionRead:
         self._got: list[MissionItem] = []
         self._sent_at = 0.0
         self._tries = 0
+        self._answered = 0  # requests answered in this read
+        self._spent = 0  # ... and the tries they took
         self.started = False
 
     @property
@@ -98,6 +105,20 @@ class MissionRead:
     def count(self) -> int | None:
         """Items the vehicle said it holds (None before its MISSION_COUNT)."""
         return self._count
+
+    @property
+    def tries_allowed(self) -> int:
+        """Tries of one request before the read gives up: the protocol's ``TRIES`` on a
+        link that answers the first, and on a lossy one as many as its answer rate so far
+        needs to fail one request in ``1 / ITEM_MISS``, ``MAX_TRIES`` at most. The rate
+        counts one answered try and one lost beforehand: a few quick answers are no
+        proof of a clean link. A vehicle that answered nothing of this read gets
+        ``TRIES``: it may not serve missions at all."""
+        if self._answered == 0:
+            return TRIES
+        rate = (self._answered + 1) / (self._spent + 2)
+        needed = math.ceil(math.log(ITEM_MISS) / math.log(1.0 - rate))
+        return min(max(needed, TRIES), MAX_TRIES)
 
     def start(self, now: float) -> list[Message]:
         self.started = True
@@ -116,6 +137,7 @@ class MissionRead:
             if msg.count > MAX_ITEMS:
                 return self._fail(f"says it holds {msg.count} items (at most {MAX_ITEMS} read)")
             self._count = int(msg.count)
+            self._took()
             if self._count == 0:
                 self.items = []
                 return [self._ack(mavlink.MAV_MISSION_ACCEPTED)]
@@ -124,6 +146,7 @@ class MissionRead:
             if msg.seq != len(self._got):
                 return []  # a late duplicate, or one we did not ask for yet
             self._got.append(MissionItem.from_message(msg))
+            self._took()
             if len(self._got) < self._count:
                 return self._ask(now, first=True)
             self.items = self._got
@@ -141,14 +164,19 @@ class MissionRead:
         """Ask again when an answer is overdue; give up after the protocol's tries."""
         if self.done or not self.started or now - self._sent_at < TIMEOUT_S:
             return []
-        if self._tries >= TRIES:
+        if self._tries >= self.tries_allowed:
             what = (
                 "MISSION_REQUEST_LIST"
                 if self._count is None
                 else f"MISSION_REQUEST_INT {len(self._got)} of {self._count}"
             )
-            return self._fail(f"did not answer {what} ({TRIES} tries, {TIMEOUT_S} s apart)")
+            return self._fail(f"did not answer {what} ({self._tries} tries, {TIMEOUT_S} s apart)")
         return self._ask(now, first=False)
+
+    def _took(self) -> None:
+        """The request under way was answered, after ``_tries`` tries."""
+        self._answered += 1
+        self._spent += self._tries
 
     def _ask(self, now: float, *, first: bool) -> list[Message]:
         self._sent_at = now
