@@ -15,6 +15,9 @@ Design rules:
       A link that has lost answers in this read gets the tries its answer rate needs
       (``tries_allowed``): five at 30 % loss each way fail one item in 30, and a read of
       44 items four times in five (ArduRover SITL behind such a radio was never read).
+      Once answers have been timed, a request is asked again after three of the link's
+      round trips rather than 1.5 s (``timeout``): a lost request no longer costs a
+      second and a half each, 70 wall s for those 44 items, 350 mission s at 5x.
     * A MISSION_ITEM (the float form) in answer is taken as well: firmware older than
       MAVLink 2's INT requests answers so.
     * The items are kept as sent; what they mean for the convoy is
@@ -36,6 +39,7 @@ from convoy_mav.types import ConvoyDrive
 __all__ = ["MissionItem", "MissionRead", "MissionWatch", "ParamAsks"]
 
 TIMEOUT_S = 1.5
+MIN_TIMEOUT_S = 0.2  # ... at the least, however quick the link's round trips
 TRIES = 5
 MAX_TRIES = 20  # ... on a lossy link (``MissionRead.tries_allowed``)
 ITEM_MISS = 1e-6  # the chance of giving up on one request a lossy link's tries allow
@@ -95,6 +99,7 @@ class MissionRead:
         self._tries = 0
         self._answered = 0  # requests answered in this read
         self._spent = 0  # ... and the tries they took
+        self._round_trip: float | None = None  # s, smoothed, of requests answered at once
         self.started = False
 
     @property
@@ -105,6 +110,16 @@ class MissionRead:
     def count(self) -> int | None:
         """Items the vehicle said it holds (None before its MISSION_COUNT)."""
         return self._count
+
+    @property
+    def timeout(self) -> float:
+        """Seconds before a request is asked again: three of the link's round trips, as
+        the answers to first tries timed them (a retry's answer may be the first
+        try's, so it is not timed), ``MIN_TIMEOUT_S`` to ``TIMEOUT_S``; ``TIMEOUT_S``
+        before any was timed."""
+        if self._round_trip is None:
+            return TIMEOUT_S
+        return min(max(3.0 * self._round_trip, MIN_TIMEOUT_S), TIMEOUT_S)
 
     @property
     def tries_allowed(self) -> int:
@@ -137,7 +152,7 @@ class MissionRead:
             if msg.count > MAX_ITEMS:
                 return self._fail(f"says it holds {msg.count} items (at most {MAX_ITEMS} read)")
             self._count = int(msg.count)
-            self._took()
+            self._took(now)
             if self._count == 0:
                 self.items = []
                 return [self._ack(mavlink.MAV_MISSION_ACCEPTED)]
@@ -146,7 +161,7 @@ class MissionRead:
             if msg.seq != len(self._got):
                 return []  # a late duplicate, or one we did not ask for yet
             self._got.append(MissionItem.from_message(msg))
-            self._took()
+            self._took(now)
             if len(self._got) < self._count:
                 return self._ask(now, first=True)
             self.items = self._got
@@ -162,7 +177,7 @@ class MissionRead:
 
     def poll(self, now: float) -> list[Message]:
         """Ask again when an answer is overdue; give up after the protocol's tries."""
-        if self.done or not self.started or now - self._sent_at < TIMEOUT_S:
+        if self.done or not self.started or now - self._sent_at < self.timeout:
             return []
         if self._tries >= self.tries_allowed:
             what = (
@@ -170,13 +185,17 @@ class MissionRead:
                 if self._count is None
                 else f"MISSION_REQUEST_INT {len(self._got)} of {self._count}"
             )
-            return self._fail(f"did not answer {what} ({self._tries} tries, {TIMEOUT_S} s apart)")
+            tries = f"{self._tries} tries, {self.timeout:.3g} s apart"
+            return self._fail(f"did not answer {what} ({tries})")
         return self._ask(now, first=False)
 
-    def _took(self) -> None:
+    def _took(self, now: float) -> None:
         """The request under way was answered, after ``_tries`` tries."""
         self._answered += 1
         self._spent += self._tries
+        if self._tries == 1:
+            rtt, was = now - self._sent_at, self._round_trip
+            self._round_trip = rtt if was is None else 0.75 * was + 0.25 * rtt
 
     def _ask(self, now: float, *, first: bool) -> list[Message]:
         self._sent_at = now
