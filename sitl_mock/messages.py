@@ -405,6 +405,12 @@ def _system_time(s: Snapshot) -> mavlink.MAVLink_message:
     return mavlink.MAVLink_system_time_message(s.unix_usec, s.time_boot_ms)
 
 
+def _timesync(s: Snapshot) -> mavlink.MAVLink_message:
+    """A request of the autopilot's own (``tc1`` 0, ``ts1`` its time in ns): PX4's
+    onboard profile streams them at 10 Hz (``mavlink_main.cpp``)."""
+    return mavlink.MAVLink_timesync_message(0, s.time_boot_ms * 1_000_000)
+
+
 def _battery_status(s: Snapshot) -> mavlink.MAVLink_message:
     cell = _clamp_int(s.battery_voltage * 1000.0 / 4.0, 0, _UINT16_MAX - 1)
     return mavlink.MAVLink_battery_status_message(
@@ -484,6 +490,7 @@ TELEMETRY_BUILDERS: dict[int, Callable[[Snapshot], mavlink.MAVLink_message | Non
     mavlink.MAVLINK_MSG_ID_HOME_POSITION: _home_position,
     mavlink.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT: _position_target_global_int,
     mavlink.MAVLINK_MSG_ID_MISSION_CURRENT: _mission_current,
+    mavlink.MAVLINK_MSG_ID_TIMESYNC: _timesync,
 }
 """Message id -> builder; a builder returns None when it has nothing to say yet
 (HOME_POSITION before home is set)."""

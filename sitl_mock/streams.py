@@ -45,9 +45,11 @@ AIRCRAFT_DEFAULT_INTERVALS: Mapping[int, float] = {
     mavlink.MAVLINK_MSG_ID_BATTERY_STATUS: 1.0,
     mavlink.MAVLINK_MSG_ID_HOME_POSITION: 2.0,
     mavlink.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT: 1.0,
+    mavlink.MAVLINK_MSG_ID_TIMESYNC: 0.1,
 }
 """Default intervals (s) of an aircraft: roughly PX4's onboard-UDP profile (the position
-target is sent only by the ArduPilot personality: ``FlightState.reported_target``)."""
+target is sent only by the ArduPilot personality: ``FlightState.reported_target``; the
+TIMESYNC requests of its own, 10 Hz, only by PX4's: in no ArduPilot group)."""
 
 GROUND_DEFAULT_INTERVALS: Mapping[int, float] = {
     mavlink.MAVLINK_MSG_ID_HEARTBEAT: 1.0,

@@ -1007,6 +1007,7 @@ class Vehicle:
         self._rate_window = (now, dict(self._heard_n))
         counts = {k: n - before.get(k, 0) for k, n in self._heard_n.items()}
         asked = {_MSG_NAMES[m]: hz for m, hz in rates.items()}
+        asked.setdefault("TIMESYNC", 1.0 / _TIMESYNC_EVERY)  # (the answers to ours)
         found = faster_than_asked(counts, now - start, asked)
         flowing = [_MSG_IDS[k] for k in found if k in _MSG_IDS]  # (not a dialect's unknown)
         self._too_fast = {m: v for m, v in self._too_fast.items() if m in flowing}

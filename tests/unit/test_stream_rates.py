@@ -26,4 +26,12 @@ def test_a_stop_lost_leaves_streams_never_asked_for() -> None:
 def test_answers_are_never_streams() -> None:
     counts = dict.fromkeys(ANSWERS, 50)
     assert faster_than_asked(counts, 10.0, {}) == []
-    assert {"HEARTBEAT", "TIMESYNC", "COMMAND_ACK", "PARAM_VALUE"} <= ANSWERS
+    assert {"HEARTBEAT", "COMMAND_ACK", "PARAM_VALUE"} <= ANSWERS
+
+
+def test_px4s_own_timesync_stream_is_told_from_the_answers_to_ours() -> None:
+    """PX4's onboard profile sends TIMESYNC requests of its own at 10 Hz; the answers to
+    the service's (1 Hz, repeated now and then) are no finding."""
+    asked = {"TIMESYNC": 1.0}
+    assert faster_than_asked({"TIMESYNC": 11}, 10.0, asked) == []
+    assert faster_than_asked({"TIMESYNC": 110}, 10.0, asked) == ["TIMESYNC"]

@@ -17,7 +17,6 @@ __all__ = ["ANSWERS", "faster_than_asked"]
 ANSWERS: frozenset[str] = frozenset(
     {
         "HEARTBEAT",  # (1 Hz whatever is asked)
-        "TIMESYNC",  # (the answers to ours, 1 Hz)
         "COMMAND_ACK",
         "STATUSTEXT",
         "PARAM_VALUE",
@@ -43,7 +42,10 @@ ANSWERS: frozenset[str] = frozenset(
         "ADSB_VEHICLE",  # (traffic, forwarded as heard: never stopped on the service's link)
     }
 )
-"""Messages an autopilot sends as answers or on events, never as a stream of its own."""
+"""Messages an autopilot sends as answers or on events, never as a stream of its own.
+(TIMESYNC is both: the answers to the service's requests, and PX4's own requests, a
+stream of 10 Hz in its onboard profile, ``mavlink_main.cpp``; the caller counts the
+answers it asks for as that stream's rate.)"""
 
 SLACK = 3
 """Messages a window may hold past twice the rate asked: a request's round trip of the
