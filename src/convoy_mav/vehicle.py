@@ -323,7 +323,6 @@ class Vehicle:
         self.home: GeoPoint | None = None
         self.last: dict[str, Message] = {}
         self.last_t: dict[str, float] = {}
-        self.last_statustext: str | None = None
         self.failure: str | None = None
         self.params: dict[str, float] = {}
         self.counters: Counter[str] = Counter()
@@ -346,8 +345,7 @@ class Vehicle:
         self._left_mode_boot = -math.inf
         self._flown = False
         self.first_heard_t: float | None = None
-        self._statustext_t = -math.inf
-        # (the latest texts, mission time and severity: a refusal's reasons)
+        # (the latest texts, mission time and severity: the last word, a refusal's reasons)
         self._texts: deque[tuple[float, int, str]] = deque(maxlen=_TEXTS_KEPT)
         self._fix_t: float | None = None  # mission time a fix was first seen
         self._home_t = -math.inf  # mission time home was set (since boot)
@@ -622,8 +620,6 @@ class Vehicle:
         """Keep the latest text (a refusal's reason) and pass it on to the operator."""
         text = msg.text if isinstance(msg.text, str) else bytes(msg.text).decode(errors="replace")
         text = text.rstrip("\x00").strip()
-        self.last_statustext = text
-        self._statustext_t = now
         self._texts.append((now, int(msg.severity), text))
         if _is_stream_loss_failsafe(text):
             self._stream_loss_text_t = now
@@ -1520,7 +1516,12 @@ class Vehicle:
         )
 
     def _text_since(self, t: float) -> bool:
-        return self._statustext_t >= t
+        return bool(self._texts) and self._texts[-1][0] >= t
+
+    @property
+    def last_statustext(self) -> str | None:
+        """The autopilot's latest STATUSTEXT (None: it has said none)."""
+        return self._texts[-1][2] if self._texts else None
 
     async def _wait_ack(self, command: int, seq: int, timeout: float) -> int | None:
         def answered() -> bool:
