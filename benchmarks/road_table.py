@@ -5,6 +5,7 @@
     .venv/bin/python benchmarks/road_table.py --unseen   # random roads, other grids (~2 min)
     .venv/bin/python benchmarks/road_table.py --unseen --mock  # + against sitl_mock
     .venv/bin/python benchmarks/road_table.py --variants  # the kinds with other numbers (~2 min)
+    .venv/bin/python benchmarks/road_table.py --others  # roads of other kinds (~2 min)
     .venv/bin/python benchmarks/road_table.py --corners  # sudden corners, no route (~1 min)
     .venv/bin/python benchmarks/road_table.py --junctions  # a stop, then a turn (~2 min)
     .venv/bin/python benchmarks/road_table.py --gaps  # where the loss is, why (~3 min)
@@ -35,7 +36,7 @@ import os
 import subprocess
 import sys
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import replace
 from functools import cache
@@ -57,6 +58,7 @@ from convoy_mav.tracks import GeoTrack, load_track
 from convoy_mav.tracks.roads import (
     DEVIATIONS,
     KINDS,
+    OTHERS,
     VARIANTS,
     Deviation,
     RoadTrack,
@@ -267,11 +269,13 @@ def _unseen() -> list[tuple[str, GeoTrack, PlanRequest, Truth]]:
     return out
 
 
-def _variants() -> list[tuple[str, GeoTrack, PlanRequest, Truth]]:
+def _variants(
+    kinds: dict[str, Callable[[np.random.Generator], RoadTrack]] = VARIANTS,
+) -> list[tuple[str, GeoTrack, PlanRequest, Truth]]:
     """The kinds with other numbers (``tracks.roads.VARIANTS``): faster convoys, sharper
-    bends, coarser fixes, as other roads of these kinds may have."""
+    bends, coarser fixes, as other roads of these kinds may have; or other ``kinds``."""
     out: list[tuple[str, GeoTrack, PlanRequest, Truth]] = []
-    for name, make in VARIANTS.items():
+    for name, make in kinds.items():
         rt = make(np.random.default_rng(7))
         out.append((name, rt.geotrack(DEFAULT_ORIGIN), DEFAULT, (rt.true_north, rt.true_east)))
     return out
@@ -785,6 +789,9 @@ def main() -> None:
         "--variants", action="store_true", help="the simulation on the kinds with other numbers"
     )
     parser.add_argument(
+        "--others", action="store_true", help="the simulation on roads of other kinds"
+    )
+    parser.add_argument(
         "--corners", action="store_true", help="the simulation of single unforeseen corners"
     )
     parser.add_argument(
@@ -870,13 +877,14 @@ def main() -> None:
     if args.junctions:
         _junctions()
         return
-    if args.unseen or args.variants:
+    if args.unseen or args.variants or args.others:
         head = "| road | route known | no route |"
         if args.mock:
             head += " mock, route known | mock, no route |"
         print(head + "\n|" + "---|" * (head.count("|") - 1))
         means: dict[tuple[bool, bool], list[float]] = {}  # (mock, route known) -> coverages
-        for name, track, req, truth in _unseen() if args.unseen else _variants():
+        roads = _unseen() if args.unseen else _variants(OTHERS if args.others else VARIANTS)
+        for name, track, req, truth in roads:
             cells = []
             runs = [(False, k) for k in (True, False)] + [(True, k) for k in (True, False)]
             for mock, known in runs[: 4 if args.mock else 2]:

@@ -9,9 +9,9 @@ Design rules:
   (Gaussian, per axis) and optional repeated time stamps, as receivers
   record them; a seeded ``numpy.random.Generator`` makes it reproducible.
 - :data:`KINDS` are the named roads ``demo`` and the tests fly; :data:`VARIANTS`
-  the same kinds with other numbers; :data:`DEVIATIONS` drives that do not keep
-  to the route planned for them; :func:`random_road` draws one of any kind
-  for property tests. Pure: nothing here opens a file.
+  the same kinds with other numbers; :data:`OTHERS` roads of other kinds;
+  :data:`DEVIATIONS` drives that do not keep to the route planned for them;
+  :func:`random_road` draws one of any kind for property tests. Pure: nothing here opens a file.
 """
 
 from __future__ import annotations
@@ -29,6 +29,7 @@ from convoy_mav.tracks.geotrack import GeoTrack
 __all__ = [
     "DEVIATIONS",
     "KINDS",
+    "OTHERS",
     "VARIANTS",
     "Deviation",
     "Drive",
@@ -373,6 +374,84 @@ VARIANTS: dict[str, Callable[[np.random.Generator], RoadTrack]] = {
     "5 and 15 m/s": _speeds_between(5.0, 15.0),
     "urban, 5 m noise at 2 Hz": _urban_coarse(2.0, 5.0),
     "urban at 0.5 Hz": _urban_coarse(0.5, 3.0),
+}
+
+
+def _switchbacks(rng: np.random.Generator) -> RoadTrack:
+    """A mountain road: fourteen 180-degree turns of 10 m radius, 120 m apart, at 5 m/s."""
+    pieces = [Piece(150.0)]
+    for i in range(14):
+        pieces += [Piece(radius=10.0, angle_deg=180.0 if i % 2 == 0 else -180.0), Piece(120.0)]
+    return drive("switchbacks", pieces, Drive(((0.0, 5.0),), accel=0.8))
+
+
+def _dead_ends(rng: np.random.Generator) -> RoadTrack:
+    """Up a road to its end and back (a 6-m turn at 2 m/s), twice: the convoy comes back
+    the way it went."""
+    pieces = [Piece(1200.0), Piece(radius=6.0, angle_deg=180.0), Piece(1200.0)]
+    pieces += [Piece(radius=150.0, angle_deg=-90.0), Piece(800.0)]
+    pieces += [Piece(radius=6.0, angle_deg=-180.0), Piece(800.0)]
+    how = Drive(((0.0, 8.0), (1170.0, 2.0), (1225.0, 8.0), (3425.0, 2.0), (3480.0, 8.0)))
+    return drive("dead ends", pieces, how, noise_m=2.0, seed=3)
+
+
+def _walking_pace(rng: np.random.Generator) -> RoadTrack:
+    """A foot patrol's pace, 1.5 m/s, round eight 8-m corners, in 3 m of GPS noise."""
+    pieces = [Piece(300.0)]
+    for i in range(8):
+        pieces += [Piece(radius=8.0, angle_deg=90.0 if i % 3 else -90.0), Piece(200.0)]
+    return drive("walking pace", pieces, Drive(((0.0, 1.5),)), noise_m=3.0, seed=4)
+
+
+def _parked_first(rng: np.random.Generator) -> RoadTrack:
+    """Parked 400 s where the mission starts, then 10 m/s with a 300-s stop."""
+    pieces = [Piece(4000.0), Piece(radius=30.0, angle_deg=90.0), Piece(2000.0)]
+    how = Drive(((0.0, 10.0),), stops=((2.0, 400.0), (2500.0, 300.0)))
+    return drive("parked first", pieces, how)
+
+
+def _loops(rng: np.random.Generator) -> RoadTrack:
+    """A figure eight: a whole 200-m circle left, then one right, at 9 m/s."""
+    pieces = [Piece(500.0), Piece(radius=200.0, angle_deg=360.0)]
+    pieces += [Piece(radius=200.0, angle_deg=-360.0), Piece(1000.0)]
+    return drive("figure eight", pieces, Drive(((0.0, 9.0),)), noise_m=1.0, seed=5)
+
+
+def _spiral(rng: np.random.Generator) -> RoadTrack:
+    """A turn that tightens, 400 m of radius down to 20 m over 1080 degrees, at 7 m/s."""
+    radii = (400.0, 300.0, 220.0, 160.0, 120.0, 90.0, 70.0, 50.0, 40.0, 30.0, 25.0, 20.0)
+    pieces = [Piece(400.0), *(Piece(radius=r, angle_deg=90.0) for r in radii), Piece(1500.0)]
+    return drive("spiral", pieces, Drive(((0.0, 7.0),)))
+
+
+def _highway(rng: np.random.Generator) -> RoadTrack:
+    """12 km of highway at 13 m/s (0.72 of the demo's airspeed), one 60-s stop."""
+    pieces = []
+    for i in range(6):
+        pieces += [Piece(2000.0), Piece(radius=800.0, angle_deg=25.0 if i % 2 else -25.0)]
+    return drive("highway", pieces, Drive(((0.0, 13.0),), stops=((9000.0, 60.0),)))
+
+
+def _long_stops(rng: np.random.Generator) -> RoadTrack:
+    """Stops of 5 and 4 minutes on a road of two 12-m corners, in 3 m of GPS noise."""
+    pieces = [Piece(1000.0), Piece(radius=12.0, angle_deg=90.0), Piece(1000.0)]
+    pieces += [Piece(radius=12.0, angle_deg=-90.0), Piece(1000.0)]
+    how = Drive(((0.0, 8.0),), stops=((900.0, 300.0), (2100.0, 240.0)))
+    return drive("long stops", pieces, how, noise_m=3.0, seed=6)
+
+
+#: Roads of kinds the planner was not built on (the road table's ``--others``): turns
+#: on the spot, loops and spirals, a walking pace, a convoy parked at the start, one
+#: fast for the aircraft, long stops.
+OTHERS: dict[str, Callable[[np.random.Generator], RoadTrack]] = {
+    "switchbacks": _switchbacks,
+    "dead ends": _dead_ends,
+    "walking pace": _walking_pace,
+    "parked first": _parked_first,
+    "figure eight": _loops,
+    "spiral": _spiral,
+    "highway": _highway,
+    "long stops": _long_stops,
 }
 
 
