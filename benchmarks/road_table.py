@@ -269,11 +269,12 @@ def _unseen() -> list[tuple[str, GeoTrack, PlanRequest, Truth]]:
     return out
 
 
-def _variants(
+def _made(
     kinds: dict[str, Callable[[np.random.Generator], RoadTrack]] = VARIANTS,
 ) -> list[tuple[str, GeoTrack, PlanRequest, Truth]]:
-    """The kinds with other numbers (``tracks.roads.VARIANTS``): faster convoys, sharper
-    bends, coarser fixes, as other roads of these kinds may have; or other ``kinds``."""
+    """Roads of ``kinds`` made as the table flies them: by default the kinds with other
+    numbers (``tracks.roads.VARIANTS``: faster convoys, sharper bends, coarser fixes, as
+    other roads of these kinds may have), or roads of other kinds (``OTHERS``)."""
     out: list[tuple[str, GeoTrack, PlanRequest, Truth]] = []
     for name, make in kinds.items():
         rt = make(np.random.default_rng(7))
@@ -883,7 +884,7 @@ def main() -> None:
             head += " mock, route known | mock, no route |"
         print(head + "\n|" + "---|" * (head.count("|") - 1))
         means: dict[tuple[bool, bool], list[float]] = {}  # (mock, route known) -> coverages
-        roads = _unseen() if args.unseen else _variants(OTHERS if args.others else VARIANTS)
+        roads = _unseen() if args.unseen else _made(OTHERS if args.others else VARIANTS)
         for name, track, req, truth in roads:
             cells = []
             runs = [(False, k) for k in (True, False)] + [(True, k) for k in (True, False)]

@@ -28,19 +28,18 @@ def test_a_road_is_a_drive_of_nine_minutes_or_more_at_road_speeds(
     assert road.length_m > 1000.0
 
 
+def _speeds(road: RoadTrack) -> np.ndarray:
+    return np.hypot(np.diff(road.true_north), np.diff(road.true_east)) / np.diff(road.t)
+
+
 def test_the_variants_are_the_kinds_with_other_numbers() -> None:
     rng = np.random.default_rng
     fast = VARIANTS["stops of 60 s from 12 m/s"](rng(7))
-    step = np.diff(fast.t)
-    speed = np.hypot(np.diff(fast.true_north), np.diff(fast.true_east)) / step
+    speed = _speeds(fast)
     assert speed.max() == pytest.approx(12.0, abs=0.05)
     assert np.sum(speed < 0.01) >= 4 * 55  # four stops of a minute
     coarse = VARIANTS["urban at 0.5 Hz"](rng(7))
     assert np.median(np.diff(coarse.t)) == pytest.approx(2.0)
-
-
-def _speeds(road: RoadTrack) -> np.ndarray:
-    return np.hypot(np.diff(road.true_north), np.diff(road.true_east)) / np.diff(road.t)
 
 
 def _turned_deg(road: RoadTrack) -> np.ndarray:

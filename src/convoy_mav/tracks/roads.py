@@ -379,9 +379,7 @@ VARIANTS: dict[str, Callable[[np.random.Generator], RoadTrack]] = {
 
 def _switchbacks(rng: np.random.Generator) -> RoadTrack:
     """A mountain road: fourteen 180-degree turns of 10 m radius, 120 m apart, at 5 m/s."""
-    pieces = [Piece(150.0)]
-    for i in range(14):
-        pieces += [Piece(radius=10.0, angle_deg=180.0 if i % 2 == 0 else -180.0), Piece(120.0)]
+    pieces = [Piece(150.0), *_zigzag(14, 120.0, 10.0, 180.0)[1:]]
     return drive("switchbacks", pieces, Drive(((0.0, 5.0),), accel=0.8))
 
 
