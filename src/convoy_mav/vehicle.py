@@ -33,7 +33,8 @@ Life cycle (``VehicleStatus``)::
 * While the autopilot needs a live stream (PX4 OFFBOARD) and the streamer is
   silent for ``keepalive`` mission seconds (looked at twice a second while
   fed), the vehicle sends its own hold setpoint (the last setpoint's position,
-  or where it is at flight altitude).
+  or where it is at flight altitude); at once after mission time broke (a step
+  followed, a silence heard out), since the last setpoint's age is then unknown.
 * If the autopilot leaves the external mode on its own while FLYING (a
   failsafe, a pilot), the vehicle goes to HOLDING and says so: the service never
   fights a pilot; ``resume()`` re-engages.
@@ -366,6 +367,7 @@ class Vehicle:
         """The link's round trips (TIMESYNC, commands): how late setpoints are flown."""
         self._last_sp: Setpoint | None = None
         self._last_sp_t = -math.inf
+        self._last_sp_breaks = 0  # the clock's breaks when it was sent
         self._own_sp_t = -math.inf  # when the keepalive last sent one of its own
         self._setup_sent = 0  # setpoints sent since set-up began
         self._airborne_already = False  # set-up found it flying: no take-off
@@ -774,6 +776,7 @@ class Vehicle:
         for msg in ap.setpoint_messages(sp, now, self._fix_carried_to(sp.t)):
             self._send(msg)
         self._last_sp, self._last_sp_t = sp, now
+        self._last_sp_breaks = self.clock.breaks
         self._setup_sent += 1
         self.counters["setpoints"] += 1
 
@@ -912,7 +915,7 @@ class Vehicle:
                     self._time_link(now)
                     next_sync = now + _TIMESYNC_EVERY
             if ap is not None and ap.streams_during_setup and self.status in _STREAM_NEEDED:
-                if now - self._last_sp_t >= self.keepalive:
+                if self._setpoint_age(now) >= self.keepalive:
                     sp = self._own_setpoint()
                     if sp is not None:
                         self.counters["keepalive"] += 1
@@ -925,6 +928,15 @@ class Vehicle:
                 )
                 due = min(due, look)
             await clock.sleep_until(due)
+
+    def _setpoint_age(self, now: float) -> float:
+        """Mission s since the last setpoint; unknown (inf) across a break of mission
+        time. A step back after the host stalled (a simulator slipping its clock) would
+        otherwise date the last setpoint up to the whole step ahead of the autopilot's
+        clock, and the keepalive would wait that long while PX4 times out."""
+        if self.clock.breaks != self._last_sp_breaks:
+            return math.inf
+        return now - self._last_sp_t
 
     def _time_link(self, now: float) -> None:
         """A TIMESYNC request (``tc1`` 0, ``ts1`` now in ns): its answer times the link."""

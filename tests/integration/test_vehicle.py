@@ -17,6 +17,7 @@ import asyncio
 import contextlib
 import math
 import re
+import time
 from collections.abc import AsyncIterator, Callable, Coroutine
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -289,15 +290,44 @@ async def test_keepalive_holds_offboard_when_the_setpoints_stop(start_mock: Star
     async with link, running(vehicle.run()):
         stream = asyncio.create_task(streamer.run())
         await until(lambda: vehicle.status is VehicleStatus.FLYING, timeout=15)
-        fed = vehicle.counters["keepalive"]  # (set-up may start before the stream)
+        fed, breaks = vehicle.counters["keepalive"], clock.breaks  # (set-up streams first)
         await sim_sleep(fleet, 1.0)
-        assert vehicle.counters["keepalive"] == fed  # nothing of its own while fed
+        # nothing of its own while fed, but at a break of mission time (a host stall)
+        assert vehicle.counters["keepalive"] - fed <= clock.breaks - breaks
         stream.cancel()
         before = fleet.counters(1)["setpoint"]
         await sim_sleep(fleet, 6.0)
         own = vehicle.counters["keepalive"] - fed
         assert 6.0 * 2.0 < own <= 6.0 / 0.3 + 2  # one per keepalive (0.3 s): above PX4's 2 Hz
         assert fleet.counters(1)["setpoint"] - before >= own - 1
+        assert fleet.truth(1).mode == "OFFBOARD" and vehicle.status is VehicleStatus.FLYING
+
+
+async def test_keepalive_holds_offboard_across_a_host_stall(start_mock: StartMock) -> None:
+    """The host stalls just as the setpoints stop (the whole process: the mock and the
+    service). The mock slips its clock, mission time steps back to it, and the last
+    setpoint's stamp lies ahead of the autopilot's clock: the keepalive must not wait
+    for it, or PX4's 1-s COM_OF_LOSS_T fails safe (the stall, 2.5 mission s, exceeds
+    the mock's catch-up, so a step is taken every time)."""
+    config = MockConfig.simple(1, speedup=SPEEDUP, base_port=0, warmup=1.0, setpoint_timeout=1.0)
+    fleet = await start_mock(config)
+    clock = MissionClock()
+    link = MavLink(fleet.endpoint(1).connect, lambda m: vehicle.handle(m))  # noqa: PLW0108
+    vehicle = Vehicle(1, link, clock, LocalFrame(config.origin), altitude=ALTITUDE, fix_timeout=0.0)
+
+    def source(uid: int, t: float) -> Setpoint:
+        return Setpoint(t, 18.0 * t, 0.0, -ALTITUDE, 18.0, 0.0, 0.0, 0.0, 0.0)
+
+    streamer = SetpointStreamer([vehicle], source, clock, rate_hz=20.0)
+    async with link, running(vehicle.run()):
+        stream = asyncio.create_task(streamer.run())
+        await until(lambda: vehicle.status is VehicleStatus.FLYING, timeout=15)
+        await sim_sleep(fleet, 1.0)
+        steps, slips = clock.steps, fleet.clock.slips
+        stream.cancel()
+        time.sleep(2.5 / SPEEDUP)  # the stall: nothing runs meanwhile
+        await sim_sleep(fleet, 3.0)
+        assert fleet.clock.slips > slips and clock.steps > steps  # (the stall was one)
         assert fleet.truth(1).mode == "OFFBOARD" and vehicle.status is VehicleStatus.FLYING
 
 
