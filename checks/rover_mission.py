@@ -133,13 +133,14 @@ def upload(link: Any, target: tuple[int, int], mission: list[Any], kind: int = M
 
 def watch_read(link: Any, watch: MissionWatch, wait: float) -> PlannedRoute | str:
     """Run the watch on the link until a read finishes; its route, or why not."""
-    deadline = time.monotonic() + wait
-    while time.monotonic() < deadline:
-        for out in watch.poll(time.monotonic()):
+    deadline = time.monotonic() + wait  # (wall time for the link and the waits alike)
+    while (now := time.monotonic()) < deadline:
+        for out in watch.poll(now, now):
             link.mav.send(out)
         msg = link.recv_match(blocking=True, timeout=0.05)
         if msg is not None and msg.get_srcSystem() == watch.target[0]:
-            for out in watch.handle(msg, time.monotonic()):
+            now = time.monotonic()
+            for out in watch.handle(msg, now, now):
                 link.mav.send(out)
         read = watch.take()
         if read is None:
@@ -570,7 +571,7 @@ def read(args: argparse.Namespace) -> int:
             mavlink.MAVLINK_MSG_ID_MISSION_CURRENT, 1e6, 0, 0, 0, 0, 0,
         )  # fmt: skip
         watch = MissionWatch(*target)
-        watch.handle(hb, time.monotonic())
+        watch.handle(hb, time.monotonic(), time.monotonic())
         if own_road:
             got = watch_read(link, watch, 20.0)
             return 0 if not isinstance(got, str) and len(got.points) == 3 else 1

@@ -556,7 +556,8 @@ class ConvoyService:
             return
         watch = self._mission_watch
         if watch is not None and sysid == watch.target[0]:
-            self._mission_sends(watch.handle(msg, time.monotonic()))
+            mission = self.clock.now() if self.clock.synced else 0.0
+            self._mission_sends(watch.handle(msg, time.monotonic(), mission))
         if self._rally is not None and sysid == self._lead_id:
             self._rally_sends(self._rally.handle(msg, time.monotonic()))
         if sysid in self._ground_ids and msg.get_type() == "HEARTBEAT":
@@ -1625,7 +1626,7 @@ class ConvoyService:
         while True:
             now = self.clock.now() if self.clock.synced else 0.0
             if watch is not None:
-                self._mission_sends(watch.poll(time.monotonic()))
+                self._mission_sends(watch.poll(time.monotonic(), now))
             if self._rally is not None:
                 self._rally_sends(self._rally.poll(time.monotonic()))
             for i, (link, g) in enumerate(zip(links, self.config.convoy.vehicles, strict=True)):

@@ -259,7 +259,7 @@ def drive(
 ) -> list[Any]:
     """Answer the watch's read (and its parameter requests) as a rover holding ``points``
     would, its WP_SPEED ``wp_speed``; what it sent."""
-    sent = watch.poll(now)
+    sent = watch.poll(now, now)
     log = list(sent)
     while sent:
         reply: list[Any] = []
@@ -271,17 +271,17 @@ def drive(
             elif msg.get_type() == "PARAM_REQUEST_READ":
                 asked = msg.param_id
                 reply.append(param(asked, wp_speed if asked == "WP_SPEED" else 5.0))
-        sent = [out for r in reply for out in watch.handle(r, now)]
+        sent = [out for r in reply for out in watch.handle(r, now, now)]
         log += sent
     return log
 
 
 def test_the_watch_reads_once_heard_then_again_only_when_the_mission_changes() -> None:
     watch = MissionWatch(ROVER)
-    assert watch.poll(0.0) == []  # not heard yet
-    watch.handle(current(0, 3), 0.0)
-    assert watch.poll(0.0) == []  # (nor from its MISSION_CURRENT: whose numbering?)
-    watch.handle(heartbeat(mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA), 0.0)
+    assert watch.poll(0.0, 0.0) == []  # not heard yet
+    watch.handle(current(0, 3), 0.0, 0.0)
+    assert watch.poll(0.0, 0.0) == []  # (nor from its MISSION_CURRENT: whose numbering?)
+    watch.handle(heartbeat(mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA), 0.0, 0.0)
     assert watch.ardupilot
     drive(watch, POINTS, 1.0)
     read = watch.take()
@@ -289,42 +289,55 @@ def test_the_watch_reads_once_heard_then_again_only_when_the_mission_changes() -
     assert watch.take() is None  # handed over once
     assert watch.default_speed == 8.0  # (its WP_SPEED, asked alongside)
     # ArduPilot's MISSION_CURRENT leaves home out of its total: 2 is the same mission.
-    watch.handle(current(1, 2), 2.0)
-    assert watch.poll(3.0) == [] and watch.reads == 1
-    watch.handle(current(1, 4), 4.0)  # another ground station uploaded one
-    assert only(watch.poll(4.0), "MISSION_REQUEST_LIST")
-    assert watch.poll(4.1) == []  # (one read at a time)
+    watch.handle(current(1, 2), 2.0, 2.0)
+    assert watch.poll(3.0, 3.0) == [] and watch.reads == 1
+    watch.handle(current(1, 4), 4.0, 4.0)  # another ground station uploaded one
+    assert only(watch.poll(4.0, 4.0), "MISSION_REQUEST_LIST")
+    assert watch.poll(4.1, 4.1) == []  # (one read at a time)
 
 
 def test_the_watch_asks_again_later_when_a_read_fails_or_finds_nothing() -> None:
     watch = MissionWatch(ROVER)
-    watch.handle(heartbeat(mavlink.MAV_AUTOPILOT_PX4), 0.0)
+    watch.handle(heartbeat(mavlink.MAV_AUTOPILOT_PX4), 0.0, 0.0)
     drive(watch, [], 0.0)
     read = watch.take()
     assert read is not None and read.items == []
-    assert watch.poll(RETRY_S - 1.0) == []
-    only(watch.poll(RETRY_S), "MISSION_REQUEST_LIST")
+    assert watch.poll(RETRY_S - 1.0, RETRY_S - 1.0) == []
+    only(watch.poll(RETRY_S, RETRY_S), "MISSION_REQUEST_LIST")
     for k in range(1, TRIES + 1):  # silence: the read fails
-        watch.poll(RETRY_S + k * TIMEOUT_S)
+        watch.poll(RETRY_S + k * TIMEOUT_S, RETRY_S + k * TIMEOUT_S)
     failed = watch.take()
     assert failed is not None and failed.error is not None
     t = RETRY_S + TRIES * TIMEOUT_S
-    assert watch.poll(t + 1.0) == []
-    assert only(watch.poll(t + RETRY_S), "MISSION_REQUEST_LIST")
+    assert watch.poll(t + 1.0, t + 1.0) == []
+    assert only(watch.poll(t + RETRY_S, t + RETRY_S), "MISSION_REQUEST_LIST")
     assert watch.reads == 2
+
+
+def test_the_wait_before_asking_again_is_mission_time_and_the_reads_own_is_the_links() -> None:
+    """At 40x, 30 wall s would be 20 minutes of the convoy's drive with no route: the
+    wait is the mission's. A request's time-out is the link's round trip, wall time."""
+    watch = MissionWatch(ROVER)
+    watch.handle(heartbeat(mavlink.MAV_AUTOPILOT_PX4), 0.0, 0.0)
+    drive(watch, [], 0.0)  # (nothing uploaded yet)
+    assert watch.take() is not None
+    assert watch.poll(0.5, 20.0) == []
+    only(watch.poll(0.75, RETRY_S), "MISSION_REQUEST_LIST")
+    assert watch.poll(0.75 + TIMEOUT_S * 0.9, 1000.0) == []  # (not timed out: wall)
+    assert only(watch.poll(0.75 + TIMEOUT_S, 1000.0), "MISSION_REQUEST_LIST")  # asked again
 
 
 def test_a_read_refused_during_another_stations_upload_is_tried_again_soon() -> None:
     """ArduRover SITL denied the service's first read while the operator uploaded."""
     watch = MissionWatch(ROVER)
-    watch.handle(heartbeat(mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA), 0.0)
-    watch.handle(param("WP_SPEED", 6.0), 0.0)
-    only(watch.poll(0.0), "MISSION_REQUEST_LIST")
+    watch.handle(heartbeat(mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA), 0.0, 0.0)
+    watch.handle(param("WP_SPEED", 6.0), 0.0, 0.0)
+    only(watch.poll(0.0, 0.0), "MISSION_REQUEST_LIST")
     denied = mavlink.MAVLink_mission_ack_message(255, 190, mavlink.MAV_MISSION_DENIED, MISSION)
-    watch.handle(wire(denied), 0.1)
+    watch.handle(wire(denied), 0.1, 0.1)
     assert watch.take() is not None
-    assert watch.poll(0.1 + BUSY_RETRY_S - 0.5) == []
-    assert only(watch.poll(0.1 + BUSY_RETRY_S), "MISSION_REQUEST_LIST")
+    assert watch.poll(0.1 + BUSY_RETRY_S - 0.5, 0.1 + BUSY_RETRY_S - 0.5) == []
+    assert only(watch.poll(0.1 + BUSY_RETRY_S, 0.1 + BUSY_RETRY_S), "MISSION_REQUEST_LIST")
 
 
 def test_an_ardupilot_rovers_default_speed_is_asked_and_the_read_waits_for_it() -> None:
@@ -332,29 +345,29 @@ def test_an_ardupilot_rovers_default_speed_is_asked_and_the_read_waits_for_it() 
     says one: asked with the read, again if unanswered; the read is handed over once it
     is known, or once asked PARAM_TRIES times."""
     watch = MissionWatch(ROVER)
-    watch.handle(heartbeat(mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA), 0.0)
-    sent = [m.get_type() for m in watch.poll(0.0)]
+    watch.handle(heartbeat(mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA), 0.0, 0.0)
+    sent = [m.get_type() for m in watch.poll(0.0, 0.0)]
     assert sent == ["PARAM_REQUEST_READ", "PARAM_REQUEST_READ", "MISSION_REQUEST_LIST"]
-    watch.handle(count(0), 0.1)  # (an empty mission: the read ends at once)
+    watch.handle(count(0), 0.1, 0.1)  # (an empty mission: the read ends at once)
     assert watch.take() is None  # (held for the speed)
-    asked = watch.poll(PARAM_TIMEOUT_S)
+    asked = watch.poll(PARAM_TIMEOUT_S, PARAM_TIMEOUT_S)
     assert [m.param_id for m in asked] == ["WP_SPEED", "CRUISE_SPEED"]
-    watch.handle(param("WP_SPEED", 0.0), 1.6)  # 0: CRUISE_SPEED's
-    watch.handle(param("CRUISE_SPEED", 4.5), 1.7)
+    watch.handle(param("WP_SPEED", 0.0), 1.6, 1.6)  # 0: CRUISE_SPEED's
+    watch.handle(param("CRUISE_SPEED", 4.5), 1.7, 1.7)
     assert watch.default_speed == 4.5
     read = watch.take()
     assert read is not None and read.items == []
     silent = MissionWatch(ROVER)  # a firmware that never answers
-    silent.handle(heartbeat(mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA), 0.0)
-    silent.poll(0.0)
-    silent.handle(count(0), 0.1)
+    silent.handle(heartbeat(mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA), 0.0, 0.0)
+    silent.poll(0.0, 0.0)
+    silent.handle(count(0), 0.1, 0.1)
     for k in range(1, PARAM_TRIES):
         assert silent.take() is None
-        silent.poll(k * PARAM_TIMEOUT_S)
+        silent.poll(k * PARAM_TIMEOUT_S, k * PARAM_TIMEOUT_S)
     assert silent.take() is not None and silent.default_speed is None
     px4 = MissionWatch(ROVER)  # (PX4's rovers: not asked)
-    px4.handle(heartbeat(mavlink.MAV_AUTOPILOT_PX4), 0.0)
-    only(px4.poll(0.0), "MISSION_REQUEST_LIST")
+    px4.handle(heartbeat(mavlink.MAV_AUTOPILOT_PX4), 0.0, 0.0)
+    only(px4.poll(0.0, 0.0), "MISSION_REQUEST_LIST")
     assert mission_route(
         [MissionItem(0, WP, REL_INT, 47.4, 8.54), MissionItem(1, WP, REL_INT, 47.401, 8.54)],
         home_first=False,
@@ -366,16 +379,16 @@ def test_a_total_that_never_matches_the_mission_is_not_read_for_ever() -> None:
     """MISSION_CURRENT's total of 0 means "not supported" from firmware without it: the
     mission read is checked once more, then read again only when the total changes."""
     watch = MissionWatch(ROVER)
-    watch.handle(heartbeat(mavlink.MAV_AUTOPILOT_PX4), 0.0)
+    watch.handle(heartbeat(mavlink.MAV_AUTOPILOT_PX4), 0.0, 0.0)
     drive(watch, POINTS, 0.0)
-    watch.handle(current(0, 0), 1.0)
+    watch.handle(current(0, 0), 1.0, 1.0)
     assert only(drive(watch, POINTS, 2.0)[:1], "MISSION_REQUEST_LIST")  # once more
     for k in range(3, 10):
-        watch.handle(current(0, 0), float(k))
-        assert watch.poll(float(k)) == []
+        watch.handle(current(0, 0), float(k), float(k))
+        assert watch.poll(float(k), float(k)) == []
     assert watch.reads == 2
-    watch.handle(current(0, 5), 10.0)  # a new mission after all
-    assert only(watch.poll(10.0), "MISSION_REQUEST_LIST")
+    watch.handle(current(0, 5), 10.0, 10.0)  # a new mission after all
+    assert only(watch.poll(10.0, 10.0), "MISSION_REQUEST_LIST")
 
 
 def rover_heartbeat(autopilot: int, custom_mode: int) -> Any:
@@ -408,30 +421,32 @@ def test_an_ardupilot_mission_is_read_again_when_it_says_so_and_on_entering_auto
     auto, hold = 10, 4
     watch = MissionWatch(ROVER)
     ardupilot = mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA
-    watch.handle(rover_heartbeat(ardupilot, auto), 0.0)
-    watch.handle(param("WP_SPEED", 6.0), 0.0)
+    watch.handle(rover_heartbeat(ardupilot, auto), 0.0, 0.0)
+    watch.handle(param("WP_SPEED", 6.0), 0.0, 0.0)
     drive(watch, POINTS, 0.0)
-    watch.handle(current(1, 2), 1.0)
-    watch.handle(rover_heartbeat(ardupilot, auto), 1.0)
-    assert watch.poll(2.0) == []
+    watch.handle(current(1, 2), 1.0, 1.0)
+    watch.handle(rover_heartbeat(ardupilot, auto), 1.0, 1.0)
+    assert watch.poll(2.0, 2.0) == []
     text = b"Auto mission changed, restarted command"
-    watch.handle(wire(mavlink.MAVLink_statustext_message(mavlink.MAV_SEVERITY_CRITICAL, text)), 3.0)
+    watch.handle(
+        wire(mavlink.MAVLink_statustext_message(mavlink.MAV_SEVERITY_CRITICAL, text)), 3.0, 3.0
+    )
     assert drive(watch, POINTS, 3.0)[0].get_type() == "MISSION_REQUEST_LIST"
-    assert watch.poll(4.0) == [] and watch.reads == 2
-    watch.handle(rover_heartbeat(ardupilot, hold), 5.0)
-    assert watch.poll(5.0) == []
-    watch.handle(rover_heartbeat(ardupilot, auto), 6.0)
+    assert watch.poll(4.0, 4.0) == [] and watch.reads == 2
+    watch.handle(rover_heartbeat(ardupilot, hold), 5.0, 5.0)
+    assert watch.poll(5.0, 5.0) == []
+    watch.handle(rover_heartbeat(ardupilot, auto), 6.0, 6.0)
     assert drive(watch, POINTS, 6.0)[0].get_type() == "MISSION_REQUEST_LIST"
-    watch.handle(rover_heartbeat(ardupilot, auto), 7.0)
-    assert watch.poll(7.0) == [] and watch.reads == 3
+    watch.handle(rover_heartbeat(ardupilot, auto), 7.0, 7.0)
+    assert watch.poll(7.0, 7.0) == [] and watch.reads == 3
 
 
 def test_a_px4_mission_counted_whole_is_not_read_again() -> None:
     watch = MissionWatch(ROVER)
-    watch.handle(heartbeat(mavlink.MAV_AUTOPILOT_PX4), 0.0)
+    watch.handle(heartbeat(mavlink.MAV_AUTOPILOT_PX4), 0.0, 0.0)
     drive(watch, POINTS, 0.0)
-    watch.handle(current(0, 3), 1.0)
-    assert watch.poll(2.0) == []
+    watch.handle(current(0, 3), 1.0, 1.0)
+    assert watch.poll(2.0, 2.0) == []
 
 
 # ------------------------------------------------------------------------- the route

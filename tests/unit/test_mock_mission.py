@@ -56,10 +56,12 @@ def read_mission(gcs: Gcs) -> tuple[MissionWatch, list[Any]]:
     interval = mavlink.MAV_CMD_SET_MESSAGE_INTERVAL
     gcs.command(interval, mavlink.MAVLINK_MSG_ID_MISSION_CURRENT, 1e6)
     for msg in gcs.run(2.0):
-        watch.handle(msg, gcs.now)
-    sent = watch.poll(gcs.now)
+        watch.handle(msg, gcs.now, gcs.now)
+    sent = watch.poll(gcs.now, gcs.now)
     while sent:
-        sent = [out for msg in sent for reply in gcs.send(msg) for out in watch.handle(reply, 0.0)]
+        sent = [
+            out for msg in sent for reply in gcs.send(msg) for out in watch.handle(reply, 0.0, 0.0)
+        ]
     read = watch.take()
     assert read is not None and read.items is not None
     return watch, list(read.items)
@@ -140,8 +142,8 @@ def test_the_services_reader_takes_the_rovers_road(personality: Personality, loo
         (round(c.lat, 6), round(c.lon, 6)) for c in corners
     ]
     for msg in gcs.run(3.0):  # its MISSION_CURRENT agrees: no second read
-        watch.handle(msg, gcs.now)
-    assert watch.poll(gcs.now + 100.0) == []
+        watch.handle(msg, gcs.now, gcs.now)
+    assert watch.poll(gcs.now + 100.0, gcs.now + 100.0) == []
 
 
 def test_only_a_ground_vehicle_with_a_road_has_a_mission() -> None:

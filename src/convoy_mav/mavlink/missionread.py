@@ -218,7 +218,7 @@ class MissionRead:
         return [self._ack(mavlink.MAV_MISSION_OPERATION_CANCELLED)]
 
 
-RETRY_S = 30.0  # after a failed read, or an empty mission, before asking again
+RETRY_S = 30.0  # mission s after a failed read, or an empty mission, before asking again
 BUSY_RETRY_S = 3.0  # ... after one refused while another transfer was under way
 # ArduRover's speed in AUTO where no DO_CHANGE_SPEED says one (WP_SPEED; 0: CRUISE_SPEED's).
 SPEED_PARAMS = ("WP_SPEED", "CRUISE_SPEED")
@@ -280,7 +280,10 @@ class MissionWatch:
     (``ConvoyService.set_route``). A failed read is tried
     again after ``RETRY_S`` (``BUSY_RETRY_S`` when refused during another station's
     transfer, as the operator's upload); so is an empty mission, which a rover has
-    before its operator uploads one. :meth:`take` hands over each finished read once.
+    before its operator uploads one. Those waits are mission time, given to
+    :meth:`poll` (at 40x, 30 wall s would be 20 minutes of the convoy's drive without
+    its route); the protocol's own time-outs are the link's, wall time, as ``now``.
+    :meth:`take` hands over each finished read once.
     Nothing is read before the vehicle's HEARTBEAT says its firmware: ArduPilot's item 0
     is home, PX4's a waypoint, and the default speed below is ArduPilot's.
 
@@ -305,13 +308,14 @@ class MissionWatch:
         self._total_read: int | None = None  # MISSION_CURRENT's total when it was read
         self._stale = False  # the vehicle said it changed, or entered its mission mode
         self._mode: ConvoyDrive | None = None  # (its HEARTBEAT's, for the last)
-        self._next_try = 0.0
+        self._next_try = -math.inf  # mission s
         self._finished: MissionRead | None = None
         self.default_speed: float | None = None  # m/s, AUTO's where no item says one
         self._asks = ParamAsks(self.target, SPEED_PARAMS)
 
-    def handle(self, msg: Message, now: float) -> list[Message]:
-        """A message from the vehicle; what to send in answer."""
+    def handle(self, msg: Message, now: float, mission: float) -> list[Message]:
+        """A message from the vehicle; what to send in answer (``now`` wall s, ``mission``
+        mission s: see :meth:`poll`)."""
         kind = msg.get_type()
         if kind == "HEARTBEAT":
             self._heard = True
@@ -323,11 +327,11 @@ class MissionWatch:
             self._mode = drive
         elif kind == "MISSION_CURRENT":
             if msg.total != self._total and self._total is not None:
-                self._next_try = 0.0  # changed: read it now
+                self._next_try = -math.inf  # changed: read it now
             self._total = int(msg.total)
             self.current = int(msg.seq)
         elif kind == "STATUSTEXT" and _CHANGED in str(msg.text).lower():
-            self._stale, self._next_try = True, 0.0
+            self._stale, self._next_try = True, -math.inf
         elif self._asks.take(msg):
             wp, cruise = (self._asks.values.get(name, math.nan) for name in SPEED_PARAMS)
             speed = wp if wp > 0.0 else cruise  # (WP_SPEED 0: CRUISE_SPEED is AUTO's)
@@ -336,7 +340,7 @@ class MissionWatch:
         if read is None:
             return []
         out = read.handle(msg, now)
-        self._finish_if_done(now)
+        self._finish_if_done(mission)
         return out
 
     @property
@@ -350,14 +354,14 @@ class MissionWatch:
             return []
         return self._asks.ask(now)
 
-    def poll(self, now: float) -> list[Message]:
+    def poll(self, now: float, mission: float) -> list[Message]:
         """Start a read when one is due; time the one under way out; ask for the
-        default speed until answered."""
+        default speed until answered (``now`` wall s, ``mission`` mission s)."""
         asks = self._ask_params(now)
         read = self.read
         if read is not None:
             out = read.poll(now)
-            self._finish_if_done(now)
+            self._finish_if_done(mission)
             return asks + out
         # A total that is not the read's count, and not what it said at the read (firmware
         # that sends 0, "not supported", has its mission read once more, not for ever).
@@ -365,7 +369,7 @@ class MissionWatch:
         changed = total is not None and total not in (self._held, self._total_read)
         changed = changed or self._stale
         due = not self._held or changed
-        if self._heard and due and now >= self._next_try:
+        if self._heard and due and mission >= self._next_try:
             self.read = MissionRead(*self.target, own=self.own)
             self._stale = False
             return asks + self.read.start(now)
@@ -379,7 +383,7 @@ class MissionWatch:
         done, self._finished = self._finished, None
         return done
 
-    def _finish_if_done(self, now: float) -> None:
+    def _finish_if_done(self, mission: float) -> None:
         read = self.read
         if read is None or not read.done:
             return
@@ -388,4 +392,5 @@ class MissionWatch:
         # Failed, or nothing uploaded yet (home alone): ask again later, or when it changes.
         held = None if read.items is None else max(0, len(read.items) - self.ardupilot)
         self._held, self._total_read = held, self._total
-        self._next_try = 0.0 if held else now + (BUSY_RETRY_S if read.busy else RETRY_S)
+        wait = 0.0 if held else (BUSY_RETRY_S if read.busy else RETRY_S)
+        self._next_try = mission + wait
