@@ -392,5 +392,5 @@ class MissionWatch:
         # Failed, or nothing uploaded yet (home alone): ask again later, or when it changes.
         held = None if read.items is None else max(0, len(read.items) - self.ardupilot)
         self._held, self._total_read = held, self._total
-        wait = 0.0 if held else (BUSY_RETRY_S if read.busy else RETRY_S)
-        self._next_try = mission + wait
+        wait = BUSY_RETRY_S if read.busy else RETRY_S
+        self._next_try = -math.inf if held else mission + wait
